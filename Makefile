@@ -1,0 +1,29 @@
+# Two set-up commands: `make demo` and `make test`. Each creates .venv on first use.
+# The package is installed non-editable, so tests exercise what users install
+# (levels shipped as package data included); the stamp re-installs on any source change.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' 2>/dev/null)
+export SDL_VIDEODRIVER ?= dummy
+export SDL_AUDIODRIVER ?= dummy
+
+.PHONY: demo test clean
+
+$(VENV)/bin/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet '.[test]'
+	touch $@
+
+demo: $(VENV)/.installed
+	mkdir -p out
+	$(VENV)/bin/laserarena run asabe --json out/demo.json --replay out/demo.replay
+
+test: $(VENV)/.installed
+	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
+
+clean:
+	rm -rf $(VENV) out build *.egg-info

@@ -1,0 +1,166 @@
+"""Immutable, typed description of a level: everything in SI units (metres, radians, seconds)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A planar pose: x east, y north (m), heading counter-clockwise from +x (rad)."""
+
+    x: float
+    y: float
+    heading: float = 0.0
+
+
+@dataclass(frozen=True)
+class Field:
+    """The rectangular playing field: lower-left corner `origin` and `size`."""
+
+    origin: tuple[float, float]
+    size: tuple[float, float]
+    walls: bool = True
+
+    @property
+    def xmin(self) -> float:
+        return self.origin[0]
+
+    @property
+    def ymin(self) -> float:
+        return self.origin[1]
+
+    @property
+    def xmax(self) -> float:
+        return self.origin[0] + self.size[0]
+
+    @property
+    def ymax(self) -> float:
+        return self.origin[1] + self.size[1]
+
+    @property
+    def center(self) -> tuple[float, float]:
+        return (self.xmin + self.size[0] / 2, self.ymin + self.size[1] / 2)
+
+    def contains(self, x: float, y: float, eps: float = 1e-9) -> bool:
+        """True if (x, y) is inside the field or on its border."""
+        return self.xmin - eps <= x <= self.xmax + eps and self.ymin - eps <= y <= self.ymax + eps
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """A static obstacle: a convex polygon (`points`) or a circle (`points[0]`, `radius`)."""
+
+    kind: str  # "polygon" | "circle"
+    points: tuple[tuple[float, float], ...]
+    radius: float = 0.0
+
+
+@dataclass(frozen=True)
+class Beacon:
+    """One fixed beacon; `facing` is the direction its detector or reflector faces (rad)."""
+
+    id: str
+    x: float
+    y: float
+    facing: float
+
+
+@dataclass(frozen=True)
+class Beacons:
+    """All beacons of a level: one hardware `kind` with its parameters."""
+
+    kind: str
+    items: tuple[Beacon, ...]
+    radius: float
+    params: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+
+    def by_id(self, beacon_id: str) -> Beacon:
+        for b in self.items:
+            if b.id == beacon_id:
+                return b
+        raise KeyError(beacon_id)
+
+
+@dataclass(frozen=True)
+class Laser:
+    """A robot's spinning laser: angular velocity relative to the body (rad/s, + = CCW)."""
+
+    angular_velocity: float
+    index: bool
+
+    @property
+    def period(self) -> float:
+        return 2 * math.pi / abs(self.angular_velocity)
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A differential-drive robot: footprint, mass, wheel track and wheel limits."""
+
+    name: str
+    length: float  # along the heading (m)
+    width: float  # across (m)
+    mass: float  # kg
+    track: float  # distance between the wheels (m)
+    max_wheel_speed: float  # m/s
+    max_wheel_accel: float  # m/s^2
+    friction: float  # ground friction coefficient (top-down friction joints)
+
+
+@dataclass(frozen=True)
+class RobotSlot:
+    """One robot in the level: its slot number, model, start pose and laser."""
+
+    slot: int
+    model: RobotModel
+    start: Pose
+    laser: Laser
+    start_known: bool
+    path: tuple[tuple[float, float], ...] = ()
+
+
+@dataclass(frozen=True)
+class Task:
+    """What the robots must do; `path` per robot lives on RobotSlot (shared path copied there)."""
+
+    kind: str  # waypoints | goto | localize | race
+    radius: float = 0.0
+    goal: Pose | None = None
+
+
+@dataclass(frozen=True)
+class Level:
+    """A whole level, loaded and validated; `hash` is the SHA-256 of the file's bytes."""
+
+    name: str
+    description: str
+    source: str
+    hash: str
+    units: str
+    seed: int
+    time_limit: float
+    physics_rate: int
+    control_period: float
+    record_rate: int
+    field: Field
+    obstacles: tuple[Obstacle, ...]
+    beacons: Beacons
+    robots: tuple[RobotSlot, ...]
+    task: Task
+    default_controller: str
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.physics_rate
+
+    @property
+    def steps_per_control(self) -> int:
+        return round(self.control_period * self.physics_rate)
+
+    @property
+    def steps_per_record(self) -> int:
+        return self.physics_rate // self.record_rate

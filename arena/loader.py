@@ -1,0 +1,493 @@
+"""Load and validate a level YAML file into an immutable `Level`.
+
+Every problem becomes a `LevelError` whose text is one line naming the file, the line
+and the key (`levels/x.yaml:12: robots[0].start: outside the field`), so the command
+line can print it and exit 2 without a traceback.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Callable
+
+import yaml
+
+from arena.level import (
+    Beacon, Beacons, Field, Laser, Level, Obstacle, Pose, RobotSlot, Task,
+)
+from arena.robot_models import ROBOT_MODELS
+from arena.units import LENGTH_UNITS
+
+TASK_KINDS = ("waypoints", "goto", "localize", "race")
+
+# Per-kind hardware parameters: name -> (quantity, default in SI units).
+# Quantities: "length" and "speed" are converted from the file's units, "angle" from degrees.
+COMMON_PARAMS: dict[str, tuple[str, float]] = {
+    "quantization": ("count", 0),  # binary angle steps per turn; 0 = none
+    "timing_noise": ("number", 0.0),  # s, std of the event clock
+    "wobble": ("number", 0.0),  # relative std of the laser spin rate
+    "wobble_time": ("number", 1.0),  # s, correlation time of the wobble
+}
+BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
+    "reflector": {
+        "range": ("length", math.inf),
+        "max_incidence": ("angle", math.radians(90.0)),
+        "false_rate": ("number", 0.0),  # false returns per second
+    },
+    "sensor_array": {
+        "max_tangential_speed": ("speed", 270.0),
+        "merge_rate": ("number", 0.0),
+        "clock_hz": ("number", 20e6),
+        "max_incidence": ("angle", math.radians(90.0)),
+    },
+    "flash_detector": {
+        "counts_per_turn": ("count", 12500),
+        "near_range": ("length", 0.3048),
+        "near_incidence": ("angle", math.radians(44.0)),
+        "far_range": ("length", 7 * 0.3048),
+        "far_incidence": ("angle", math.radians(27.0)),
+    },
+    "light": {
+        "samples_per_turn": ("count", 120),
+        "beam_width": ("angle", math.radians(6.0)),
+        "brightness_noise": ("number", 0.0),
+        "servo_jitter": ("angle", 0.0),
+    },
+}
+DEFAULT_BEACON_RADIUS = 0.02  # m
+
+
+class LevelError(Exception):
+    """A level file problem, printed as one line: `file:line: key: message`."""
+
+    def __init__(self, source: str, line: int | None, key: str, message: str):
+        self.source, self.line, self.key, self.message = source, line, key, message
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = f"{self.source}:{self.line}" if self.line else self.source
+        return f"{where}: {self.key}: {self.message}"
+
+
+@dataclass
+class _Node:
+    """A YAML value with the 1-based line it starts on."""
+
+    value: Any
+    line: int
+
+
+def _locate(node: yaml.Node, source: str) -> _Node:
+    line = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        out: dict[str, _Node] = {}
+        keylines: dict[str, int] = {}
+        for knode, vnode in node.value:
+            key = _locate(knode, source).value
+            if not isinstance(key, str):
+                raise LevelError(source, knode.start_mark.line + 1, str(key), "keys must be text")
+            if key in out:
+                raise LevelError(source, knode.start_mark.line + 1, key, "duplicate key")
+            out[key] = _locate(vnode, source)
+            keylines[key] = knode.start_mark.line + 1
+        return _Node(_MapValue(out, keylines), line)
+    if isinstance(node, yaml.SequenceNode):
+        return _Node([_locate(n, source) for n in node.value], line)
+    return _Node(yaml.constructor.SafeConstructor().construct_object(node), line)
+
+
+@dataclass
+class _MapValue:
+    items: dict[str, _Node]
+    keylines: dict[str, int]
+
+
+class _Ctx:
+    """Conversion context: the source name and the file's length unit."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.scale = 1.0
+
+    def fail(self, line: int | None, key: str, message: str) -> LevelError:
+        return LevelError(self.source, line, key, message)
+
+
+class _Map:
+    """A YAML mapping being read: typed getters, and unknown keys rejected up front."""
+
+    def __init__(self, ctx: _Ctx, node: _Node, path: str, allowed: tuple[str, ...]):
+        if not isinstance(node.value, _MapValue):
+            raise ctx.fail(node.line, path or "(top)", f"expected a mapping, got {_kind(node.value)}")
+        self.ctx, self.node, self.path = ctx, node, path
+        for key in node.value.items:
+            if key not in allowed:
+                raise ctx.fail(node.value.keylines[key], self.key(key),
+                               f"unknown key (expected one of: {', '.join(allowed)})")
+
+    def key(self, key: str) -> str:
+        return f"{self.path}.{key}" if self.path else key
+
+    def has(self, key: str) -> bool:
+        return key in self.node.value.items
+
+    def raw(self, key: str) -> _Node:
+        if not self.has(key):
+            raise self.ctx.fail(self.node.line, self.key(key), "missing required key")
+        return self.node.value.items[key]
+
+    def req(self, key: str, conv: Callable[[_Ctx, _Node, str], Any]) -> Any:
+        return conv(self.ctx, self.raw(key), self.key(key))
+
+    def opt(self, key: str, conv: Callable[[_Ctx, _Node, str], Any], default: Any) -> Any:
+        return self.req(key, conv) if self.has(key) else default
+
+    def sub(self, key: str, allowed: tuple[str, ...]) -> _Map:
+        return _Map(self.ctx, self.raw(key), self.key(key), allowed)
+
+    def seq(self, key: str) -> list[tuple[_Node, str]]:
+        node = self.raw(key)
+        if not isinstance(node.value, list):
+            raise self.ctx.fail(node.line, self.key(key), f"expected a list, got {_kind(node.value)}")
+        return [(n, f"{self.key(key)}[{i}]") for i, n in enumerate(node.value)]
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, _MapValue):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    if value is None:
+        return "nothing"
+    return f"{type(value).__name__} {value!r}"
+
+
+# ---- scalar converters: (ctx, node, key) -> value -------------------------------------------
+
+def _number(ctx: _Ctx, node: _Node, key: str) -> float:
+    v = node.value
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ctx.fail(node.line, key, f"expected a number, got {_kind(v)}")
+    if not math.isfinite(v):
+        raise ctx.fail(node.line, key, "must be finite")
+    return float(v)
+
+
+def _positive(ctx: _Ctx, node: _Node, key: str) -> float:
+    v = _number(ctx, node, key)
+    if v <= 0:
+        raise ctx.fail(node.line, key, f"must be positive, got {v:g}")
+    return v
+
+
+def _nonnegative(ctx: _Ctx, node: _Node, key: str) -> float:
+    v = _number(ctx, node, key)
+    if v < 0:
+        raise ctx.fail(node.line, key, f"must not be negative, got {v:g}")
+    return v
+
+
+def _integer(ctx: _Ctx, node: _Node, key: str) -> int:
+    v = node.value
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ctx.fail(node.line, key, f"expected a whole number, got {_kind(v)}")
+    return v
+
+
+def _count(ctx: _Ctx, node: _Node, key: str) -> int:
+    v = _integer(ctx, node, key)
+    if v < 0:
+        raise ctx.fail(node.line, key, f"must not be negative, got {v}")
+    return v
+
+
+def _text(ctx: _Ctx, node: _Node, key: str) -> str:
+    if not isinstance(node.value, str) or not node.value.strip():
+        raise ctx.fail(node.line, key, f"expected text, got {_kind(node.value)}")
+    return node.value
+
+
+def _flag(ctx: _Ctx, node: _Node, key: str) -> bool:
+    if not isinstance(node.value, bool):
+        raise ctx.fail(node.line, key, f"expected true or false, got {_kind(node.value)}")
+    return node.value
+
+
+def _choice(*options: str) -> Callable[[_Ctx, _Node, str], str]:
+    def conv(ctx: _Ctx, node: _Node, key: str) -> str:
+        v = _text(ctx, node, key)
+        if v not in options:
+            raise ctx.fail(node.line, key, f"must be one of {', '.join(options)}, got {v!r}")
+        return v
+    return conv
+
+
+def _numbers(ctx: _Ctx, node: _Node, key: str, n: int, what: str) -> list[float]:
+    if not isinstance(node.value, list) or len(node.value) != n:
+        raise ctx.fail(node.line, key, f"expected {what}, got {_kind(node.value)}")
+    return [_number(ctx, item, key) for item in node.value]
+
+
+def _length(ctx: _Ctx, node: _Node, key: str) -> float:
+    return _positive(ctx, node, key) * ctx.scale
+
+
+def _point(ctx: _Ctx, node: _Node, key: str) -> tuple[float, float]:
+    x, y = _numbers(ctx, node, key, 2, "a point [x, y]")
+    return (x * ctx.scale, y * ctx.scale)
+
+
+def _size(ctx: _Ctx, node: _Node, key: str) -> tuple[float, float]:
+    w, h = _numbers(ctx, node, key, 2, "a size [width, height]")
+    if w <= 0 or h <= 0:
+        raise ctx.fail(node.line, key, f"sizes must be positive, got [{w:g}, {h:g}]")
+    return (w * ctx.scale, h * ctx.scale)
+
+
+def _pose(ctx: _Ctx, node: _Node, key: str) -> Pose:
+    x, y, h = _numbers(ctx, node, key, 3, "a pose [x, y, heading_deg]")
+    return Pose(x * ctx.scale, y * ctx.scale, math.radians(h))
+
+
+def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]:
+    if not isinstance(node.value, list) or not node.value:
+        raise ctx.fail(node.line, key, f"expected a list of points, got {_kind(node.value)}")
+    return tuple(_point(ctx, item, f"{key}[{i}]") for i, item in enumerate(node.value))
+
+
+# ---- the level ------------------------------------------------------------------------------
+
+def load_level(path: str | Path, display: str | None = None) -> Level:
+    """Read, parse and validate a level file; raise `LevelError` on any problem."""
+    source = display or str(path)
+    try:
+        data = Path(path).read_bytes()
+    except OSError as e:
+        raise LevelError(source, None, "(file)", f"cannot read: {e.strerror or e}") from None
+    return parse_level(data, source)
+
+
+def parse_level(data: bytes, source: str) -> Level:
+    """Parse and validate level YAML bytes; `source` names the file in errors."""
+    ctx = _Ctx(source)
+    try:
+        text = data.decode("utf-8")
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except UnicodeDecodeError as e:
+        raise LevelError(source, None, "(file)", f"not UTF-8 text ({e.reason})") from None
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise LevelError(source, mark.line + 1 if mark else None, "(yaml)",
+                         f"malformed YAML: {problem}") from None
+    if root is None:
+        raise LevelError(source, 1, "(top)", "the file is empty")
+    top = _Map(ctx, _locate(root, source), "", (
+        "name", "description", "units", "seed", "time_limit", "physics_rate", "control_period",
+        "record_rate", "field", "obstacles", "beacons", "laser", "robots", "task",
+        "default_controller"))
+
+    units = top.opt("units", _choice(*LENGTH_UNITS), "m")
+    ctx.scale = LENGTH_UNITS[units]
+
+    physics_rate = top.opt("physics_rate", _integer, 240)
+    if physics_rate <= 0:
+        raise ctx.fail(top.raw("physics_rate").line, "physics_rate", "must be positive")
+    control_period = top.req("control_period", _positive)
+    steps = control_period * physics_rate
+    if abs(steps - round(steps)) > 1e-6 or round(steps) < 1:
+        raise ctx.fail(top.raw("control_period").line, "control_period",
+                       f"{control_period:g} s is not a whole multiple of the physics step "
+                       f"1/{physics_rate} s")
+    record_rate = top.opt("record_rate", _integer, 30)
+    if record_rate <= 0 or physics_rate % record_rate:
+        raise ctx.fail(top.raw("record_rate").line, "record_rate",
+                       f"must divide physics_rate {physics_rate}")
+
+    fmap = top.sub("field", ("size", "origin", "walls"))
+    fld = Field(origin=fmap.opt("origin", _point, (0.0, 0.0)), size=fmap.req("size", _size),
+                walls=fmap.opt("walls", _flag, True))
+
+    obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) \
+        if top.has("obstacles") else ()
+    beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items")), fld)
+    default_laser = _laser(top.sub("laser", ("angular_velocity", "index")))
+    task_map = top.sub("task", ("kind", "radius", "path", "goal"))
+    task, shared_path = _task(ctx, task_map, fld)
+
+    robot_nodes = top.seq("robots")
+    if not robot_nodes:
+        raise ctx.fail(top.raw("robots").line, "robots", "at least one robot is required")
+    robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path)
+              for i, (n, k) in enumerate(robot_nodes)]
+    slots = sorted(r.slot for r in robots)
+    if slots != list(range(len(robots))):
+        raise ctx.fail(top.raw("robots").line, "robots",
+                       f"slots must be 0..{len(robots) - 1} once each, got {slots}")
+    if task.kind == "race" and len(robots) < 2:
+        raise ctx.fail(task_map.node.line, "task.kind", "a race needs at least two robots")
+
+    return Level(
+        name=top.req("name", _text),
+        description=top.req("description", _text),
+        source=source,
+        hash="sha256:" + hashlib.sha256(data).hexdigest(),
+        units=units,
+        seed=top.opt("seed", _count, 0),
+        time_limit=top.req("time_limit", _positive),
+        physics_rate=physics_rate,
+        control_period=control_period,
+        record_rate=record_rate,
+        field=fld,
+        obstacles=obstacles,
+        beacons=beacons,
+        robots=tuple(sorted(robots, key=lambda r: r.slot)),
+        task=task,
+        default_controller=top.req("default_controller", _text),
+    )
+
+
+def _inside(ctx: _Ctx, fld: Field, p: tuple[float, float], line: int, key: str, what: str) -> None:
+    if not fld.contains(*p):
+        s = ctx.scale
+        raise ctx.fail(line, key, f"{what} ({p[0] / s:g}, {p[1] / s:g}) is outside the field "
+                                  f"[{fld.xmin / s:g}..{fld.xmax / s:g}] x [{fld.ymin / s:g}..{fld.ymax / s:g}]")
+
+
+def _obstacle(ctx: _Ctx, node: _Node, key: str, fld: Field) -> Obstacle:
+    m = _Map(ctx, node, key, ("kind", "center", "size", "angle", "radius", "points"))
+    kind = m.req("kind", _choice("box", "circle", "polygon"))
+    if kind == "circle":
+        c = m.req("center", _point)
+        _inside(ctx, fld, c, m.raw("center").line, m.key("center"), "centre")
+        return Obstacle("circle", (c,), m.req("radius", _length))
+    if kind == "box":
+        (cx, cy), (w, h) = m.req("center", _point), m.req("size", _size)
+        _inside(ctx, fld, (cx, cy), m.raw("center").line, m.key("center"), "centre")
+        a = math.radians(m.opt("angle", _number, 0.0))
+        ca, sa = math.cos(a), math.sin(a)
+        corners = [(-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2)]
+        return Obstacle("polygon", tuple((cx + ca * x - sa * y, cy + sa * x + ca * y) for x, y in corners))
+    pts = m.req("points", _points)
+    if len(pts) < 3:
+        raise ctx.fail(m.raw("points").line, m.key("points"), "a polygon needs at least 3 points")
+    for i, p in enumerate(pts):
+        _inside(ctx, fld, p, m.raw("points").line, f"{m.key('points')}[{i}]", "point")
+    return Obstacle("polygon", pts)
+
+
+def _beacons(ctx: _Ctx, m: _Map, fld: Field) -> Beacons:
+    kind = m.req("kind", _choice(*BEACON_PARAMS))
+    schema = {**COMMON_PARAMS, **BEACON_PARAMS[kind]}
+    params = {name: default for name, (_, default) in schema.items()}
+    if m.has("params"):
+        pm = m.sub("params", tuple(schema))
+        for name, (quantity, _) in schema.items():
+            if not pm.has(name):
+                continue
+            if quantity == "count":
+                params[name] = pm.req(name, _count)
+            elif quantity == "angle":
+                params[name] = math.radians(pm.req(name, _nonnegative))
+            elif quantity in ("length", "speed"):
+                params[name] = pm.req(name, _positive) * ctx.scale
+            else:
+                params[name] = pm.req(name, _nonnegative)
+    items: list[Beacon] = []
+    for node, key in m.seq("items"):
+        b = _Map(ctx, node, key, ("id", "at", "facing"))
+        bid = str(b.req("id", _scalar_id))
+        if any(o.id == bid for o in items):
+            raise ctx.fail(b.raw("id").line, b.key("id"), f"duplicate beacon id {bid!r}")
+        at = b.req("at", _point)
+        _inside(ctx, fld, at, b.raw("at").line, b.key("at"), "beacon")
+        facing = _facing(ctx, b, at, fld.center)
+        items.append(Beacon(bid, at[0], at[1], facing))
+    if not items:
+        raise ctx.fail(m.raw("items").line, m.key("items"), "at least one beacon is required")
+    radius = m.opt("radius", _length, DEFAULT_BEACON_RADIUS)
+    return Beacons(kind=kind, items=tuple(items), radius=radius, params=MappingProxyType(params))
+
+
+def _scalar_id(ctx: _Ctx, node: _Node, key: str) -> str:
+    if isinstance(node.value, bool) or not isinstance(node.value, (str, int)):
+        raise ctx.fail(node.line, key, f"expected a name or number, got {_kind(node.value)}")
+    return str(node.value)
+
+
+def _facing(ctx: _Ctx, b: _Map, at: tuple[float, float], center: tuple[float, float]) -> float:
+    """A beacon faces a direction in degrees, or towards a point [x, y]; default: the field centre."""
+    if not b.has("facing"):
+        target = center
+    elif isinstance(b.raw("facing").value, list):
+        target = b.req("facing", _point)
+    else:
+        return math.radians(b.req("facing", _number))
+    if math.dist(target, at) < 1e-12:
+        raise ctx.fail(b.node.line, b.key("facing"), "a beacon cannot face the point it stands on")
+    return math.atan2(target[1] - at[1], target[0] - at[0])
+
+
+def _laser(m: _Map) -> Laser:
+    w = m.req("angular_velocity", _number)
+    if w == 0:
+        raise m.ctx.fail(m.raw("angular_velocity").line, m.key("angular_velocity"), "must not be zero")
+    return Laser(angular_velocity=w, index=m.opt("index", _flag, False))
+
+
+def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
+    kind = m.req("kind", _choice(*TASK_KINDS))
+    path: tuple[tuple[float, float], ...] = ()
+    goal = None
+    radius = 0.0
+    if kind in ("waypoints", "goto", "race"):
+        radius = m.req("radius", _length)
+    if kind == "waypoints":
+        path = m.req("path", _points)
+    elif kind == "goto":
+        g = m.raw("goal")
+        vals = g.value if isinstance(g.value, list) else None
+        goal = _pose(ctx, g, m.key("goal")) if vals is not None and len(vals) == 3 \
+            else Pose(*_point(ctx, g, m.key("goal")), math.nan)
+        _inside(ctx, fld, (goal.x, goal.y), g.line, m.key("goal"), "goal")
+    for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",))):
+        if m.has(key) and kind not in allowed:
+            raise ctx.fail(m.raw(key).line, m.key(key), f"not used by a {kind} task")
+    if kind == "localize" and m.has("radius"):
+        raise ctx.fail(m.raw("radius").line, m.key("radius"), "not used by a localize task")
+    for i, p in enumerate(path):
+        _inside(ctx, fld, p, m.raw("path").line, f"{m.key('path')}[{i}]", "waypoint")
+    return Task(kind=kind, radius=radius, goal=goal), path
+
+
+def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_laser: Laser,
+           task: Task, shared_path: tuple[tuple[float, float], ...]) -> RobotSlot:
+    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path"))
+    model_name = m.opt("model", _choice(*ROBOT_MODELS), "boe-bot")
+    model = ROBOT_MODELS[model_name]
+    start = m.req("start", _pose)
+    line = m.raw("start").line
+    _inside(ctx, fld, (start.x, start.y), line, m.key("start"), "start")
+    c, s = math.cos(start.heading), math.sin(start.heading)
+    for dx in (-model.length / 2, model.length / 2):
+        for dy in (-model.width / 2, model.width / 2):
+            corner = (start.x + c * dx - s * dy, start.y + s * dx + c * dy)
+            if not fld.contains(*corner):
+                raise ctx.fail(line, m.key("start"), f"the {model_name} footprint at this start pose "
+                                                     "reaches outside the field")
+    laser = _laser(m.sub("laser", ("angular_velocity", "index"))) if m.has("laser") else default_laser
+    path = shared_path
+    if m.has("path"):
+        if task.kind not in ("waypoints", "race"):
+            raise ctx.fail(m.raw("path").line, m.key("path"), f"not used by a {task.kind} task")
+        path = m.req("path", _points)
+        for i, p in enumerate(path):
+            _inside(ctx, fld, p, m.raw("path").line, f"{m.key('path')}[{i}]", "waypoint")
+    elif task.kind == "race":
+        raise ctx.fail(m.node.line, m.key("path"), "missing required key (each robot in a race has its own path)")
+    return RobotSlot(slot=m.opt("slot", _count, index), model=model, start=start, laser=laser,
+                     start_known=m.opt("start_known", _flag, False), path=path)

@@ -1,0 +1,97 @@
+"""The physical world of a level: a pymunk space in SI units stepped at a fixed dt.
+
+Update order within one step (fixed, documented in docs/levels.md): each robot's drive in
+slot order, then `space.step(dt)`, then the clock.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pymunk
+
+from arena.drive import DiffDrive
+from arena.level import Level, Pose
+
+WALL_THICKNESS = 0.02  # m; walls lie just outside the field border
+
+# Collision categories, for shape filters (the laser's occlusion queries use them too).
+CAT_WALL, CAT_OBSTACLE, CAT_BEACON, CAT_ROBOT = 1, 2, 4, 8
+
+
+class World:
+    """Walls, obstacles, beacons and robots of one level, and their differential drives."""
+
+    def __init__(self, level: Level):
+        self.level = level
+        self.dt = level.dt
+        self.tick = 0
+        self.space = pymunk.Space()
+        self.space.gravity = (0, 0)
+        self.space.iterations = 20
+        if level.field.walls:
+            self._add_walls()
+        for ob in level.obstacles:
+            if ob.kind == "circle":
+                shape = pymunk.Circle(self.space.static_body, ob.radius, ob.points[0])
+            else:
+                shape = pymunk.Poly(self.space.static_body, ob.points)
+            self._static(shape, CAT_OBSTACLE)
+        self.beacon_shapes = []
+        for b in level.beacons.items:
+            body = pymunk.Body(body_type=pymunk.Body.STATIC)
+            body.position = (b.x, b.y)
+            shape = pymunk.Circle(body, level.beacons.radius)
+            self.space.add(body)
+            self._static(shape, CAT_BEACON)
+            self.beacon_shapes.append(shape)
+        self.bodies: list[pymunk.Body] = []
+        self.shapes: list[pymunk.Poly] = []
+        self.drives: list[DiffDrive] = []
+        for r in level.robots:
+            m = r.model
+            body = pymunk.Body(m.mass, pymunk.moment_for_box(m.mass, (m.length, m.width)))
+            body.position = (r.start.x, r.start.y)
+            body.angle = r.start.heading
+            shape = pymunk.Poly.create_box(body, (m.length, m.width))
+            shape.friction = 0.4
+            shape.elasticity = 0.1
+            shape.filter = pymunk.ShapeFilter(group=r.slot + 1, categories=CAT_ROBOT)
+            self.space.add(body, shape)
+            self.bodies.append(body)
+            self.shapes.append(shape)
+            self.drives.append(DiffDrive(self.space, body, m))
+
+    def _static(self, shape: pymunk.Shape, category: int) -> None:
+        shape.friction = 0.6
+        shape.elasticity = 0.1
+        shape.filter = pymunk.ShapeFilter(categories=category)
+        self.space.add(shape)
+
+    def _add_walls(self) -> None:
+        f, r = self.level.field, WALL_THICKNESS / 2
+        x0, y0, x1, y1 = f.xmin - r, f.ymin - r, f.xmax + r, f.ymax + r
+        for a, b in (((x0, y0), (x1, y0)), ((x1, y0), (x1, y1)), ((x1, y1), (x0, y1)), ((x0, y1), (x0, y0))):
+            self._static(pymunk.Segment(self.space.static_body, a, b, r), CAT_WALL)
+
+    @property
+    def time(self) -> float:
+        """Simulated time (s), exact as tick / physics rate."""
+        return self.tick / self.level.physics_rate
+
+    def command(self, slot: int, left: float, right: float) -> None:
+        """Set robot `slot`'s wheel speed targets (m/s)."""
+        self.drives[slot].command(left, right)
+
+    def step(self) -> None:
+        """Advance the world one physics step."""
+        for drive in self.drives:
+            drive.update(self.dt)
+        self.space.step(self.dt)
+        self.tick += 1
+
+    def pose(self, slot: int) -> Pose:
+        """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
+        body = self.bodies[slot]
+        h = body.angle
+        return Pose(body.position.x, body.position.y, math.atan2(math.sin(h), math.cos(h)))

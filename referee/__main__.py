@@ -1,0 +1,5 @@
+"""`python -m referee` is the `laserarena` command."""
+
+from referee.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,103 @@
+"""The `laserarena` command line.
+
+Bad input (a level file, a team spec, a path) prints one line to stderr and exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import levels
+from arena.level import Level
+from arena.loader import LevelError, load_level
+from referee import __version__
+from referee.canonical import dumps
+from referee.errors import UserError
+from referee.match import run_match
+from referee.summary import table
+from referee.teams import resolve
+
+
+def find_level(name: str) -> Level:
+    """Load a level by path, or by built-in name (`asabe`)."""
+    p = Path(name)
+    if p.is_file():
+        return load_level(p)
+    if name in levels.names():
+        return load_level(levels.path(name), display=f"levels/{name}.yaml")
+    if p.suffix in (".yaml", ".yml") or p.parent != Path("."):
+        return load_level(p)  # reports the unreadable file
+    raise UserError(f"{name}: no such level file or built-in level (see `laserarena levels`)")
+
+
+def cmd_levels(args: argparse.Namespace) -> int:
+    for name in levels.names():
+        lv = load_level(levels.path(name), display=f"levels/{name}.yaml")
+        print(f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
+              f"default {lv.default_controller:<20} {lv.description}")
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    for name in args.level:
+        lv = find_level(name)
+        print(f"{name}: ok ({lv.name}: {len(lv.robots)} robot(s), {len(lv.beacons.items)} "
+              f"{lv.beacons.kind} beacons, {lv.task.kind} task)")
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    level = find_level(args.level)
+    specs = list(args.team or [])
+    if len(specs) > len(level.robots):
+        raise UserError(f"{level.name} has {len(level.robots)} robot slot(s); got {len(specs)} --team")
+    specs += [level.default_controller] * (len(level.robots) - len(specs))
+    teams = [resolve(s) for s in specs]
+    for path in (args.json, args.replay):
+        if path and not Path(path).resolve().parent.is_dir():
+            raise UserError(f"{path}: the folder does not exist")
+    result = run_match(level, teams, seed=args.seed, replay=args.replay)
+    if args.json:
+        Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
+    if not args.quiet:
+        print(table(result))
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="laserarena", description="LaserArena: spinning-laser beacon "
+                                "navigation contests, simulated and refereed.")
+    p.add_argument("--version", action="version", version=f"laserarena {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("run", help="run one match headless and print its score table")
+    s.add_argument("level", help="a level file or built-in level name")
+    s.add_argument("--team", action="append", metavar="T",
+                   help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class")
+    s.add_argument("--seed", type=int, help="match seed (default: the level's)")
+    s.add_argument("--json", metavar="OUT", help="write the result JSON here")
+    s.add_argument("--replay", metavar="OUT", help="write the replay here")
+    s.add_argument("--quiet", action="store_true", help="print nothing on success")
+    s.set_defaults(func=cmd_run)
+
+    s = sub.add_parser("check", help="validate level files")
+    s.add_argument("level", nargs="+")
+    s.set_defaults(func=cmd_check)
+
+    s = sub.add_parser("levels", help="list the built-in levels")
+    s.set_defaults(func=cmd_levels)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (LevelError, UserError) as e:
+        print(f"laserarena: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("laserarena: interrupted", file=sys.stderr)
+        return 130

@@ -1,0 +1,181 @@
+"""The lockstep match loop.
+
+One control tick: every controller, in slot order, gets its Observation and answers a
+Command -> the drive takes the wheel speeds -> the world steps physics `steps_per_control`
+times, and after each physics step the hooks run in order: sensing (fills each robot's
+inbox of events), rules (task progress), recorder (replay frames). The match ends at the
+time limit, or as soon as every robot has finished its task or been stopped by a fault.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+from arena.level import Level
+from arena.rng import RandomTree
+from arena.world import World
+from referee import __version__
+from referee.bot import Fault, InProcessBot
+from referee.estimates import EstimateStats
+from referee.replay import ReplayWriter
+from referee.tasks import TaskTracker
+from referee.teams import Team
+from robots.api import BeaconInfo, Brief, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
+
+RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 1
+
+
+class Hook(Protocol):
+    """Something that runs after every physics step."""
+
+    def after_step(self, world: World) -> None: ...
+
+
+def brief_for(level: Level, slot: int) -> Brief:
+    """What robot `slot`'s team may know: the map, its hardware, its task; never its true pose
+    (unless the level announces the start)."""
+    r = level.robots[slot]
+    m = r.model
+    f = level.field
+    task = level.task
+    goal = (task.goal.x, task.goal.y) if task.goal else None
+    return Brief(
+        slot=slot,
+        field=(f.xmin, f.ymin, f.xmax, f.ymax),
+        beacon_kind=level.beacons.kind,
+        beacons=tuple(BeaconInfo(b.id, b.x, b.y) for b in level.beacons.items),
+        laser=LaserInfo(r.laser.angular_velocity, r.laser.index),
+        robot=RobotInfo(m.name, m.length, m.width, m.track, m.max_wheel_speed, m.max_wheel_accel),
+        task=TaskInfo(task.kind, task.radius, r.path, goal),
+        control_period=level.control_period,
+        time_limit=level.time_limit,
+        start=(r.start.x, r.start.y, r.start.heading) if r.start_known else None,
+    )
+
+
+class _TaskHook:
+    def __init__(self, tracker: TaskTracker):
+        self.tracker = tracker
+
+    def after_step(self, world: World) -> None:
+        for slot in range(len(world.bodies)):
+            self.tracker.update(slot, world.pose(slot), world.time)
+
+
+class _RecordHook:
+    def __init__(self, writer: ReplayWriter, every: int):
+        self.writer, self.every = writer, every
+
+    def after_step(self, world: World) -> None:
+        if world.tick % self.every == 0:
+            self.writer.frame(world)
+
+
+class Match:
+    """One match of a level between teams (one per robot slot), run to its end by `run()`."""
+
+    def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
+                 replay: str | Path | None = None):
+        if len(teams) != len(level.robots):
+            raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
+        self.level = level
+        self.teams = teams
+        self.seed = level.seed if seed is None else seed
+        self.rng = RandomTree(self.seed)
+        self.world = World(level)
+        self.bots = [InProcessBot(t) for t in teams]
+        self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
+        self.faults: list[list[Fault]] = [[] for _ in teams]
+        self.stopped = [False] * len(teams)
+        self.tracker = TaskTracker(level)
+        self.estimates = [EstimateStats() for _ in teams]
+        self.hooks: list[Hook] = [_TaskHook(self.tracker)]  # sensing hook goes first, with the laser
+        self.writer = None
+        if replay is not None:
+            self.writer = ReplayWriter(replay, level, self.seed, [t.label for t in teams], __version__)
+            self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
+        self.end_reason = "time_limit"
+
+    def _fault(self, slot: int, fault: Fault) -> None:
+        self.faults[slot].append(fault)
+        self.stopped[slot] = True
+        self.world.command(slot, 0.0, 0.0)
+
+    def _over(self) -> bool:
+        return all(self.stopped[s] or self.tracker.done(s) for s in range(len(self.teams)))
+
+    def _control_tick(self, tick: int) -> None:
+        time = self.world.time
+        for slot, bot in enumerate(self.bots):
+            truth = self.world.pose(slot)
+            if self.stopped[slot]:
+                self.estimates[slot].add(truth, None)
+                continue
+            events, self.inbox[slot] = tuple(self.inbox[slot]), []
+            out = bot.step(Observation(tick=tick, time=time, events=events))
+            if isinstance(out, Fault):
+                self._fault(slot, out)
+                self.estimates[slot].add(truth, None)
+                continue
+            self.world.command(slot, float(out.left), float(out.right))
+            self.estimates[slot].add(truth, out.estimate)
+
+    def run(self) -> dict:
+        """Run the match to its end and return the result (see docs/results.md)."""
+        level, world = self.level, self.world
+        for slot, bot in enumerate(self.bots):
+            fault = bot.setup(brief_for(level, slot))
+            if fault:
+                self._fault(slot, fault)
+        if self.writer:
+            self.writer.frame(world)
+        total_steps = round(level.time_limit * level.physics_rate)
+        spc = level.steps_per_control
+        while world.tick < total_steps:
+            if world.tick % spc == 0:
+                self._control_tick(world.tick // spc)
+            world.step()
+            for hook in self.hooks:
+                hook.after_step(world)
+            if self._over():
+                self.end_reason = "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) \
+                    else "all_stopped"
+                break
+        result = self._result()
+        if self.writer:
+            self.writer.close(result)
+        return result
+
+    def _result(self) -> dict:
+        robots = []
+        for slot, team in enumerate(self.teams):
+            pose = self.world.pose(slot)
+            stats = self.estimates[slot]
+            robots.append({
+                "slot": slot,
+                "team": team.label,
+                "score": self.tracker.score(slot, stats.fraction),
+                "task": self.tracker.summary(slot),
+                "localization": stats.summary(),
+                "faults": [f.to_dict() for f in self.faults[slot]],
+                "stopped": self.stopped[slot],
+                "final_pose": [pose.x, pose.y, pose.heading],
+            })
+        return {
+            "format": RESULT_FORMAT,
+            "version": RESULT_VERSION,
+            "software": __version__,
+            "level": {"name": self.level.name, "hash": self.level.hash},
+            "seed": self.seed,
+            "end_time": self.world.time,
+            "end_reason": self.end_reason,
+            "robots": robots,
+        }
+
+
+def run_match(level: Level, teams: list[Team], seed: int | None = None,
+              replay: str | Path | None = None) -> dict:
+    """Run one match and return its result."""
+    return Match(level, teams, seed, replay).run()
+

@@ -1,0 +1,39 @@
+"""Replay recording: a header, the true poses at the level's record rate, and the result.
+
+Format `laserarena-replay` version 0 (JSON lines, one object per line): the first line is
+the header, then one `{"t": time, "p": [[x, y, heading], ...]}` frame per record period,
+and the last line `{"result": ...}`. The replay issue turns this into the full versioned
+format of docs/replay.md.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import IO
+
+from arena.level import Level
+from arena.world import World
+from referee.canonical import dumps
+
+FORMAT, VERSION = "laserarena-replay", 0
+
+
+class ReplayWriter:
+    """Writes one match's replay as it runs."""
+
+    def __init__(self, path: str | Path, level: Level, seed: int, teams: list[str], software: str):
+        self.file: IO[str] = open(path, "w", encoding="utf-8", newline="\n")
+        self._write({"format": FORMAT, "version": VERSION, "software": software,
+                     "level": {"name": level.name, "hash": level.hash}, "seed": seed, "teams": teams,
+                     "record_rate": level.record_rate})
+
+    def _write(self, obj: dict) -> None:
+        self.file.write(dumps(obj, indent=None) + "\n")
+
+    def frame(self, world: World) -> None:
+        poses = [world.pose(s) for s in range(len(world.bodies))]
+        self._write({"t": world.time, "p": [[p.x, p.y, p.heading] for p in poses]})
+
+    def close(self, result: dict) -> None:
+        self._write({"result": result})
+        self.file.close()

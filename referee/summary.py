@@ -1,0 +1,40 @@
+"""The score table printed after a match."""
+
+from __future__ import annotations
+
+
+def _mm(v: float | None) -> str:
+    return "-" if v is None else f"{v * 1000:.1f}"
+
+
+def _deg(v: float | None) -> str:
+    return "-" if v is None else f"{v * 57.29577951308232:.2f}"
+
+
+def _progress(task: dict) -> str:
+    if task["kind"] in ("waypoints", "race"):
+        text = f"{task['reached']}/{task['total']} waypoints"
+    elif task["kind"] == "goto":
+        d = task["final_distance"]
+        text = f"goal at {d:.3f} m" if d is not None else "goal"
+    else:
+        text = "localize"
+    return text + (f" in {task['finished']:.2f} s" if task["finished"] is not None else "")
+
+
+def table(result: dict) -> str:
+    """A fixed-width table: one row per robot with score, progress and localization error."""
+    head = (f"{result['level']['name']}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
+            f"({result['end_reason'].replace('_', ' ')})")
+    cols = ("slot", "team", "score", "task", "pos rms mm", "pos max mm", "hdg rms deg", "hdg max deg",
+            "est %", "faults")
+    rows = [cols]
+    for r in result["robots"]:
+        loc = r["localization"]
+        faults = ", ".join(f"{f['kind']}@{f['time']:.2f}s" for f in r["faults"]) or "-"
+        rows.append((str(r["slot"]), r["team"], f"{r['score']:.1f}", _progress(r["task"]),
+                     _mm(loc["position_rms"]), _mm(loc["position_max"]), _deg(loc["heading_rms"]),
+                     _deg(loc["heading_max"]), f"{100 * loc['fraction']:.0f}", faults))
+    widths = [max(len(row[i]) for row in rows) for i in range(len(cols))]
+    lines = [head] + ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
+    return "\n".join(lines)

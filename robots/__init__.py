@@ -1,0 +1,9 @@
+"""The team side: the controller API, the localization toolkit and reference controllers.
+
+Imports nothing from `arena` or `referee`: this package is what runs inside a team's process.
+"""
+
+from robots.api import (  # noqa: F401  (the public API, importable as `from robots import ...`)
+    API_VERSION, BeaconInfo, Brief, Command, Controller, Drawing, LaserInfo, Observation,
+    RobotInfo, SensorEvent, TaskInfo,
+)

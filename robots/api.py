@@ -1,0 +1,126 @@
+"""The controller API: the one contract between the referee and a team's code.
+
+A controller gets a `Brief` once (`setup`) and an `Observation` every control period
+(`step`), and answers each step with a `Command`. It never sees its true pose: only the
+clock and the times at which its laser met beacons. Everything here is plain data
+(frozen dataclasses of numbers, text and tuples) so it can cross a process border.
+
+This module imports nothing from `arena` or `referee`: it runs inside a team's process.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+API_VERSION = 1
+
+
+@dataclass(frozen=True)
+class BeaconInfo:
+    """A fixed beacon the team may know: its id and position (m)."""
+
+    id: str
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class LaserInfo:
+    """The robot's spinning laser: angular velocity relative to the body (rad/s, + = CCW)
+    and whether an index switch reports relative angle 0 (straight ahead)."""
+
+    angular_velocity: float
+    index: bool
+
+
+@dataclass(frozen=True)
+class RobotInfo:
+    """The robot's model: footprint (m), wheel track (m) and wheel limits."""
+
+    model: str
+    length: float
+    width: float
+    track: float
+    max_wheel_speed: float  # m/s; commands are clipped to +-this
+    max_wheel_accel: float  # m/s^2; wheels ramp towards commands at this rate
+
+
+@dataclass(frozen=True)
+class TaskInfo:
+    """What this robot must do: `kind` is waypoints | goto | localize | race;
+    `path` the waypoints in order, `goal` an (x, y) target, `radius` how close counts."""
+
+    kind: str
+    radius: float
+    path: tuple[tuple[float, float], ...] = ()
+    goal: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Brief:
+    """Everything a team may know before the match starts."""
+
+    slot: int
+    field: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax (m)
+    beacon_kind: str  # reflector | sensor_array | flash_detector | light
+    beacons: tuple[BeaconInfo, ...]
+    laser: LaserInfo
+    robot: RobotInfo
+    task: TaskInfo
+    control_period: float  # s
+    time_limit: float  # s
+    start: tuple[float, float, float] | None = None  # (x, y, heading) when the rules announce it
+
+
+@dataclass(frozen=True)
+class SensorEvent:
+    """One sensor event: when it happened (s, match clock), what it was
+    (`hit` a beacon passage, `index` the laser passing straight ahead), and which beacon,
+    when the hardware can tell (`None` for unlabelled returns)."""
+
+    time: float
+    kind: str
+    beacon: str | None = None
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What the controller learns at a control tick: the clock and the events since the last tick."""
+
+    tick: int
+    time: float
+    events: tuple[SensorEvent, ...] = ()
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """A debug overlay drawn in the replay: `kind` is point | line | circle | text;
+    `points` in metres; `radius` for circles; `text` for labels; `color` as RGB."""
+
+    kind: str
+    points: tuple[tuple[float, float], ...]
+    radius: float = 0.0
+    text: str = ""
+    color: tuple[int, int, int] = (255, 0, 255)
+
+
+@dataclass(frozen=True)
+class Command:
+    """Wheel speeds (m/s, clipped to the robot's limits), an optional pose `estimate`
+    (x, y, heading) that the referee scores against the truth, and optional debug drawings."""
+
+    left: float
+    right: float
+    estimate: tuple[float, float, float] | None = None
+    debug: tuple[Drawing, ...] = ()
+
+
+class Controller:
+    """Base class of a team's controller. Override `setup` and `step`."""
+
+    def setup(self, brief: Brief) -> None:
+        """Called once before the match with what the team may know."""
+
+    def step(self, observation: Observation) -> Command:
+        """Called every control period; return the wheel command for the next period."""
+        raise NotImplementedError

@@ -1,0 +1,6 @@
+"""Reference controllers, addressable on the command line as `ref:NAME`."""
+
+REFERENCE: dict[str, str] = {
+    "idle": "robots.controllers.idle:Idle",
+    "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
+}

@@ -1,0 +1,76 @@
+"""Follow the task's waypoints by dead reckoning from the announced start pose.
+
+It integrates its own wheel commands (ramped at the robot's acceleration limit, as the
+drive does) and never looks at a sensor, so its estimate drifts wherever the physics
+disagrees with the commands (collisions, pushing, ramp-up). It is the open-loop baseline a
+localizing controller must beat; without an announced start it stands still.
+"""
+
+from __future__ import annotations
+
+import math
+
+from robots.api import Brief, Command, Controller, Observation
+
+SUBSTEPS = 20  # integration steps per control period
+SPIN_ABOVE = 0.3  # rad: heading errors above this turn on the spot
+CRUISE = 0.8  # fraction of the top wheel speed used on straights
+
+
+def wrap(angle: float) -> float:
+    """Angle wrapped to (-pi, pi]."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+class DeadReckoning(Controller):
+    def setup(self, brief: Brief) -> None:
+        self.brief = brief
+        self.pose = brief.start
+        task = brief.task
+        self.path = list(task.path) if task.path else ([task.goal] if task.goal else [])
+        self.target = 0
+        self.wheels = (0.0, 0.0)  # wheel speeds the drive has reached, as we model it
+
+    def step(self, observation: Observation) -> Command:
+        if self.pose is None:
+            return Command(0.0, 0.0)
+        now = self.pose  # where we believe we are at this tick, before the new command acts
+        left, right = self._steer()
+        self._integrate(left, right)
+        return Command(left, right, estimate=now)
+
+    def _steer(self) -> tuple[float, float]:
+        x, y, h = self.pose
+        radius = self.brief.task.radius
+        while self.target < len(self.path) and math.dist((x, y), self.path[self.target]) < radius / 2:
+            self.target += 1
+        if self.target >= len(self.path):
+            return 0.0, 0.0
+        tx, ty = self.path[self.target]
+        error = wrap(math.atan2(ty - y, tx - x) - h)
+        vmax = self.brief.robot.max_wheel_speed
+        half = self.brief.robot.track / 2
+        if abs(error) > SPIN_ABOVE:
+            w = math.copysign(vmax / half * 0.5, error)
+            return -w * half, w * half
+        v = CRUISE * vmax
+        w = 2.0 * error / self.brief.control_period * 0.5
+        left, right = v - w * half, v + w * half
+        scale = max(1.0, abs(left) / vmax, abs(right) / vmax)
+        return left / scale, right / scale
+
+    def _integrate(self, left: float, right: float) -> None:
+        """Advance the pose over one control period the way the drive ramps the wheels."""
+        dt = self.brief.control_period / SUBSTEPS
+        dv = self.brief.robot.max_wheel_accel * dt
+        x, y, h = self.pose
+        wl, wr = self.wheels
+        for _ in range(SUBSTEPS):
+            wl += max(-dv, min(dv, left - wl))
+            wr += max(-dv, min(dv, right - wr))
+            v, w = (wl + wr) / 2, (wr - wl) / self.brief.robot.track
+            x += v * math.cos(h + w * dt / 2) * dt
+            y += v * math.sin(h + w * dt / 2) * dt
+            h = wrap(h + w * dt)
+        self.wheels = (wl, wr)
+        self.pose = (x, y, h)

@@ -1,0 +1,107 @@
+"""Every kind of bad level file gives exit 2 and one line naming the file, the line and the key."""
+
+import pytest
+
+from arena.loader import LevelError, parse_level
+from conftest import MINI_LEVEL, run_cli
+
+
+def line_of(text: str, needle: str) -> int:
+    """1-based line number of the first line containing `needle`."""
+    return next(i for i, line in enumerate(text.splitlines(), 1) if needle in line)
+
+
+CASES = [
+    # (case id, replace this, with this, key named in the message, line marker in the new text)
+    ("malformed", "  size: [2.0, 1.0]", "  size: [2.0, 1.0", "(yaml)", None),
+    ("unknown key", "  walls_", "", "", None),  # placeholder, replaced below
+    ("wrong type", "time_limit: 4", "time_limit: four", "time_limit", "time_limit:"),
+    ("missing field", "time_limit: 4\n", "", "time_limit", None),
+    ("negative size", "size: [2.0, 1.0]", "size: [-2.0, 1.0]", "field.size", "size:"),
+    ("beacon outside", "{id: B, at: [2, 1]}", "{id: B, at: [2.5, 1]}", "beacons.items[2].at", "id: B"),
+    ("start outside", "start: [0.5, 0.5, 0]", "start: [0.5, 1.5, 0]", "robots[0].start", "start:"),
+    ("footprint outside", "start: [0.5, 0.5, 0]", "start: [0.03, 0.5, 0]", "robots[0].start", "start:"),
+    ("non-multiple control period", "control_period: 0.05", "control_period: 0.013",
+     "control_period", "control_period:"),
+    ("unknown unit", "units: m", "units: furlong", "units", "units:"),
+    ("bad kind", "kind: sensor_array", "kind: sonar", "beacons.kind", "kind: sonar"),
+    ("zero laser", "angular_velocity: 20.0", "angular_velocity: 0", "laser.angular_velocity", "angular_velocity"),
+    ("duplicate beacon", "{id: B, at: [2, 1]}", "{id: A, at: [2, 1]}", "beacons.items[2].id", "{id: A, at: [2, 1]}"),
+    ("waypoint outside", "[1.5, 0.5]]", "[2.5, 0.5]]", "task.path[1]", "path:"),
+    ("unknown param", "  kind: sensor_array\n", "  kind: sensor_array\n  params: {bogus: 1}\n",
+     "beacons.params.bogus", "bogus"),
+    ("not a mapping", "field:\n  size: [2.0, 1.0]", "field: 3", "field", "field: 3"),
+    ("bool for number", "seed: 3", "seed: true", "seed", "seed:"),
+]
+
+
+def variant(case):
+    cid, old, new, key, marker = case
+    if cid == "unknown key":
+        text = MINI_LEVEL.replace("  size: [2.0, 1.0]", "  size: [2.0, 1.0]\n  wall: true")
+        return text, "field.wall", line_of(text, "wall: true")
+    assert old in MINI_LEVEL, cid
+    text = MINI_LEVEL.replace(old, new, 1)
+    if cid == "malformed":
+        return text, key, None
+    if cid == "missing field":
+        return text, key, 1  # reported at the mapping that lacks it: the top level
+    return text, key, line_of(text, marker)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
+def test_bad_level_is_one_line_with_file_line_key(case, write_level):
+    text, key, line = variant(case)
+    path = write_level(text)
+    with pytest.raises(LevelError) as info:
+        parse_level(text.encode(), str(path))
+    err = info.value
+    assert err.key == key
+    if line is not None:
+        assert err.line == line
+    msg = str(err)
+    assert msg.startswith(f"{path}:{err.line}: {key}: ")
+    assert "\n" not in msg
+
+
+@pytest.mark.parametrize("case", [CASES[0], CASES[2], CASES[5], CASES[8]], ids=lambda c: c[0])
+def test_cli_check_exits_2_without_traceback(case, write_level):
+    text, key, line = variant(case)
+    path = write_level(text)
+    for command in ("check", "run"):
+        proc = run_cli(command, str(path))
+        assert proc.returncode == 2
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1, proc.stderr
+        assert "Traceback" not in proc.stderr
+        assert lines[0].startswith(f"laserarena: {path}:")
+        assert f": {key}:" in lines[0]
+
+
+def test_malformed_yaml_names_the_line(write_level):
+    text = MINI_LEVEL.replace("  size: [2.0, 1.0]", "  size: [2.0, 1.0")
+    with pytest.raises(LevelError) as info:
+        parse_level(text.encode(), "x.yaml")
+    # PyYAML notices the unclosed flow sequence at the next line or shortly after
+    assert line_of(text, "size:") <= info.value.line <= line_of(text, "size:") + 3
+
+
+def test_missing_file_and_empty_file(tmp_path, write_level):
+    proc = run_cli("check", str(tmp_path / "nope.yaml"))
+    assert proc.returncode == 2 and "nope.yaml" in proc.stderr and "Traceback" not in proc.stderr
+    empty = write_level("", "empty.yaml")
+    proc = run_cli("check", str(empty))
+    assert proc.returncode == 2 and "empty.yaml:1:" in proc.stderr
+
+
+def test_unknown_level_name_and_bad_team():
+    proc = run_cli("run", "no-such-level")
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "no-such-level" in proc.stderr
+    proc = run_cli("run", "asabe", "--team", "ref:nobody")
+    assert proc.returncode == 2 and "ref:nobody" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_valid_mini_level_checks_ok(write_level):
+    proc = run_cli("check", str(write_level(MINI_LEVEL)))
+    assert proc.returncode == 0, proc.stderr
+    assert "ok" in proc.stdout
