@@ -447,7 +447,7 @@ def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, floa
     if kind in ("waypoints", "goto", "race"):
         radius = m.req("radius", _length)
     if kind == "waypoints":
-        path = m.req("path", _points)
+        path = m.opt("path", _points, ())  # else each robot names its own
     elif kind == "goto":
         g = m.raw("goal")
         vals = g.value if isinstance(g.value, list) else None
@@ -487,7 +487,8 @@ def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_las
         path = m.req("path", _points)
         for i, p in enumerate(path):
             _inside(ctx, fld, p, m.raw("path").line, f"{m.key('path')}[{i}]", "waypoint")
-    elif task.kind == "race":
-        raise ctx.fail(m.node.line, m.key("path"), "missing required key (each robot in a race has its own path)")
+    elif task.kind == "race" or (task.kind == "waypoints" and not path):
+        raise ctx.fail(m.node.line, m.key("path"), f"missing required key (no task.path to share, and "
+                                                   f"a {task.kind} robot needs a path)")
     return RobotSlot(slot=m.opt("slot", _count, index), model=model, start=start, laser=laser,
                      start_known=m.opt("start_known", _flag, False), path=path)

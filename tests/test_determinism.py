@@ -1,0 +1,38 @@
+"""Same level, seed and controllers: byte-identical result JSON and replay, in one process or two."""
+
+import json
+
+from arena.loader import load_level
+from referee.canonical import dumps
+from referee.match import run_match
+from referee.teams import resolve
+import levels
+from conftest import run_cli
+
+
+def test_two_processes_give_identical_bytes(tmp_path):
+    outs = []
+    for i in range(2):
+        j, r = tmp_path / f"r{i}.json", tmp_path / f"r{i}.replay"
+        proc = run_cli("run", "asabe-race", "--seed", "7", "--json", str(j), "--replay", str(r), "--quiet")
+        assert proc.returncode == 0, proc.stderr
+        outs.append((j.read_bytes(), r.read_bytes()))
+    assert outs[0] == outs[1]
+    # and the same bytes again inside this process
+    level = load_level(levels.path("asabe-race"))
+    replay = tmp_path / "here.replay"
+    result = run_match(level, [resolve(level.default_controller) for _ in level.robots], seed=7, replay=replay)
+    assert (dumps(result) + "\n").encode() == outs[0][0]
+    assert replay.read_bytes() == outs[0][1]
+    # the replay carries a frame per record period and ends with the same result
+    lines = outs[0][1].decode().splitlines()
+    header, frames, last = json.loads(lines[0]), lines[1:-1], json.loads(lines[-1])
+    assert header["seed"] == 7 and header["level"]["hash"] == level.hash
+    assert last["result"] == json.loads(outs[0][0])
+    assert len(frames) == round(last["result"]["end_time"] * level.record_rate) + 1
+
+
+def test_seed_is_recorded_and_defaults_to_the_level_seed(tmp_path):
+    j = tmp_path / "r.json"
+    assert run_cli("run", "bac-static", "--json", str(j), "--quiet").returncode == 0
+    assert json.loads(j.read_text())["seed"] == load_level(levels.path("bac-static")).seed

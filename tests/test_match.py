@@ -1,0 +1,182 @@
+"""The match loop: faults stop one robot and not the match; estimates are scored against truth."""
+
+import math
+import textwrap
+
+import pytest
+
+from arena.loader import parse_level
+from referee.errors import UserError
+from referee.match import run_match
+from referee.teams import resolve
+from conftest import MINI_LEVEL
+
+TWO = MINI_LEVEL.replace("""robots:
+  - model: boe-bot
+    start: [0.5, 0.5, 0]
+    start_known: true
+""", """robots:
+  - model: boe-bot
+    start: [0.5, 0.25, 0]
+    start_known: true
+    path: [[1.0, 0.25], [1.5, 0.25]]
+  - model: boe-bot
+    start: [0.5, 0.75, 0]
+    start_known: true
+    path: [[1.0, 0.75], [1.5, 0.75]]
+""").replace("  path: [[1.0, 0.5], [1.5, 0.5]]\n", "").replace("time_limit: 4", "time_limit: 12")
+
+
+def level(text=MINI_LEVEL):
+    return parse_level(text.encode(), "test.yaml")
+
+
+def team_file(tmp_path, body, name="team.py"):
+    p = tmp_path / name
+    p.write_text("from robots.api import *\nimport math\n\n" + textwrap.dedent(body))
+    return str(p)
+
+
+def test_exception_in_step_stops_that_robot_only(tmp_path):
+    bad = team_file(tmp_path, """
+        class Bad(Controller):
+            def step(self, obs):
+                if obs.tick == 3:
+                    raise RuntimeError("boom\\nsecond line")
+                return Command(0.1, 0.1)
+    """)
+    result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")])
+    r0, r1 = result["robots"]
+    assert r0["faults"] == [{"tick": 3, "time": pytest.approx(0.15), "kind": "exception",
+                             "message": "in step: RuntimeError: boom second line"}]
+    assert r0["stopped"] and not r1["faults"]
+    assert r1["task"]["reached"] == 2  # the other robot finished its path
+    assert result["end_reason"] == "task_complete"
+    # the faulted robot stopped where it was (it had driven 3 ticks, then ramped down)
+    assert 0.5 < r0["final_pose"][0] < 0.56
+
+
+def test_exception_in_setup_and_bad_commands(tmp_path):
+    setup_fails = team_file(tmp_path, """
+        class A(Controller):
+            def setup(self, brief):
+                raise ValueError("no")
+    """, "a.py")
+    nan = team_file(tmp_path, """
+        class B(Controller):
+            def step(self, obs):
+                return Command(float("nan"), 0.0)
+    """, "b.py")
+    result = run_match(level(TWO), [resolve(setup_fails), resolve(nan)])
+    (f0,), (f1,) = result["robots"][0]["faults"], result["robots"][1]["faults"]
+    assert (f0["kind"], f0["tick"]) == ("exception", 0) and "ValueError: no" in f0["message"]
+    assert (f1["kind"], f1["tick"]) == ("bad_command", 0) and "left" in f1["message"]
+    assert result["end_reason"] == "all_stopped"
+    for r in result["robots"]:  # nothing moved
+        assert r["final_pose"][0] == pytest.approx(0.5)
+
+
+def test_wrong_return_type_is_a_bad_command(tmp_path):
+    t = team_file(tmp_path, """
+        class C(Controller):
+            def step(self, obs):
+                return (0.1, 0.1)
+    """)
+    result = run_match(level(), [resolve(t)])
+    assert result["robots"][0]["faults"][0]["kind"] == "bad_command"
+
+
+def test_estimate_errors_scored_against_truth(tmp_path):
+    # A robot standing still at (0.5, 0.5, 0) reports a fixed offset estimate on even ticks only.
+    t = team_file(tmp_path, """
+        class Offset(Controller):
+            def step(self, obs):
+                est = (0.53, 0.54, 0.1) if obs.tick % 2 == 0 else None
+                return Command(0.0, 0.0, estimate=est)
+    """)
+    result = run_match(level(), [resolve(t)])
+    loc = result["robots"][0]["localization"]
+    n = round(4.0 / 0.05)  # control ticks in the 4 s time limit
+    assert loc["ticks"] == n and loc["estimates"] == n // 2 and loc["fraction"] == 0.5
+    assert loc["position_rms"] == pytest.approx(0.05) and loc["position_max"] == pytest.approx(0.05)
+    assert loc["heading_rms"] == pytest.approx(0.1) and loc["heading_max"] == pytest.approx(0.1)
+    assert result["end_reason"] == "time_limit" and result["end_time"] == pytest.approx(4.0)
+
+
+def test_heading_error_wraps_around(tmp_path):
+    t = team_file(tmp_path, """
+        class Wrap(Controller):
+            def step(self, obs):
+                return Command(0.0, 0.0, estimate=(0.5, 0.5, 2 * math.pi - 0.02))
+    """)
+    loc = run_match(level(), [resolve(t)])["robots"][0]["localization"]
+    assert loc["heading_max"] == pytest.approx(0.02)
+
+
+def test_observations_arrive_every_control_period(tmp_path):
+    t = team_file(tmp_path, """
+        SEEN = []
+        class Clock(Controller):
+            def setup(self, brief):
+                SEEN.append(brief)
+            def step(self, obs):
+                SEEN.append((obs.tick, obs.time))
+                return Command(0.0, 0.0)
+    """)
+    team = resolve(t)
+    run_match(level(), [team])
+    seen = __import__(team.factory.__module__).SEEN
+    brief, ticks = seen[0], seen[1:]
+    assert brief.start == (0.5, 0.5, 0.0) and brief.control_period == 0.05
+    assert [b.id for b in brief.beacons] == ["O", "A", "B"]
+    assert ticks == [(k, pytest.approx(k * 0.05)) for k in range(80)]
+
+
+def test_brief_hides_start_unless_announced(tmp_path):
+    t = team_file(tmp_path, """
+        BRIEFS = []
+        class Look(Controller):
+            def setup(self, brief):
+                BRIEFS.append(brief)
+            def step(self, obs):
+                return Command(0.0, 0.0)
+    """)
+    team = resolve(t)
+    run_match(level(MINI_LEVEL.replace("start_known: true", "start_known: false")), [team])
+    brief = __import__(team.factory.__module__).BRIEFS[0]
+    assert brief.start is None
+    text = repr(brief)
+    assert "0.5, 0.5" not in text  # the true start pose appears nowhere in what the team gets
+
+
+def test_waypoint_task_ends_match_when_done():
+    result = run_match(level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 12")), [resolve("ref:dead-reckoning")])
+    r = result["robots"][0]
+    assert r["task"]["reached"] == 2 and r["score"] == 100.0
+    assert result["end_reason"] == "task_complete"
+    assert result["end_time"] == pytest.approx(r["task"]["finished"])
+    # the robot drove ~1 m at <= 0.17 m/s: it cannot have finished sooner than that allows
+    assert result["end_time"] > (1.5 - 0.05 - 0.5) / 0.17
+
+
+def test_team_specs(tmp_path):
+    two = team_file(tmp_path, """
+        class One(Controller):
+            def step(self, obs): return Command(0, 0)
+        class Two(Controller):
+            def step(self, obs): return Command(0, 0)
+    """)
+    with pytest.raises(UserError, match="found 2 Controller classes: One, Two"):
+        resolve(two)
+    assert resolve(two + ":Two").factory.__name__ == "Two"
+    assert resolve(two + ":Two").label == "team.py:Two"  # no machine-dependent path
+    with pytest.raises(UserError, match="Three is not a Controller"):
+        resolve(two + ":Three")
+    broken = team_file(tmp_path, "import no_such_module_here\n", "broken.py")
+    with pytest.raises(UserError, match="broken.py failed to load: ModuleNotFoundError"):
+        resolve(broken)
+    with pytest.raises(UserError, match="no such file"):
+        resolve(str(tmp_path / "missing.py"))
+    assert resolve("robots.controllers.idle:Idle").factory.__name__ == "Idle"
+    with pytest.raises(UserError, match="cannot import"):
+        resolve("no.such.module:X")

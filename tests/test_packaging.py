@@ -1,0 +1,39 @@
+"""The installed package: console script, `python -m referee`, levels as package data, role borders."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import levels
+import robots
+from conftest import run_cli
+
+
+def test_levels_ship_inside_the_package():
+    for name in levels.names():
+        p = levels.path(name)
+        assert p.is_file() and p.parent == Path(levels.__file__).parent
+
+
+def test_console_script_and_module_agree(tmp_path):
+    script = Path(sys.executable).parent / "laserarena"
+    assert script.exists(), "the laserarena console script is installed beside python"
+    a = subprocess.run([str(script), "levels"], capture_output=True, text=True, cwd=tmp_path)
+    b = run_cli("levels", cwd=tmp_path)
+    assert a.returncode == b.returncode == 0
+    assert a.stdout == b.stdout and len(a.stdout.splitlines()) == 8
+
+
+def test_robots_imports_nothing_from_arena_or_referee():
+    root = Path(robots.__file__).parent
+    for f in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(f.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            for n in names:
+                assert n.split(".")[0] not in ("arena", "referee", "levels", "pymunk", "pygame"), (f, n)
+    code = ("import sys, robots, robots.controllers.idle, robots.controllers.dead_reckoning; "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'arena','referee','pymunk','pygame'}))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
+    assert out.stdout.strip() == "[]", out.stderr
