@@ -133,3 +133,13 @@ def test_equal_robots_stall_head_on():
     w.command(1, -0.17, -0.17)
     run(w, 5.0)
     assert abs(w.pose(0).x - w.pose(1).x) == pytest.approx(0.105, abs=0.01)
+
+
+def test_box_and_circle_obstacles_stop_a_robot():
+    for obstacle, face in (("{kind: box, center: [3.0, 2.0], size: [0.2, 1.0], angle: 0}", 2.9),
+                           ("{kind: circle, center: [3.0, 2.0], radius: 0.1}", 2.9)):
+        w = world(BIG.replace("beacons:", f"obstacles:\n  - {obstacle}\nbeacons:"))
+        w.command(0, 0.17, 0.17)
+        run(w, 15.0)  # 2.5 m of travel if nothing were in the way
+        front = w.pose(0).x + w.level.robots[0].model.length / 2
+        assert front == pytest.approx(face, abs=0.005)
