@@ -77,6 +77,7 @@ class Beacons:
     items: tuple[Beacon, ...]
     radius: float
     params: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    crosstalk: str = "coded"  # sensor_array: "shared" = every robot sees every laser's pulses
 
     def by_id(self, beacon_id: str) -> Beacon:
         for b in self.items:

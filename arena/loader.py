@@ -56,6 +56,7 @@ BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
         "beam_width": ("angle", math.radians(6.0)),
         "brightness_noise": ("number", 0.0),
         "servo_jitter": ("angle", 0.0),
+        "saturation_range": ("length", 1.0),  # closer than this, a light saturates the sensor
     },
 }
 DEFAULT_BEACON_RADIUS = 0.02  # m
@@ -314,7 +315,7 @@ def parse_level(data: bytes, source: str) -> Level:
 
     obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) \
         if top.has("obstacles") else ()
-    beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items")), fld)
+    beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items", "crosstalk")), fld)
     default_laser = _laser(top.sub("laser", ("angular_velocity", "index")))
     task_map = top.sub("task", ("kind", "radius", "path", "goal"))
     task, shared_path = _task(ctx, task_map, fld)
@@ -324,6 +325,13 @@ def parse_level(data: bytes, source: str) -> Level:
         raise ctx.fail(top.raw("robots").line, "robots", "at least one robot is required")
     robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path)
               for i, (n, k) in enumerate(robot_nodes)]
+    for r, (node, key) in zip(robots, robot_nodes):
+        turn = (abs(r.laser.angular_velocity) + 2 * r.model.max_wheel_speed / r.model.track) / physics_rate
+        if turn >= math.pi / 2:
+            where = top.raw("laser") if r.laser is default_laser else node
+            raise ctx.fail(where.line, "laser.angular_velocity",
+                           f"the beam would turn {math.degrees(turn):.0f} deg per physics step; keep it "
+                           f"under 90 by raising physics_rate")
     slots = sorted(r.slot for r in robots)
     if slots != list(range(len(robots))):
         raise ctx.fail(top.raw("robots").line, "robots",
@@ -410,7 +418,12 @@ def _beacons(ctx: _Ctx, m: _Map, fld: Field) -> Beacons:
     if not items:
         raise ctx.fail(m.raw("items").line, m.key("items"), "at least one beacon is required")
     radius = m.opt("radius", _length, DEFAULT_BEACON_RADIUS)
-    return Beacons(kind=kind, items=tuple(items), radius=radius, params=MappingProxyType(params))
+    crosstalk = m.opt("crosstalk", _choice("coded", "shared"), "coded")
+    if crosstalk == "shared" and kind != "sensor_array":
+        raise ctx.fail(m.raw("crosstalk").line, m.key("crosstalk"),
+                       "shared crosstalk applies to sensor_array beacons only")
+    return Beacons(kind=kind, items=tuple(items), radius=radius, params=MappingProxyType(params),
+                   crosstalk=crosstalk)
 
 
 def _scalar_id(ctx: _Ctx, node: _Node, key: str) -> str:

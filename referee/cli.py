@@ -58,7 +58,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     for path in (args.json, args.replay):
         if path and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
-    result = run_match(level, teams, seed=args.seed, replay=args.replay)
+    result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal)
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -79,6 +79,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, help="match seed (default: the level's)")
     s.add_argument("--json", metavar="OUT", help="write the result JSON here")
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
+    s.add_argument("--ideal", action="store_true",
+                   help="ideal sensors: no noise, no missed or false pulses, no quantization")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
     s.set_defaults(func=cmd_run)
 

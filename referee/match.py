@@ -13,7 +13,9 @@ from pathlib import Path
 from typing import Protocol
 
 from arena.level import Level
+from arena.detectors import Detection
 from arena.rng import RandomTree
+from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
 from referee.bot import Fault, InProcessBot
@@ -54,6 +56,19 @@ def brief_for(level: Level, slot: int) -> Brief:
     )
 
 
+class _SenseHook:
+    def __init__(self, sensing: Sensing):
+        self.sensing = sensing
+
+    def after_step(self, world: World) -> None:
+        self.sensing.record()
+
+
+def to_event(d: Detection) -> SensorEvent:
+    """An arena detection as the team sees it (nothing about which laser caused it)."""
+    return SensorEvent(time=d.time, kind=d.kind, beacon=d.beacon, angle=d.angle, samples=d.samples)
+
+
 class _TaskHook:
     def __init__(self, tracker: TaskTracker):
         self.tracker = tracker
@@ -76,21 +91,22 @@ class Match:
     """One match of a level between teams (one per robot slot), run to its end by `run()`."""
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
-                 replay: str | Path | None = None):
+                 replay: str | Path | None = None, ideal: bool = False):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
         self.teams = teams
         self.seed = level.seed if seed is None else seed
-        self.rng = RandomTree(self.seed)
+        self.ideal = ideal
         self.world = World(level)
+        self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
         self.bots = [InProcessBot(t) for t in teams]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
-        self.hooks: list[Hook] = [_TaskHook(self.tracker)]  # sensing hook goes first, with the laser
+        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker)]
         self.writer = None
         if replay is not None:
             self.writer = ReplayWriter(replay, level, self.seed, [t.label for t in teams], __version__)
@@ -107,6 +123,8 @@ class Match:
 
     def _control_tick(self, tick: int) -> None:
         time = self.world.time
+        for slot, detections in enumerate(self.sensing.flush()):
+            self.inbox[slot].extend(to_event(d) for d in detections)
         for slot, bot in enumerate(self.bots):
             truth = self.world.pose(slot)
             if self.stopped[slot]:
@@ -168,6 +186,7 @@ class Match:
             "software": __version__,
             "level": {"name": self.level.name, "hash": self.level.hash},
             "seed": self.seed,
+            "ideal": self.ideal,
             "end_time": self.world.time,
             "end_reason": self.end_reason,
             "robots": robots,
@@ -175,7 +194,7 @@ class Match:
 
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
-              replay: str | Path | None = None) -> dict:
-    """Run one match and return its result."""
-    return Match(level, teams, seed, replay).run()
+              replay: str | Path | None = None, ideal: bool = False) -> dict:
+    """Run one match and return its result; `ideal` turns every sensor noise and failure off."""
+    return Match(level, teams, seed, replay, ideal).run()
 

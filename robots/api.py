@@ -74,13 +74,21 @@ class Brief:
 
 @dataclass(frozen=True)
 class SensorEvent:
-    """One sensor event: when it happened (s, match clock), what it was
-    (`hit` a beacon passage, `index` the laser passing straight ahead), and which beacon,
-    when the hardware can tell (`None` for unlabelled returns)."""
+    """One sensor event, as the hardware reports it (docs/sensors.md).
+
+    `time`: when it happened (s, match clock, as the detector's clock reads it);
+    `kind`: `hit` (the beam met a beacon), `index` (the laser passed straight ahead) or
+    `scan` (a light turret's full turn of brightness samples);
+    `beacon`: which beacon, where the hardware can tell (`None` for unlabelled returns);
+    `angle`: the laser's angle relative to the robot (rad, [0, 2 pi)), where the hardware
+    latches it (an encoder, a stepped head), else `None`;
+    `samples`: for a scan, brightness 0 (bright) .. 255 (dark) at relative angles 2 pi k / N."""
 
     time: float
     kind: str
     beacon: str | None = None
+    angle: float | None = None
+    samples: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)

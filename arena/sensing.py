@@ -1,0 +1,219 @@
+"""Sensing: every robot's spinning laser against the level's beacons, batch by batch.
+
+`record()` runs after every physics step and only stores each robot's pose (cheap);
+`flush()` runs at each control tick and turns the steps since the last tick into
+detections, all at once and vectorized: laser phases (with speed wobble), exact crossing
+times (arena.laser), occlusion by other robots at the crossing instant and by obstacles,
+the detector model of the level's beacon kind, index clicks, and the random errors.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+
+from arena import detectors as det
+from arena.laser import TWO_PI, Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_boxes
+from arena.rng import RandomTree
+from arena.world import CAT_OBSTACLE, World
+
+
+class Sensing:
+    """The lasers and beacon hardware of one match."""
+
+    def __init__(self, world: World, rng: RandomTree, ideal: bool = False):
+        level = world.level
+        self.world = world
+        self.ideal = ideal
+        self.kind = level.beacons.kind
+        self.params = det.effective_params(level.beacons.params, ideal)
+        self.crosstalk = level.beacons.crosstalk
+        items = level.beacons.items
+        self.ids = [b.id for b in items]
+        self.bx = np.array([b.x for b in items])
+        self.by = np.array([b.y for b in items])
+        self.facing = np.array([b.facing for b in items])
+        self.beacon_radius = level.beacons.radius
+        robots = level.robots
+        self.n = len(robots)
+        self.omega = np.array([r.laser.angular_velocity for r in robots])
+        self.index = np.array([r.laser.index for r in robots])
+        self.half_length = np.array([r.model.length / 2 for r in robots])
+        self.half_width = np.array([r.model.width / 2 for r in robots])
+        self.has_obstacles = bool(level.obstacles)
+        self.obstacle_filter = pymunk.ShapeFilter(mask=CAT_OBSTACLE)
+        self.dt = world.dt
+        self.rng = {name: [rng.stream("robot", r, name) for r in range(self.n)]
+                    for name in ("wobble", "detector", "timing", "false", "light")}
+        self.merge_rng = rng.stream("beacons", "merge")
+        self.wobble = np.zeros(self.n)
+        self.phi = np.zeros(self.n)  # unwrapped laser phase; 0 = straight ahead at t = 0
+        self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
+        self._rows: list[list[float]] = []
+        self._last = self._state()
+        self._last_t = world.time
+
+    def _state(self) -> list[float]:
+        row: list[float] = []
+        for body in self.world.bodies:
+            p = body.position
+            row += (p.x, p.y, body.angle)
+        return row
+
+    def record(self) -> None:
+        """Store the robots' poses after a physics step."""
+        self._rows.append(self._state())
+
+    def flush(self) -> list[list[det.Detection]]:
+        """Detections per robot for the steps recorded since the last flush, in time order."""
+        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
+        steps = len(self._rows)
+        if not steps:
+            return out
+        poses = np.array([self._last] + self._rows).reshape(steps + 1, self.n, 3)
+        t = self._last_t + np.arange(steps + 1) * self.dt
+        t[-1] = self.world.time  # exact at the end, so batches join without drift
+        traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(steps))
+        self._last, self._last_t, self._rows = self._rows[-1], self.world.time, []
+        self.phi = traj.phi[-1].copy()
+
+        if self.kind == "light":
+            self._light(traj, out)
+        else:
+            self._hits(traj, out)
+        self._index(traj, out)
+        for events in out:
+            events.sort(key=lambda d: (d.time, d.kind, d.beacon or "", d.source))
+        return out
+
+    # ---- laser phase ---------------------------------------------------------------------
+
+    def _phases(self, steps: int) -> np.ndarray:
+        """Unwrapped laser phases at the step ends; the spin rate wobbles as an
+        Ornstein-Uhlenbeck process (relative std `wobble`, correlation time `wobble_time`)."""
+        rate = np.tile(self.omega, (steps, 1))
+        sigma = self.params["wobble"]
+        if sigma > 0:
+            a = math.exp(-self.dt / self.params["wobble_time"])
+            kick = math.sqrt(1 - a * a) * sigma
+            noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
+            w = self.wobble
+            for k in range(steps):
+                w = a * w + kick * noise[k]
+                rate[k] *= 1.0 + w
+            self.wobble = w
+        return self.phi + np.vstack([np.zeros(self.n), np.cumsum(rate * self.dt, axis=0)])
+
+    # ---- occlusion ------------------------------------------------------------------------
+
+    def _blocked(self, traj: Trajectory, robot: np.ndarray, step: np.ndarray, s: np.ndarray,
+                 px: np.ndarray, py: np.ndarray, beacon: np.ndarray) -> np.ndarray:
+        """Whether the segment from each laser to each beacon's near edge is blocked by another
+        robot (at that instant) or an obstacle. Walls bound a convex field and never block."""
+        if len(robot) == 0:
+            return np.zeros(0, dtype=bool)
+        bx, by = self.bx[beacon], self.by[beacon]
+        d = np.hypot(bx - px, by - py)
+        shrink = np.where(d > self.beacon_radius, (d - self.beacon_radius) / np.maximum(d, 1e-12), 0.0)
+        qx, qy = px + (bx - px) * shrink, py + (by - py) * shrink
+        blocked = np.zeros(len(robot), dtype=bool)
+        for other in range(self.n):
+            rows = np.nonzero(robot != other)[0]
+            if not len(rows):
+                continue
+            o = np.full(len(rows), other)
+            _, ox, oy, oh, _ = traj.at(step[rows], s[rows], o)
+            blocked[rows] |= segment_hits_boxes(px[rows], py[rows], qx[rows], qy[rows], ox, oy, oh,
+                                                self.half_length[o], self.half_width[o])
+        if self.has_obstacles:
+            space = self.world.space
+            for i in np.nonzero(~blocked)[0]:
+                hit = space.segment_query_first((px[i], py[i]), (qx[i], qy[i]), 0.0, self.obstacle_filter)
+                blocked[i] = hit is not None
+        return blocked
+
+    # ---- beam-beacon hits -----------------------------------------------------------------
+
+    def _hits(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
+        c = find_crossings(traj, self.bx, self.by)
+        if len(c):
+            c = c.take(~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon))
+        if len(c):
+            c = c.take(det.visible(self.kind, c, self.facing, self.params))
+        p = self.params
+        for r in range(self.n):
+            mine = c.take(c.robot == r)
+            times = mine.t
+            if self.kind == "sensor_array":
+                times = det.merge_into_next(times, p["merge_rate"], self.merge_rng)
+            times = det.noisy_times(times, p, self.rng["timing"][r])
+            labelled = self.kind != "reflector"
+            steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
+            angles = det.quantize_angle(mine.phi, steps) if (steps or self.kind == "flash_detector") else None
+            receivers = range(self.n) if self.crosstalk == "shared" else (r,)
+            for i in range(len(mine)):
+                beacon = self.ids[mine.beacon[i]] if labelled else None
+                angle = float(angles[i]) if angles is not None else None
+                for rx in receivers:
+                    out[rx].append(det.Detection(rx, float(times[i]), "hit", beacon, angle, source=r))
+            if self.kind == "reflector" and p["false_rate"] > 0:
+                self._false_returns(traj, r, out[r])
+
+    def _false_returns(self, traj: Trajectory, r: int, events: list[det.Detection]) -> None:
+        """Spurious reflections (shiny surfaces, other lights): a Poisson process in time."""
+        g = self.rng["false"][r]
+        t0, t1 = traj.t[0], traj.t[-1]
+        for t in np.sort(g.uniform(t0, t1, size=g.poisson(self.params["false_rate"] * (t1 - t0)))):
+            angle = None
+            if self.params["quantization"]:
+                k = min(int(np.searchsorted(traj.t, t)) - 1, len(traj.t) - 2)
+                s = (t - traj.t[k]) / (traj.t[k + 1] - traj.t[k])
+                phase = traj.phi[k, r] + s * (traj.phi[k + 1, r] - traj.phi[k, r])
+                angle = float(det.quantize_angle(np.array([phase]), self.params["quantization"])[0])
+            events.append(det.Detection(r, float(t), "hit", None, angle, source=-1))
+
+    # ---- index switch ---------------------------------------------------------------------
+
+    def _index(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
+        if not self.index.any():
+            return
+        robot, _, _, t, _ = find_phase_marks(traj, 1)
+        for r, ti in zip(robot, t):
+            if self.index[r]:
+                out[r].append(det.Detection(int(r), float(ti), "index", source=int(r)))
+
+    # ---- lights and a sampled turret -------------------------------------------------------
+
+    def _light(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
+        """Osentoski's turret: N brightness samples per turn at relative angles 2 pi k / N; a
+        full turn of samples is one `scan` event at the time of its last sample."""
+        p = self.params
+        per_turn = int(p["samples_per_turn"])
+        robot, step, s, t, mark = find_phase_marks(traj, per_turn)
+        if not len(robot):
+            return
+        _, x, y, h, _ = traj.at(step, s, robot)
+        k = mark % per_turn
+        beam = h + TWO_PI * k / per_turn
+        if p["servo_jitter"] > 0:
+            beam = beam + np.concatenate([self.rng["light"][r].normal(0.0, p["servo_jitter"], 1) for r in robot])
+        m, nl = len(robot), len(self.ids)
+        rep = np.repeat(np.arange(m), nl)
+        lights = np.tile(np.arange(nl), m)
+        blocked = self._blocked(traj, robot[rep], step[rep], s[rep], x[rep], y[rep], lights).reshape(m, nl)
+        dx, dy = self.bx[None, :] - x[:, None], self.by[None, :] - y[:, None]
+        delta = (beam[:, None] - np.arctan2(dy, dx) + np.pi) % TWO_PI - np.pi
+        value = det.brightness(delta, np.hypot(dx, dy), ~blocked, p)
+        for i in range(m):
+            r, turn = int(robot[i]), int(mark[i] // per_turn)
+            v = value[i]
+            if p["brightness_noise"] > 0:
+                v = v + self.rng["light"][r].normal(0.0, p["brightness_noise"])
+            scan = self.scans.setdefault((r, turn), np.full(per_turn, -1.0))
+            scan[k[i]] = max(0.0, min(255.0, v))
+            if (scan >= 0).all():  # a full turn (the very first may lack its sample at t = 0)
+                del self.scans[(r, turn)]
+                samples = tuple(int(round(u)) for u in scan)
+                out[r].append(det.Detection(r, float(t[i]), "scan", samples=samples, source=r))
