@@ -70,9 +70,8 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossing
     dy = by[None, None, :] - traj.y[:, :, None]
     bearing = np.unwrap(np.arctan2(dy, dx), axis=0)
     g = (traj.h + traj.phi)[:, :, None] - bearing
-    turns = np.floor(g / TWO_PI)
-    step, robot, beacon = np.nonzero(turns[1:] != turns[:-1])
-    target = TWO_PI * np.maximum(turns[step, robot, beacon], turns[step + 1, robot, beacon])
+    (step, robot, beacon), turn = _passes(g / TWO_PI)
+    target = TWO_PI * turn
     g0, g1 = g[step, robot, beacon], g[step + 1, robot, beacon]
     s = np.clip((target - g0) / (g1 - g0), 0.0, 1.0)
     bxs, bys = bx[beacon], by[beacon]
@@ -109,9 +108,7 @@ def find_phase_marks(traj: Trajectory, per_turn: int) -> tuple[np.ndarray, ...]:
     `per_turn=1` gives the index switch (relative angle 0). Phase is linear within a step,
     so these times are exact."""
     scaled = traj.phi * (per_turn / TWO_PI)
-    marks = np.floor(scaled)
-    step, robot = np.nonzero(marks[1:] != marks[:-1])
-    mark = np.maximum(marks[step, robot], marks[step + 1, robot])
+    (step, robot), mark = _passes(scaled)
     p0, p1 = scaled[step, robot], scaled[step + 1, robot]
     s = np.clip((mark - p0) / (p1 - p0), 0.0, 1.0)
     t = traj.t[step] + s * (traj.t[step + 1] - traj.t[step])
@@ -137,6 +134,19 @@ def segment_hits_boxes(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.nd
         lo = np.where(parallel, np.where(inside, lo, 2.0), np.maximum(lo, np.minimum(t1, t2)))
         hi = np.where(parallel, np.where(inside, hi, -1.0), np.minimum(hi, np.maximum(t1, t2)))
     return lo <= hi
+
+
+def _passes(v: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """Where `v` (along axis 0) passes an integer between consecutive rows, and which integer.
+
+    A pass belongs to the row interval (k, k+1] in which `v` arrives at the integer, whichever
+    way it moves, so an exact hit at a row is counted once, in the step that ends there."""
+    up, down = np.floor(v), np.ceil(v)
+    rising = v[1:] > v[:-1]
+    moved = np.where(rising, up[1:] != up[:-1], down[1:] != down[:-1])
+    where = np.nonzero(moved)
+    after = tuple(i + (1 if n == 0 else 0) for n, i in enumerate(where))
+    return where, np.where(rising[where], up[after], down[after])
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
