@@ -84,10 +84,13 @@ def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
     return rel
 
 
-def noisy_times(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator) -> np.ndarray:
-    """Event clock: Gaussian timing noise, then counter quantization (a `clock_hz` counter)."""
+def noisy_times(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator,
+                window: tuple[float, float]) -> np.ndarray:
+    """Event clock: Gaussian timing noise (kept inside the batch `window`, so no event is
+    reported before the previous tick or after the one that delivers it), then counter
+    quantization (a `clock_hz` counter)."""
     if p.get("timing_noise", 0.0) > 0:
-        t = t + rng.normal(0.0, p["timing_noise"], size=t.shape)
+        t = np.clip(t + rng.normal(0.0, p["timing_noise"], size=t.shape), *window)
     if p.get("clock_hz", 0.0) > 0:
         t = np.floor(t * p["clock_hz"] + 1e-6) / p["clock_hz"]
     return t

@@ -148,7 +148,7 @@ class Sensing:
             times = mine.t
             if self.kind == "sensor_array":
                 times = det.merge_into_next(times, p["merge_rate"], self.merge_rng)
-            times = det.noisy_times(times, p, self.rng["timing"][r])
+            times = det.noisy_times(times, p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
             labelled = self.kind != "reflector"
             steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
             angles = det.quantize_angle(mine.phi, steps) if (steps or self.kind == "flash_detector") else None
