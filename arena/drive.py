@@ -42,19 +42,22 @@ class DiffDrive:
         space.add(self.control, pivot, gear)
         self.target = (0.0, 0.0)
         self.wheels = (0.0, 0.0)
+        self._motion = (0.0, body.angle)
 
     def command(self, left: float, right: float) -> None:
         """Set the wheel speed targets (m/s), clipped to the model's top speed."""
         top = self.model.max_wheel_speed
         self.target = (max(-top, min(top, left)), max(-top, min(top, right)))
 
-    def update(self, dt: float) -> None:
-        """Ramp the wheels one physics step and set the control body's motion."""
-        dv = self.model.max_wheel_accel * dt
-        left = ramp(self.wheels[0], self.target[0], dv)
-        right = ramp(self.wheels[1], self.target[1], dv)
-        self.wheels = (left, right)
-        v = (left + right) / 2
-        h = self.body.angle
-        self.control.velocity = (v * math.cos(h), v * math.sin(h))
-        self.control.angular_velocity = (right - left) / self.model.track
+    def update(self, dt: float, heading: float) -> None:
+        """Ramp the wheels one physics step and set the control body's motion for a robot
+        now at `heading` (pymunk setters are costly: unchanged values are not set again)."""
+        if self.wheels != self.target:
+            dv = self.model.max_wheel_accel * dt
+            self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
+            self.control.angular_velocity = (self.wheels[1] - self.wheels[0]) / self.model.track
+        v = (self.wheels[0] + self.wheels[1]) / 2
+        motion = (v, heading)
+        if motion != self._motion:
+            self._motion = motion
+            self.control.velocity = (v * math.cos(heading), v * math.sin(heading))

@@ -5,9 +5,9 @@ updates velocity, then position), so the robot's pose is exactly linear in time 
 step; the laser's phase relative to the body is linear too (its rate is constant within a
 step). The beam's world angle is heading(t) + phase(t). A crossing with beacon b is a time
 at which that angle equals the bearing from the laser to b (mod 2 pi). We never step the
-beam: for each step we compare g = beam - bearing at the step's ends (bearing unwrapped
-along time), and where g passes a multiple of 2 pi we solve g(t) = 2 pi n by Newton's method
-with the analytic derivative. All of it is vectorized over steps x robots x beacons.
+beam: for each step we compare the wrapped difference beam - bearing at the step's ends,
+and where it passes zero we solve for the instant by Newton's method with the analytic
+derivative. All of it is vectorized over steps x robots x beacons.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 TWO_PI = 2.0 * np.pi
-NEWTON_ITERATIONS = 4  # each squares the error; the linear first guess is already < 1e-6 rad off
+NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
 
 
 @dataclass(frozen=True)
@@ -31,12 +31,12 @@ class Trajectory:
     h: np.ndarray
     phi: np.ndarray
 
-    def at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Interpolated (t, x, y, h, phi) at fraction `s` of step `step` for robots `robot`."""
+    def pose_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Interpolated (x, y, h) at fraction `s` of step `step` for robots `robot`."""
         def lerp(a: np.ndarray) -> np.ndarray:
-            return a[step, robot] + s * (a[step + 1, robot] - a[step, robot])
-        t = self.t[step] + s * (self.t[step + 1] - self.t[step])
-        return t, lerp(self.x), lerp(self.y), lerp(self.h), lerp(self.phi)
+            a0 = a[step, robot]
+            return a0 + s * (a[step + 1, robot] - a0)
+        return lerp(self.x), lerp(self.y), lerp(self.h)
 
 
 @dataclass(frozen=True)
@@ -64,56 +64,65 @@ class Crossings:
 
 
 def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossings:
-    """All times at which a robot's beam points exactly at a beacon at (bx, by)."""
-    # g[k, r, b] = beam world angle - bearing to the beacon, continuous along k
+    """All times at which a robot's beam points exactly at a beacon at (bx, by), unsorted.
+
+    d = wrap(beam - bearing) changes by well under pi per step (the loader bounds the beam's
+    turn per step), so the beam passes a beacon in step k exactly when d changes sign there
+    without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
+    hit at a step boundary is counted once, whichever way the beam turns."""
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
-    bearing = np.unwrap(np.arctan2(dy, dx), axis=0)
-    g = (traj.h + traj.phi)[:, :, None] - bearing
-    (step, robot, beacon), turn = _passes(g / TWO_PI)
-    target = TWO_PI * turn
-    g0, g1 = g[step, robot, beacon], g[step + 1, robot, beacon]
-    s = np.clip((target - g0) / (g1 - g0), 0.0, 1.0)
-    bxs, bys = bx[beacon], by[beacon]
-    b0 = bearing[step, robot, beacon]
-    dh = traj.h[step + 1, robot] - traj.h[step, robot]
-    dphi = traj.phi[step + 1, robot] - traj.phi[step, robot]
+    a = traj.h + traj.phi  # beam world angle (n+1, R)
+    d = _wrap(a[:, :, None] - np.arctan2(dy, dx))
+    d0, d1 = d[:-1], d[1:]
+    passes = ((d0 < 0) & (d1 >= 0)) | ((d0 > 0) & (d1 <= 0))
+    passes &= np.abs(d1 - d0) < np.pi
+    step, robot, beacon = np.nonzero(passes)
+    f0, f1 = d0[step, robot, beacon], d1[step, robot, beacon]
+    s = f0 / (f0 - f1)  # linear first guess
+    # the crossing's step, as start values and changes over the step
+    ex0, ey0 = dx[step, robot, beacon], dy[step, robot, beacon]  # laser -> beacon at the start
     ddx = traj.x[step + 1, robot] - traj.x[step, robot]
     ddy = traj.y[step + 1, robot] - traj.y[step, robot]
+    a0 = a[step, robot]
+    da = a[step + 1, robot] - a0
     for _ in range(NEWTON_ITERATIONS):
-        _, x, y, h, phi = traj.at(step, s, robot)
-        ex, ey = bxs - x, bys - y
-        d2 = ex * ex + ey * ey
-        beta = b0 + _wrap(np.arctan2(ey, ex) - b0)
-        f = h + phi - beta - target
-        # d(beta)/ds for a laser moving by (ddx, ddy) over the step
-        dbeta = (ey * ddx - ex * ddy) / d2
-        slope = dh + dphi - dbeta
+        ex, ey = ex0 - s * ddx, ey0 - s * ddy
+        f = _wrap(a0 + s * da - np.arctan2(ey, ex))
+        slope = da - (ey * ddx - ex * ddy) / (ex * ex + ey * ey)  # d(beam - bearing)/ds
         s = np.clip(s - f / np.where(slope == 0.0, 1.0, slope), 0.0, 1.0)
-    t, x, y, h, phi = traj.at(step, s, robot)
-    ex, ey = bxs - x, bys - y
-    dt = traj.t[step + 1] - traj.t[step]
+    ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey
-    beam_rate = (dh + dphi - (ey * ddx - ex * ddy) / d2) / dt
-    order = np.lexsort((beacon, robot, t))
-    return Crossings(robot=robot, beacon=beacon, step=step, s=s, t=t, x=x, y=y, phi=phi,
-                     beam_rate=beam_rate, distance=np.sqrt(d2),
-                     bearing=np.arctan2(ey, ex)).take(order)
+    dt = traj.t[step + 1] - traj.t[step]
+    phi0 = traj.phi[step, robot]
+    return Crossings(robot=robot, beacon=beacon, step=step, s=s, t=traj.t[step] + s * dt,
+                     x=bx[beacon] - ex, y=by[beacon] - ey,
+                     phi=phi0 + s * (traj.phi[step + 1, robot] - phi0),
+                     beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt, distance=np.sqrt(d2),
+                     bearing=np.arctan2(ey, ex))
 
 
-def find_phase_marks(traj: Trajectory, per_turn: int) -> tuple[np.ndarray, ...]:
+def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
     """Times at which each robot's laser phase passes a multiple of 2 pi / per_turn.
 
-    Returns (robot, step, s, t, mark) with `mark` the integer count of such angles since phase 0;
-    `per_turn=1` gives the index switch (relative angle 0). Phase is linear within a step,
-    so these times are exact."""
-    scaled = traj.phi * (per_turn / TWO_PI)
-    (step, robot), mark = _passes(scaled)
-    p0, p1 = scaled[step, robot], scaled[step + 1, robot]
-    s = np.clip((mark - p0) / (p1 - p0), 0.0, 1.0)
+    `direction` is each robot's spin sign (the phase is monotonic). Returns (robot, step, s,
+    t, mark), sorted by time, with `mark` the signed count of such angles since phase 0;
+    `per_turn=1` gives the index switch (relative angle 0). Several marks may fall in one
+    step. Phase is linear within a step, so these times are exact."""
+    v = traj.phi * (direction * per_turn / TWO_PI)  # increasing
+    whole = np.floor(v)
+    count = (whole[1:] - whole[:-1]).astype(np.int64)
+    step, robot = np.nonzero(count)
+    n = count[step, robot]
+    step, robot = np.repeat(step, n), np.repeat(robot, n)
+    offset = np.arange(len(step)) - np.repeat(np.cumsum(n) - n, n)
+    mark = whole[step, robot] + 1 + offset
+    v0, v1 = v[step, robot], v[step + 1, robot]
+    s = (mark - v0) / (v1 - v0)
     t = traj.t[step] + s * (traj.t[step + 1] - traj.t[step])
     order = np.lexsort((robot, t))
-    return robot[order], step[order], s[order], t[order], mark[order].astype(np.int64)
+    signed = (mark * direction[robot]).astype(np.int64)
+    return robot[order], step[order], s[order], t[order], signed[order]
 
 
 def segment_hits_boxes(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray,
@@ -134,19 +143,6 @@ def segment_hits_boxes(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.nd
         lo = np.where(parallel, np.where(inside, lo, 2.0), np.maximum(lo, np.minimum(t1, t2)))
         hi = np.where(parallel, np.where(inside, hi, -1.0), np.minimum(hi, np.maximum(t1, t2)))
     return lo <= hi
-
-
-def _passes(v: np.ndarray) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
-    """Where `v` (along axis 0) passes an integer between consecutive rows, and which integer.
-
-    A pass belongs to the row interval (k, k+1] in which `v` arrives at the integer, whichever
-    way it moves, so an exact hit at a row is counted once, in the step that ends there."""
-    up, down = np.floor(v), np.ceil(v)
-    rising = v[1:] > v[:-1]
-    moved = np.where(rising, up[1:] != up[:-1], down[1:] != down[:-1])
-    where = np.nonzero(moved)
-    after = tuple(i + (1 if n == 0 else 0) for n, i in enumerate(where))
-    return where, np.where(rising[where], up[after], down[after])
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:

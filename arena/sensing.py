@@ -39,9 +39,14 @@ class Sensing:
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
+        self.direction = np.sign(self.omega)
         self.index = np.array([r.laser.index for r in robots])
         self.half_length = np.array([r.model.length / 2 for r in robots])
         self.half_width = np.array([r.model.width / 2 for r in robots])
+        # how far a robot's box can reach from its centre at a batch start, within a batch
+        batch = level.control_period
+        self.reach = np.hypot(self.half_length, self.half_width) + np.array(
+            [2 * r.model.max_wheel_speed * batch for r in robots])
         self.has_obstacles = bool(level.obstacles)
         self.obstacle_filter = pymunk.ShapeFilter(mask=CAT_OBSTACLE)
         self.dt = world.dt
@@ -51,20 +56,13 @@ class Sensing:
         self.wobble = np.zeros(self.n)
         self.phi = np.zeros(self.n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
-        self._rows: list[list[float]] = []
-        self._last = self._state()
+        self._rows: list[tuple] = []
+        self._last = world.state
         self._last_t = world.time
-
-    def _state(self) -> list[float]:
-        row: list[float] = []
-        for body in self.world.bodies:
-            p = body.position
-            row += (p.x, p.y, body.angle)
-        return row
 
     def record(self) -> None:
         """Store the robots' poses after a physics step."""
-        self._rows.append(self._state())
+        self._rows.append(self.world.state)
 
     def flush(self) -> list[list[det.Detection]]:
         """Detections per robot for the steps recorded since the last flush, in time order."""
@@ -72,7 +70,7 @@ class Sensing:
         steps = len(self._rows)
         if not steps:
             return out
-        poses = np.array([self._last] + self._rows).reshape(steps + 1, self.n, 3)
+        poses = np.array([self._last] + self._rows)  # (steps + 1, robots, 3)
         t = self._last_t + np.arange(steps + 1) * self.dt
         t[-1] = self.world.time  # exact at the end, so batches join without drift
         traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(steps))
@@ -96,14 +94,14 @@ class Sensing:
         rate = np.tile(self.omega, (steps, 1))
         sigma = self.params["wobble"]
         if sigma > 0:
+            # w[k] = a w[k-1] + kick n[k], solved in closed form: w[k] = a^k (w0 + sum a^-j kick n[j])
             a = math.exp(-self.dt / self.params["wobble_time"])
             kick = math.sqrt(1 - a * a) * sigma
             noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
-            w = self.wobble
-            for k in range(steps):
-                w = a * w + kick * noise[k]
-                rate[k] *= 1.0 + w
-            self.wobble = w
+            powers = a ** np.arange(1, steps + 1)[:, None]
+            w = powers * (self.wobble + np.cumsum(kick * noise / powers, axis=0))
+            rate *= 1.0 + w
+            self.wobble = w[-1]
         return self.phi + np.vstack([np.zeros(self.n), np.cumsum(rate * self.dt, axis=0)])
 
     # ---- occlusion ------------------------------------------------------------------------
@@ -119,14 +117,22 @@ class Sensing:
         shrink = np.where(d > self.beacon_radius, (d - self.beacon_radius) / np.maximum(d, 1e-12), 0.0)
         qx, qy = px + (bx - px) * shrink, py + (by - py) * shrink
         blocked = np.zeros(len(robot), dtype=bool)
-        for other in range(self.n):
-            rows = np.nonzero(robot != other)[0]
-            if not len(rows):
-                continue
-            o = np.full(len(rows), other)
-            _, ox, oy, oh, _ = traj.at(step[rows], s[rows], o)
-            blocked[rows] |= segment_hits_boxes(px[rows], py[rows], qx[rows], qy[rows], ox, oy, oh,
-                                                self.half_length[o], self.half_width[o])
+        if self.n > 1:  # every (segment, other robot) pair at once
+            rows = np.repeat(np.arange(len(robot)), self.n)
+            o = np.tile(np.arange(self.n), len(robot))
+            # cheap prefilter: the other robot's circumscribed circle (grown by its travel in
+            # the batch) must touch the segment; only those pairs get the exact box test
+            cx, cy = traj.x[0, o], traj.y[0, o]
+            ux, uy = qx[rows] - px[rows], qy[rows] - py[rows]
+            u = np.clip(((cx - px[rows]) * ux + (cy - py[rows]) * uy) / (ux * ux + uy * uy), 0.0, 1.0)
+            gap = np.hypot(px[rows] + u * ux - cx, py[rows] + u * uy - cy)
+            near = (o != robot[rows]) & (gap <= self.reach[o])
+            rows, o = rows[near], o[near]
+            if len(rows):
+                ox, oy, oh = traj.pose_at(step[rows], s[rows], o)
+                hit = segment_hits_boxes(px[rows], py[rows], qx[rows], qy[rows], ox, oy, oh,
+                                         self.half_length[o], self.half_width[o])
+                blocked[rows[hit]] = True
         if self.has_obstacles:
             space = self.world.space
             for i in np.nonzero(~blocked)[0]:
@@ -139,26 +145,27 @@ class Sensing:
     def _hits(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
         c = find_crossings(traj, self.bx, self.by)
         if len(c):
-            c = c.take(~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon))
-        if len(c):
-            c = c.take(det.visible(self.kind, c, self.facing, self.params))
+            keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
+            keep &= det.visible(self.kind, c, self.facing, self.params)
+            c = c.take(np.nonzero(keep)[0])
+        c = c.take(np.lexsort((c.beacon, c.robot, c.t)))
         p = self.params
-        for r in range(self.n):
-            mine = c.take(c.robot == r)
-            times = mine.t
+        robot, times = c.robot, c.t  # sorted by time, robot, beacon
+        for r in np.unique(robot):
+            mine = np.nonzero(robot == r)[0]
+            t = times[mine]
             if self.kind == "sensor_array":
-                times = det.merge_into_next(times, p["merge_rate"], self.merge_rng)
-            times = det.noisy_times(times, p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
-            labelled = self.kind != "reflector"
-            steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
-            angles = det.quantize_angle(mine.phi, steps) if (steps or self.kind == "flash_detector") else None
-            receivers = range(self.n) if self.crosstalk == "shared" else (r,)
-            for i in range(len(mine)):
-                beacon = self.ids[mine.beacon[i]] if labelled else None
-                angle = float(angles[i]) if angles is not None else None
-                for rx in receivers:
-                    out[rx].append(det.Detection(rx, float(times[i]), "hit", beacon, angle, source=r))
-            if self.kind == "reflector" and p["false_rate"] > 0:
+                t = det.merge_into_next(t, p["merge_rate"], self.merge_rng)
+            times[mine] = det.noisy_times(t, p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
+        steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
+        angles = det.quantize_angle(c.phi, steps).tolist() if steps else [None] * len(c)
+        labels = [self.ids[b] for b in c.beacon.tolist()] if self.kind != "reflector" else [None] * len(c)
+        shared = self.crosstalk == "shared"
+        for r, t, beacon, angle in zip(robot.tolist(), times.tolist(), labels, angles):
+            for rx in (range(self.n) if shared else (r,)):
+                out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r))
+        if self.kind == "reflector" and p["false_rate"] > 0:
+            for r in range(self.n):
                 self._false_returns(traj, r, out[r])
 
     def _false_returns(self, traj: Trajectory, r: int, events: list[det.Detection]) -> None:
@@ -179,7 +186,7 @@ class Sensing:
     def _index(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
         if not self.index.any():
             return
-        robot, _, _, t, _ = find_phase_marks(traj, 1)
+        robot, _, _, t, _ = find_phase_marks(traj, 1, self.direction)
         for r, ti in zip(robot, t):
             if self.index[r]:
                 out[r].append(det.Detection(int(r), float(ti), "index", source=int(r)))
@@ -191,10 +198,10 @@ class Sensing:
         full turn of samples is one `scan` event at the time of its last sample."""
         p = self.params
         per_turn = int(p["samples_per_turn"])
-        robot, step, s, t, mark = find_phase_marks(traj, per_turn)
+        robot, step, s, t, mark = find_phase_marks(traj, per_turn, self.direction)
         if not len(robot):
             return
-        _, x, y, h, _ = traj.at(step, s, robot)
+        x, y, h = traj.pose_at(step, s, robot)
         k = mark % per_turn
         beam = h + TWO_PI * k / per_turn
         if p["servo_jitter"] > 0:

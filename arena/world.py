@@ -61,6 +61,7 @@ class World:
             self.bodies.append(body)
             self.shapes.append(shape)
             self.drives.append(DiffDrive(self.space, body, m))
+        self.state = self._read_state()
 
     def _static(self, shape: pymunk.Shape, category: int) -> None:
         shape.friction = 0.6
@@ -83,15 +84,23 @@ class World:
         """Set robot `slot`'s wheel speed targets (m/s)."""
         self.drives[slot].command(left, right)
 
+    def _read_state(self) -> tuple[tuple[float, float, float], ...]:
+        out = []
+        for body in self.bodies:
+            p = body.position
+            out.append((p.x, p.y, body.angle))
+        return tuple(out)
+
     def step(self) -> None:
-        """Advance the world one physics step."""
-        for drive in self.drives:
-            drive.update(self.dt)
+        """Advance the world one physics step. `state` then holds every robot's
+        (x, y, unwrapped heading), read once per step for the drives and the sensing."""
+        for drive, (_, _, heading) in zip(self.drives, self.state):
+            drive.update(self.dt, heading)
         self.space.step(self.dt)
         self.tick += 1
+        self.state = self._read_state()
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
-        body = self.bodies[slot]
-        h = body.angle
-        return Pose(body.position.x, body.position.y, math.atan2(math.sin(h), math.cos(h)))
+        x, y, h = self.state[slot]
+        return Pose(x, y, math.atan2(math.sin(h), math.cos(h)))
