@@ -14,12 +14,12 @@ from typing import Mapping
 
 import numpy as np
 
-from arena.laser import TWO_PI, Crossings
+from arena.laser import TWO_PI, Crossings, wrap_angle
 
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {
     "timing_noise": 0.0, "wobble": 0.0, "false_rate": 0.0, "merge_rate": 0.0,
-    "brightness_noise": 0.0, "servo_jitter": 0.0, "quantization": 0,
+    "brightness_noise": 0.0, "servo_jitter": 0.0, "quantization": 0, "counts_per_turn": 0,
     "range": math.inf, "max_incidence": math.pi / 2, "max_tangential_speed": math.inf,
     "clock_hz": 0.0, "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
 }
@@ -50,7 +50,7 @@ def effective_params(params: Mapping[str, float], ideal: bool) -> dict[str, floa
 def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
     """Angle between each beacon's facing direction and the direction back to the laser (rad)."""
     back = c.bearing + np.pi - facing[c.beacon]
-    return np.abs((back + np.pi) % TWO_PI - np.pi)
+    return np.abs(wrap_angle(back))
 
 
 def visible(kind: str, c: Crossings, facing: np.ndarray, p: Mapping[str, float]) -> np.ndarray:

@@ -73,7 +73,7 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossing
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi  # beam world angle (n+1, R)
-    d = _wrap(a[:, :, None] - np.arctan2(dy, dx))
+    d = wrap_angle(a[:, :, None] - np.arctan2(dy, dx))
     d0, d1 = d[:-1], d[1:]
     passes = ((d0 < 0) & (d1 >= 0)) | ((d0 > 0) & (d1 <= 0))
     passes &= np.abs(d1 - d0) < np.pi
@@ -82,22 +82,21 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossing
     s = f0 / (f0 - f1)  # linear first guess
     # the crossing's step, as start values and changes over the step
     ex0, ey0 = dx[step, robot, beacon], dy[step, robot, beacon]  # laser -> beacon at the start
-    ddx = traj.x[step + 1, robot] - traj.x[step, robot]
-    ddy = traj.y[step + 1, robot] - traj.y[step, robot]
-    a0 = a[step, robot]
-    da = a[step + 1, robot] - a0
+    state = np.stack((traj.x, traj.y, a, traj.phi), axis=-1)
+    start, change = state[step, robot], state[step + 1, robot]
+    change -= start
+    ddx, ddy, da, dphi = change.T
+    a0, phi0 = start[:, 2], start[:, 3]
     for _ in range(NEWTON_ITERATIONS):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy
-        f = _wrap(a0 + s * da - np.arctan2(ey, ex))
+        f = wrap_angle(a0 + s * da - np.arctan2(ey, ex))
         slope = da - (ey * ddx - ex * ddy) / (ex * ex + ey * ey)  # d(beam - bearing)/ds
         s = np.clip(s - f / np.where(slope == 0.0, 1.0, slope), 0.0, 1.0)
     ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey
     dt = traj.t[step + 1] - traj.t[step]
-    phi0 = traj.phi[step, robot]
     return Crossings(robot=robot, beacon=beacon, step=step, s=s, t=traj.t[step] + s * dt,
-                     x=bx[beacon] - ex, y=by[beacon] - ey,
-                     phi=phi0 + s * (traj.phi[step + 1, robot] - phi0),
+                     x=bx[beacon] - ex, y=by[beacon] - ey, phi=phi0 + s * dphi,
                      beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt, distance=np.sqrt(d2),
                      bearing=np.arctan2(ey, ex))
 
@@ -145,6 +144,6 @@ def segment_hits_boxes(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.nd
     return lo <= hi
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi)."""
-    return (a + np.pi) % TWO_PI - np.pi
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo)."""
+    return a - TWO_PI * np.round(a * (1.0 / TWO_PI))

@@ -15,7 +15,7 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena.laser import TWO_PI, Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_boxes
+from arena.laser import TWO_PI, Trajectory, find_crossings, find_phase_marks, segment_hits_boxes, wrap_angle
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
@@ -70,7 +70,7 @@ class Sensing:
         steps = len(self._rows)
         if not steps:
             return out
-        poses = np.array([self._last] + self._rows)  # (steps + 1, robots, 3)
+        poses = np.array([self._last] + self._rows).reshape(steps + 1, self.n, 3)
         t = self._last_t + np.arange(steps + 1) * self.dt
         t[-1] = self.world.time  # exact at the end, so batches join without drift
         traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(steps))
@@ -158,7 +158,8 @@ class Sensing:
                 t = det.merge_into_next(t, p["merge_rate"], self.merge_rng)
             times[mine] = det.noisy_times(t, p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
-        angles = det.quantize_angle(c.phi, steps).tolist() if steps else [None] * len(c)
+        latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
+        angles = det.quantize_angle(c.phi, steps).tolist() if latched else [None] * len(c)
         labels = [self.ids[b] for b in c.beacon.tolist()] if self.kind != "reflector" else [None] * len(c)
         shared = self.crosstalk == "shared"
         for r, t, beacon, angle in zip(robot.tolist(), times.tolist(), labels, angles):
@@ -211,7 +212,7 @@ class Sensing:
         lights = np.tile(np.arange(nl), m)
         blocked = self._blocked(traj, robot[rep], step[rep], s[rep], x[rep], y[rep], lights).reshape(m, nl)
         dx, dy = self.bx[None, :] - x[:, None], self.by[None, :] - y[:, None]
-        delta = (beam[:, None] - np.arctan2(dy, dx) + np.pi) % TWO_PI - np.pi
+        delta = wrap_angle(beam[:, None] - np.arctan2(dy, dx))
         value = det.brightness(delta, np.hypot(dx, dy), ~blocked, p)
         for i in range(m):
             r, turn = int(robot[i]), int(mark[i] // per_turn)

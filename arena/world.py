@@ -84,17 +84,17 @@ class World:
         """Set robot `slot`'s wheel speed targets (m/s)."""
         self.drives[slot].command(left, right)
 
-    def _read_state(self) -> tuple[tuple[float, float, float], ...]:
-        out = []
+    def _read_state(self) -> tuple[float, ...]:
+        out: list[float] = []
         for body in self.bodies:
             p = body.position
-            out.append((p.x, p.y, body.angle))
+            out += (p.x, p.y, body.angle)
         return tuple(out)
 
     def step(self) -> None:
         """Advance the world one physics step. `state` then holds every robot's
-        (x, y, unwrapped heading), read once per step for the drives and the sensing."""
-        for drive, (_, _, heading) in zip(self.drives, self.state):
+        x, y and unwrapped heading, flat, read once per step for the drives and the sensing."""
+        for drive, heading in zip(self.drives, self.state[2::3]):
             drive.update(self.dt, heading)
         self.space.step(self.dt)
         self.tick += 1
@@ -102,5 +102,5 @@ class World:
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
-        x, y, h = self.state[slot]
+        x, y, h = self.state[3 * slot: 3 * slot + 3]
         return Pose(x, y, math.atan2(math.sin(h), math.cos(h)))

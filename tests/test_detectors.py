@@ -106,6 +106,10 @@ def test_flash_detector_encoder_angles_and_incidence_limit():
         bearing, _ = bearing_from(w, 0, e.beacon)
         true_rel = (bearing - h0) % (2 * math.pi)
         assert 0 <= true_rel - e.angle < quantum + 1e-12  # latched: truncated, never ahead
+    (ideal,), _ = sense(make("flash_detector", omega=60.0), 0.5, ideal=True)
+    for e in hits(ideal):  # ideal: the exact relative angle, to rounding
+        bearing, _ = bearing_from(w, 0, e.beacon)
+        assert e.angle == pytest.approx((bearing - h0) % (2 * math.pi), abs=1e-9)
     # the incidence limit falls with range: 44 deg at 1 ft, 27 deg at 7 ft (linear between)
     from arena.detectors import flash_limit
     p = w.level.beacons.params
