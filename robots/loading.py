@@ -1,0 +1,82 @@
+"""Find a team's Controller class from a spec: `ref:NAME`, `FILE.py[:Class]` or `module:Class`.
+
+Lives in `robots` because the controller's own process uses it to load the team's code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import inspect
+import sys
+from pathlib import Path
+
+from robots.api import Controller
+from robots.controllers import REFERENCE
+
+
+class LoadError(Exception):
+    """A team spec that cannot be loaded; the text is one line naming the spec."""
+
+
+def is_file_spec(spec: str) -> bool:
+    return spec.endswith(".py") or ".py:" in spec
+
+
+def load_class(spec: str) -> type[Controller]:
+    """The Controller class a spec names; raise LoadError (one line) if it cannot be loaded."""
+    if spec.startswith("ref:"):
+        name = spec[4:]
+        if name not in REFERENCE:
+            raise LoadError(f"team {spec}: no reference controller {name!r} "
+                            f"(have: {', '.join(sorted(REFERENCE))})")
+        return _from_module(REFERENCE[name], spec)
+    if is_file_spec(spec):
+        path, _, cls = spec.partition(".py")
+        return _from_file(Path(path + ".py"), cls.lstrip(":"), spec)
+    if ":" not in spec:
+        raise LoadError(f"team {spec}: expected ref:NAME, FILE.py[:Class] or module:Class")
+    return _from_module(spec, spec)
+
+
+def _from_module(target: str, spec: str) -> type[Controller]:
+    module_name, _, cls = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as e:  # the team's import failed: report it in one line
+        raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}") from None
+    return _pick(module, cls, spec)
+
+
+def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
+    if not path.is_file():
+        raise LoadError(f"team {spec}: no such file {path}")
+    digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+    name = f"laserarena_team_{path.stem}_{digest}"
+    if name in sys.modules:
+        return _pick(sys.modules[name], cls, spec)
+    module_spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(module_spec)
+    sys.modules[name] = module
+    try:
+        module_spec.loader.exec_module(module)
+    except Exception as e:
+        del sys.modules[name]
+        raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}") from None
+    return _pick(module, cls, spec)
+
+
+def _pick(module: object, cls: str, spec: str) -> type[Controller]:
+    if cls:
+        found = getattr(module, cls, None)
+        if not (inspect.isclass(found) and issubclass(found, Controller)):
+            raise LoadError(f"team {spec}: {cls} is not a Controller class in {module.__name__}")
+        return found
+    own = [c for _, c in inspect.getmembers(module, inspect.isclass)
+           if issubclass(c, Controller) and c is not Controller and c.__module__ == module.__name__]
+    if len(own) != 1:
+        names = ", ".join(c.__name__ for c in own) or "none"
+        raise LoadError(f"team {spec}: name the class as FILE.py:Class "
+                        f"(found {len(own)} Controller classes: {names})")
+    return own[0]
