@@ -7,11 +7,11 @@ a typed `Fault`, and the bot stops answering: the match goes on without it.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from referee.teams import Team
 from robots.api import Brief, Command, Observation
+from robots.protocol import command_problem
 
 
 @dataclass(frozen=True)
@@ -20,7 +20,7 @@ class Fault:
 
     tick: int
     time: float
-    kind: str  # exception | bad_command
+    kind: str  # exception | bad_command | memory | crash | timeout | protocol
     message: str
 
     def to_dict(self) -> dict:
@@ -33,24 +33,8 @@ def one_line(e: BaseException) -> str:
     return f"{type(e).__name__}: {text}" if text else type(e).__name__
 
 
-def check_command(cmd: object) -> str | None:
-    """Why `cmd` is not a usable Command, or None if it is."""
-    if not isinstance(cmd, Command):
-        return f"step() returned {type(cmd).__name__}, not Command"
-    for name in ("left", "right"):
-        v = getattr(cmd, name)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            return f"Command.{name} must be a finite number, got {v!r}"
-    est = cmd.estimate
-    if est is not None:
-        if not (isinstance(est, tuple) and len(est) == 3 and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in est)):
-            return f"Command.estimate must be None or three finite numbers, got {est!r}"
-    return None
-
-
 class InProcessBot:
-    """A controller running in the referee's own process."""
+    """A controller running in the referee's own process (`--in-process`, for a debugger)."""
 
     def __init__(self, team: Team):
         self.team = team
@@ -69,7 +53,10 @@ class InProcessBot:
             cmd = self.controller.step(obs)
         except Exception as e:
             return Fault(obs.tick, obs.time, "exception", f"in step: {one_line(e)}")
-        problem = check_command(cmd)
+        problem = command_problem(cmd)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)
         return cmd
+
+    def close(self) -> None:
+        """Nothing to end: the controller lived in this process."""

@@ -58,7 +58,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     for path in (args.json, args.replay):
         if path and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
-    result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal)
+    result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
+                       isolate=not args.in_process)
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -81,6 +82,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
     s.add_argument("--ideal", action="store_true",
                    help="ideal sensors: no noise, no missed or false pulses, no quantization")
+    s.add_argument("--in-process", action="store_true",
+                   help="run the controllers inside this process (for a debugger); same results within budget")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
     s.set_defaults(func=cmd_run)
 

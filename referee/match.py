@@ -19,6 +19,7 @@ from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
 from referee.bot import Fault, InProcessBot
+from referee.process import Limits, ProcessBot
 from referee.estimates import EstimateStats
 from referee.replay import ReplayWriter
 from referee.tasks import TaskTracker
@@ -91,7 +92,8 @@ class Match:
     """One match of a level between teams (one per robot slot), run to its end by `run()`."""
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
-                 replay: str | Path | None = None, ideal: bool = False):
+                 replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
+                 limits: Limits = Limits()):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
@@ -100,7 +102,7 @@ class Match:
         self.ideal = ideal
         self.world = World(level)
         self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
-        self.bots = [InProcessBot(t) for t in teams]
+        self.bots = [ProcessBot(t, limits) if isolate else InProcessBot(t) for t in teams]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
@@ -141,6 +143,13 @@ class Match:
 
     def run(self) -> dict:
         """Run the match to its end and return the result (see docs/results.md)."""
+        try:
+            return self._run()
+        finally:
+            for bot in self.bots:
+                bot.close()
+
+    def _run(self) -> dict:
         level, world = self.level, self.world
         for slot, bot in enumerate(self.bots):
             fault = bot.setup(brief_for(level, slot))
@@ -194,7 +203,9 @@ class Match:
 
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
-              replay: str | Path | None = None, ideal: bool = False) -> dict:
-    """Run one match and return its result; `ideal` turns every sensor noise and failure off."""
-    return Match(level, teams, seed, replay, ideal).run()
+              replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
+              limits: Limits = Limits()) -> dict:
+    """Run one match and return its result. `ideal` turns every sensor noise and failure off;
+    `isolate=False` runs the controllers inside this process instead of their own."""
+    return Match(level, teams, seed, replay, ideal, isolate, limits).run()
 

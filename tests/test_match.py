@@ -37,7 +37,8 @@ def team_file(tmp_path, body, name="team.py"):
     return str(p)
 
 
-def test_exception_in_step_stops_that_robot_only(tmp_path):
+@pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
+def test_exception_in_step_stops_that_robot_only(tmp_path, isolate):
     bad = team_file(tmp_path, """
         class Bad(Controller):
             def step(self, obs):
@@ -45,7 +46,7 @@ def test_exception_in_step_stops_that_robot_only(tmp_path):
                     raise RuntimeError("boom\\nsecond line")
                 return Command(0.1, 0.1)
     """)
-    result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")])
+    result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")], isolate=isolate)
     r0, r1 = result["robots"]
     assert r0["faults"] == [{"tick": 3, "time": pytest.approx(0.15), "kind": "exception",
                              "message": "in step: RuntimeError: boom second line"}]
@@ -56,7 +57,8 @@ def test_exception_in_step_stops_that_robot_only(tmp_path):
     assert 0.5 < r0["final_pose"][0] < 0.56
 
 
-def test_exception_in_setup_and_bad_commands(tmp_path):
+@pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
+def test_exception_in_setup_and_bad_commands(tmp_path, isolate):
     setup_fails = team_file(tmp_path, """
         class A(Controller):
             def setup(self, brief):
@@ -67,7 +69,7 @@ def test_exception_in_setup_and_bad_commands(tmp_path):
             def step(self, obs):
                 return Command(float("nan"), 0.0)
     """, "b.py")
-    result = run_match(level(TWO), [resolve(setup_fails), resolve(nan)])
+    result = run_match(level(TWO), [resolve(setup_fails), resolve(nan)], isolate=isolate)
     (f0,), (f1,) = result["robots"][0]["faults"], result["robots"][1]["faults"]
     assert (f0["kind"], f0["tick"]) == ("exception", 0) and "ValueError: no" in f0["message"]
     assert (f1["kind"], f1["tick"]) == ("bad_command", 0) and "left" in f1["message"]
@@ -76,14 +78,16 @@ def test_exception_in_setup_and_bad_commands(tmp_path):
         assert r["final_pose"][0] == pytest.approx(0.5)
 
 
-def test_wrong_return_type_is_a_bad_command(tmp_path):
+@pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
+def test_wrong_return_type_is_a_bad_command(tmp_path, isolate):
     t = team_file(tmp_path, """
         class C(Controller):
             def step(self, obs):
                 return (0.1, 0.1)
     """)
-    result = run_match(level(), [resolve(t)])
+    result = run_match(level(), [resolve(t)], isolate=isolate)
     assert result["robots"][0]["faults"][0]["kind"] == "bad_command"
+    assert result["robots"][0]["faults"][0]["message"] == "step() returned tuple, not Command"
 
 
 def test_estimate_errors_scored_against_truth(tmp_path):
@@ -124,7 +128,7 @@ def test_observations_arrive_every_control_period(tmp_path):
                 return Command(0.0, 0.0)
     """)
     team = resolve(t)
-    run_match(level(), [team])
+    run_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
     seen = __import__(team.factory.__module__).SEEN
     brief, ticks = seen[0], seen[1:]
     assert brief.start == (0.5, 0.5, 0.0) and brief.control_period == 0.05
@@ -142,7 +146,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
                 return Command(0.0, 0.0)
     """)
     team = resolve(t)
-    run_match(level(MINI_LEVEL.replace("start_known: true", "start_known: false")), [team])
+    run_match(level(MINI_LEVEL.replace("start_known: true", "start_known: false")), [team], isolate=False)
     brief = __import__(team.factory.__module__).BRIEFS[0]
     assert brief.start is None
     text = repr(brief)

@@ -1,0 +1,111 @@
+"""The controller process: `python -m robots.runner SPEC [--memory BYTES]`.
+
+Started by the referee as a fresh interpreter. It sets its own resource limits before any
+team code loads, keeps the protocol on private copies of stdin and stdout, and sends
+everything the team prints to stderr (the team's log). Then it loads the team's class and
+answers the referee's messages until `stop` or end of input. A team exception is reported
+as a `fault` message (the traceback goes to the team's log) and the process ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import sys
+import traceback
+
+from robots import protocol
+from robots.api import Command
+from robots.loading import LoadError, load_class
+
+
+def _private_channel() -> tuple:
+    """Move the protocol to private file descriptors; fd 0 reads nothing, fd 1 goes to the log."""
+    proto_in = os.fdopen(os.dup(0), "rb", buffering=0)
+    proto_out = os.fdopen(os.dup(1), "wb")
+    devnull = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(devnull, 0)
+    os.close(devnull)
+    os.dup2(2, 1)
+    sys.stdout = os.fdopen(1, "w", buffering=1, closefd=False)
+    return proto_in, proto_out
+
+
+def _reader(stream):
+    """Buffered exact reads on an unbuffered pipe."""
+    class Exact:
+        def read(self, n: int) -> bytes:
+            chunks, left = [], n
+            while left:
+                chunk = stream.read(left)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                left -= len(chunk)
+            return b"".join(chunks)
+    return Exact()
+
+
+def _fault(out, kind: str, where: str, e: BaseException) -> None:
+    traceback.print_exc(file=sys.stderr)
+    text = " ".join(str(e).split())
+    protocol.write(out, {"type": "fault", "kind": kind,
+                         "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")})
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="robots.runner")
+    ap.add_argument("spec")
+    ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
+    args = ap.parse_args(argv)
+    if args.memory:
+        resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
+    raw_in, out = _private_channel()
+    inp = _reader(raw_in)
+    try:
+        cls = load_class(args.spec)
+    except LoadError as e:
+        protocol.write(out, {"type": "fault", "kind": "exception", "message": str(e)})
+        return 1
+    controller = None
+    while True:
+        msg = protocol.read(inp)
+        if msg is None or msg["type"] == "stop":
+            return 0
+        if msg["type"] == "setup":
+            try:
+                controller = cls()
+                controller.setup(protocol.brief_from(msg["brief"]))
+            except MemoryError as e:
+                _fault(out, "memory", "setup", e)
+                return 1
+            except Exception as e:
+                _fault(out, "exception", "setup", e)
+                return 1
+            protocol.write(out, {"type": "ready"})
+        elif msg["type"] == "step" and controller is not None:
+            obs = protocol.observation_from(msg["obs"])
+            try:
+                cmd = controller.step(obs)
+                if not isinstance(cmd, Command):  # the same words as a referee-side check
+                    protocol.write(out, {"type": "fault", "kind": "bad_command",
+                                         "message": protocol.command_problem(cmd)})
+                    return 1
+                plain = protocol.to_plain(cmd)
+            except MemoryError as e:
+                _fault(out, "memory", "step", e)
+                return 1
+            except Exception as e:
+                _fault(out, "exception", "step", e)
+                return 1
+            except BaseException as e:  # a team's SystemExit or similar: it ends the controller
+                _fault(out, "exception", "step", e)
+                return 1
+            protocol.write(out, {"type": "command", "tick": obs.tick, "command": plain})
+        else:
+            raise protocol.ProtocolError(f"unexpected message {msg['type']!r}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,141 @@
+"""Controllers in their own processes: same results as in-process; hostile code is contained."""
+
+import os
+import textwrap
+import time
+
+import pytest
+
+import levels
+from arena.loader import load_level, parse_level
+from referee.canonical import dumps
+from referee.match import run_match
+from referee.process import Limits
+from referee.teams import resolve
+
+
+def team_file(tmp_path, body, name="team.py"):
+    p = tmp_path / name
+    p.write_text("from robots.api import *\nimport math, os, sys\n\n" + textwrap.dedent(body))
+    return str(p)
+
+
+def race():
+    return load_level(levels.path("asabe-race"))
+
+
+def test_isolated_and_in_process_give_identical_bytes(tmp_path):
+    lv = race()
+    teams = [resolve("ref:dead-reckoning")] * 4
+    a = run_match(lv, teams, seed=4, replay=tmp_path / "a.replay", isolate=True)
+    b = run_match(lv, teams, seed=4, replay=tmp_path / "b.replay", isolate=False)
+    assert dumps(a) == dumps(b)
+    assert (tmp_path / "a.replay").read_bytes() == (tmp_path / "b.replay").read_bytes()
+    assert all(r["task"]["reached"] == 6 for r in a["robots"])
+
+
+def hostile_match(tmp_path, body, limits=Limits()):
+    """Slot 0 runs the hostile controller, the others reference ones."""
+    text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 30")
+    lv = parse_level(text.encode(), "race30.yaml")
+    teams = [resolve(team_file(tmp_path, body)), resolve("ref:dead-reckoning"),
+             resolve("ref:dead-reckoning"), resolve("ref:dead-reckoning")]
+    return run_match(lv, teams, seed=2, limits=limits)
+
+
+def check_contained(result, kind):
+    bad, *others = result["robots"]
+    assert [f["kind"] for f in bad["faults"]] == [kind], bad["faults"]
+    assert bad["stopped"]
+    for r in others:  # the match went on for everyone else, every tick answered
+        assert not r["faults"] and not r["stopped"] and r["localization"]["fraction"] == 1.0
+
+
+def test_infinite_loop_times_out(tmp_path):
+    result = hostile_match(tmp_path, """
+        class Spin(Controller):
+            def step(self, obs):
+                if obs.tick == 5:
+                    while True:
+                        pass
+                return Command(0.05, 0.05)
+    """)
+    check_contained(result, "timeout")
+    assert result["robots"][0]["faults"][0]["tick"] == 5
+
+
+def test_exit_is_a_crash(tmp_path):
+    result = hostile_match(tmp_path, """
+        class Quit(Controller):
+            def step(self, obs):
+                os._exit(3)
+    """)
+    check_contained(result, "crash")
+    assert "exited with code 3" in result["robots"][0]["faults"][0]["message"]
+
+
+def test_unbounded_allocation_hits_the_memory_limit(tmp_path):
+    result = hostile_match(tmp_path, """
+        class Hog(Controller):
+            def step(self, obs):
+                hoard = []
+                while True:
+                    hoard.append(bytearray(50 << 20))
+    """, Limits(memory=400 << 20))
+    check_contained(result, "memory")
+
+
+def test_nan_command_is_rejected(tmp_path):
+    result = hostile_match(tmp_path, """
+        class Nan(Controller):
+            def step(self, obs):
+                return Command(float("nan"), 0.1)
+    """)
+    check_contained(result, "bad_command")
+    assert result["robots"][0]["faults"][0]["tick"] == 0  # rejected at once: NaN never reached physics
+
+
+def test_no_world_state_in_the_controller_process(tmp_path):
+    # it looks through its own memory for anything of the simulator; finding any, it crashes
+    result = hostile_match(tmp_path, """
+        import gc
+        class Snoop(Controller):
+            def step(self, obs):
+                leaks = [m for m in sys.modules if m.split(".")[0] in ("pymunk", "arena", "referee", "numpy")]
+                leaks += [type(o).__name__ for o in gc.get_objects()
+                          if type(o).__module__.split(".")[0] in ("pymunk", "arena", "referee")]
+                if leaks:
+                    raise RuntimeError(f"found {leaks[:5]}")
+                return Command(0.0, 0.0)
+    """)
+    bad = result["robots"][0]
+    assert bad["faults"] == [] and not bad["stopped"]  # it found nothing
+    assert result["end_reason"] == "time_limit"
+
+
+def test_forked_children_do_not_outlive_the_match(tmp_path):
+    pidfile = tmp_path / "child.pid"
+    result = hostile_match(tmp_path, f"""
+        class Forker(Controller):
+            def setup(self, brief):
+                pid = os.fork()
+                if pid == 0:
+                    import time
+                    time.sleep(600)
+                    os._exit(0)
+                open({str(pidfile)!r}, "w").write(str(pid))
+            def step(self, obs):
+                raise RuntimeError("done")
+    """)
+    assert result["robots"][0]["faults"][0]["kind"] == "exception"
+    pid = int(pidfile.read_text())
+    for _ in range(50):  # SIGKILL is asynchronous: give the kernel a moment
+        try:
+            state = open(f"/proc/{pid}/stat").read().split(")")[1].split()[0]
+        except FileNotFoundError:
+            break
+        if state == "Z":
+            break
+        time.sleep(0.02)
+    else:
+        pytest.fail(f"the forked child {pid} is still running")
