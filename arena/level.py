@@ -134,6 +134,19 @@ class Task:
 
 
 @dataclass(frozen=True)
+class ControllerLimits:
+    """What each controller may use: set-up time, time per step, an overage bank for
+    occasional slow steps, consecutive skipped ticks before disqualification, memory."""
+
+    setup_time: float = 10.0  # s for start-up, imports and setup()
+    step_time: float = 0.1  # s per control step; slower answers draw on the bank
+    step_deadline: float = 1.0  # s; later answers are skipped ticks
+    overage_bank: float = 5.0  # s, summed over the match
+    max_skips: int = 5  # consecutive skipped ticks
+    memory: int = 1 << 30  # bytes of address space (0: none)
+
+
+@dataclass(frozen=True)
 class Level:
     """A whole level, loaded and validated; `hash` is the SHA-256 of the file's bytes."""
 
@@ -153,6 +166,7 @@ class Level:
     robots: tuple[RobotSlot, ...]
     task: Task
     default_controller: str
+    limits: ControllerLimits = ControllerLimits()
 
     @property
     def dt(self) -> float:

@@ -17,7 +17,7 @@ from typing import Any, Callable
 import yaml
 
 from arena.level import (
-    Beacon, Beacons, Field, Laser, Level, Obstacle, Pose, RobotSlot, Task,
+    Beacon, Beacons, ControllerLimits, Field, Laser, Level, Obstacle, Pose, RobotSlot, Task,
 )
 from arena.robot_models import ROBOT_MODELS
 from arena.units import LENGTH_UNITS
@@ -290,7 +290,7 @@ def parse_level(data: bytes, source: str) -> Level:
     top = _Map(ctx, _locate(root, source), "", (
         "name", "description", "units", "seed", "time_limit", "physics_rate", "control_period",
         "record_rate", "field", "obstacles", "beacons", "laser", "robots", "task",
-        "default_controller"))
+        "default_controller", "limits"))
 
     units = top.opt("units", _choice(*LENGTH_UNITS), "m")
     ctx.scale = LENGTH_UNITS[units]
@@ -356,6 +356,29 @@ def parse_level(data: bytes, source: str) -> Level:
         robots=tuple(sorted(robots, key=lambda r: r.slot)),
         task=task,
         default_controller=top.req("default_controller", _text),
+        limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
+    )
+
+
+LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb")
+
+
+def _limits(m: _Map) -> ControllerLimits:
+    d = ControllerLimits()
+    skips = m.opt("max_skips", _count, d.max_skips)
+    if skips < 1:
+        raise m.ctx.fail(m.raw("max_skips").line, m.key("max_skips"), "must be at least 1")
+    step_time = m.opt("step_time", _positive, d.step_time)
+    deadline = m.opt("step_deadline", _positive, max(d.step_deadline, step_time))
+    if deadline < step_time:
+        raise m.ctx.fail(m.raw("step_deadline").line, m.key("step_deadline"), "must not be below step_time")
+    return ControllerLimits(
+        setup_time=m.opt("setup_time", _positive, d.setup_time),
+        step_time=step_time,
+        step_deadline=deadline,
+        overage_bank=m.opt("overage_bank", _nonnegative, d.overage_bank),
+        max_skips=skips,
+        memory=int(m.opt("memory_mb", _positive, d.memory / 2**20) * 2**20),
     )
 
 

@@ -16,12 +16,14 @@ from robots.protocol import command_problem
 
 @dataclass(frozen=True)
 class Fault:
-    """A controller fault: when it happened, its type and a one-line message."""
+    """A controller fault: when it happened, its type and a one-line message. A fatal fault
+    stops the robot; a skipped tick (`fatal=False`) keeps its last command in force."""
 
     tick: int
     time: float
-    kind: str  # exception | bad_command | memory | crash | timeout | protocol
+    kind: str  # exception | bad_command | memory | crash | timeout | protocol | skipped_tick
     message: str
+    fatal: bool = True
 
     def to_dict(self) -> dict:
         return {"tick": self.tick, "time": self.time, "kind": self.kind, "message": self.message}

@@ -15,7 +15,7 @@ from arena.loader import LevelError, load_level
 from referee import __version__
 from referee.canonical import dumps
 from referee.errors import UserError
-from referee.match import run_match
+from referee.match import NO_LIMITS, run_match
 from referee.summary import table
 from referee.teams import resolve
 
@@ -59,7 +59,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if path and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
     result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
-                       isolate=not args.in_process)
+                       isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None)
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -84,6 +84,8 @@ def parser() -> argparse.ArgumentParser:
                    help="ideal sensors: no noise, no missed or false pulses, no quantization")
     s.add_argument("--in-process", action="store_true",
                    help="run the controllers inside this process (for a debugger); same results within budget")
+    s.add_argument("--no-limits", action="store_true",
+                   help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
     s.set_defaults(func=cmd_run)
 

@@ -12,14 +12,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Protocol
 
-from arena.level import Level
+from arena.level import ControllerLimits, Level
 from arena.detectors import Detection
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
 from referee.bot import Fault, InProcessBot
-from referee.process import Limits, ProcessBot
+from referee.process import ProcessBot
 from referee.estimates import EstimateStats
 from referee.replay import ReplayWriter
 from referee.tasks import TaskTracker
@@ -27,6 +27,8 @@ from referee.teams import Team
 from robots.api import BeaconInfo, Brief, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 1
+NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
+                             overage_bank=float("inf"), max_skips=1 << 62, memory=0)
 
 
 class Hook(Protocol):
@@ -93,7 +95,7 @@ class Match:
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
                  replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-                 limits: Limits = Limits()):
+                 limits: ControllerLimits | None = None):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
@@ -102,6 +104,7 @@ class Match:
         self.ideal = ideal
         self.world = World(level)
         self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
+        limits = level.limits if limits is None else limits
         self.bots = [ProcessBot(t, limits) if isolate else InProcessBot(t) for t in teams]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
@@ -135,7 +138,10 @@ class Match:
             events, self.inbox[slot] = tuple(self.inbox[slot]), []
             out = bot.step(Observation(tick=tick, time=time, events=events))
             if isinstance(out, Fault):
-                self._fault(slot, out)
+                if out.fatal:
+                    self._fault(slot, out)
+                else:  # a skipped tick: the last command stays in force
+                    self.faults[slot].append(out)
                 self.estimates[slot].add(truth, None)
                 continue
             self.world.command(slot, float(out.left), float(out.right))
@@ -204,8 +210,9 @@ class Match:
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-              limits: Limits = Limits()) -> dict:
+              limits: ControllerLimits | None = None) -> dict:
     """Run one match and return its result. `ideal` turns every sensor noise and failure off;
-    `isolate=False` runs the controllers inside this process instead of their own."""
+    `isolate=False` runs the controllers inside this process instead of their own; `limits`
+    replaces the level's controller limits (NO_LIMITS for debugging)."""
     return Match(level, teams, seed, replay, ideal, isolate, limits).run()
 

@@ -17,11 +17,11 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-from referee.bot import Fault
 import robots
+from arena.level import ControllerLimits
+from referee.bot import Fault
 from referee.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
@@ -30,24 +30,18 @@ FAULT_KINDS = {"exception", "memory", "bad_command"}  # what a controller may re
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
 
 
-@dataclass(frozen=True)
-class Limits:
-    """Resource limits of one controller process."""
-
-    setup_time: float = 10.0  # s (wall) for start-up, import and setup()
-    step_time: float = 1.0  # s (wall) to answer one observation
-    memory: int = 2 << 30  # bytes of address space
-
-
 class ProcessBot:
     """A controller running in a separate process, with the InProcessBot interface."""
 
-    def __init__(self, team: Team, limits: Limits = Limits(), log: Path | None = None):
+    def __init__(self, team: Team, limits: ControllerLimits = ControllerLimits(), log: Path | None = None):
         if not team.spec:
             raise ValueError(f"team {team.label} has no spec a controller process can load")
         self.team, self.limits, self.log = team, limits, log
         self.proc: subprocess.Popen | None = None
         self.buf = b""
+        self.bank = limits.overage_bank
+        self.skips = 0  # consecutive skipped ticks
+        self.pending: int | None = None  # tick of an observation still unanswered
         self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
 
     def _spawn(self) -> None:
@@ -58,7 +52,7 @@ class ProcessBot:
         stderr = open(self.log, "ab") if self.log else subprocess.DEVNULL
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "robots.runner", self.team.spec, "--memory", str(self.limits.memory)],
+                [sys.executable, "-m", "robots.runner", self.team.spec, "--memory", str(int(self.limits.memory))],
                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
                 env=env, start_new_session=True, close_fds=True)
         finally:
@@ -74,7 +68,7 @@ class ProcessBot:
 
     def _receive(self, timeout: float) -> dict | str:
         """The next message, or a fault kind: `timeout`, `crash` (the process ended), `protocol`."""
-        deadline = time.monotonic() + timeout
+        deadline = time.monotonic() + timeout  # inf: wait for ever (--no-limits)
         fd = self.proc.stdout.fileno()
         while True:
             if len(self.buf) >= 4:
@@ -90,7 +84,7 @@ class ProcessBot:
             left = deadline - time.monotonic()
             if left <= 0:
                 return "timeout"
-            ready, _, _ = select.select([fd], [], [], left)
+            ready, _, _ = select.select([fd], [], [], None if left == float("inf") else left)
             if ready:
                 chunk = os.read(fd, 1 << 16)
                 if not chunk:
@@ -110,7 +104,10 @@ class ProcessBot:
             message = (f"in {where}: killed by {signal.Signals(-code).name}" if code < 0
                        else f"in {where}: exited with code {code}")
         elif what == "timeout":
-            kind, message = "timeout", f"in {where}: no answer within the time allowed"
+            kind = "timeout"
+            message = (f"in {where}: {self.skips} skipped ticks in a row" if self.skips >= self.limits.max_skips
+                       else f"in {where}: overage bank exhausted" if where == "step"
+                       else f"in {where}: no answer within {self.limits.setup_time:g} s")
         else:
             kind, message = "protocol", f"in {where}: malformed message"
         self.close()
@@ -126,10 +123,47 @@ class ProcessBot:
         return self._fault(0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault"
                            else "protocol", "setup")
 
+    def _drain(self, obs: Observation) -> Fault | None:
+        """Wait for the late answer to a skipped tick, charging the wait to the overage bank."""
+        start = time.monotonic()
+        reply = self._receive(max(self.bank, 0.0))
+        self.bank -= time.monotonic() - start
+        if reply == "timeout":
+            return self._fault(obs.tick, obs.time, "timeout", "step")
+        if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == self.pending:
+            self.pending = None  # too late: dropped, the tick was skipped
+            return None
+        return self._fault(obs.tick, obs.time, reply if not isinstance(reply, dict) or reply["type"] == "fault"
+                           else "protocol", "step")
+
     def step(self, obs: Observation) -> Command | Fault:
+        """The controller's answer, a skipped tick (non-fatal Fault) or a fatal Fault.
+
+        Within `step_time`: normal. Up to `step_deadline`: accepted, the excess drawn from the
+        overage bank. Later: a skipped tick; the late answer is awaited (and charged) before the
+        next observation. `max_skips` in a row, or an empty bank, disqualify the robot."""
+        if self.pending is not None:
+            fault = self._drain(obs)
+            if fault:
+                return fault
         if not self._send({"type": "step", "obs": protocol.to_plain(obs)}):
             return self._fault(obs.tick, obs.time, "crash", "step")
-        reply = self._receive(self.limits.step_time)
+        start = time.monotonic()
+        reply = self._receive(self.limits.step_deadline)
+        took = time.monotonic() - start
+        if reply == "timeout":
+            self.pending = obs.tick
+            self.bank -= self.limits.step_deadline - self.limits.step_time
+            self.skips += 1
+            if self.skips >= self.limits.max_skips or self.bank <= 0:
+                return self._fault(obs.tick, obs.time, "timeout", "step")
+            return Fault(obs.tick, obs.time, "skipped_tick",
+                         f"no answer within {self.limits.step_deadline:g} s", fatal=False)
+        self.skips = 0
+        if took > self.limits.step_time:
+            self.bank -= took - self.limits.step_time
+            if self.bank <= 0:
+                return self._fault(obs.tick, obs.time, "timeout", "step")
         if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == obs.tick:
             try:
                 cmd = protocol.command_from(reply.get("command"))

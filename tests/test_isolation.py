@@ -1,5 +1,6 @@
 """Controllers in their own processes: same results as in-process; hostile code is contained."""
 
+import dataclasses
 import os
 import textwrap
 import time
@@ -10,7 +11,7 @@ import levels
 from arena.loader import load_level, parse_level
 from referee.canonical import dumps
 from referee.match import run_match
-from referee.process import Limits
+from arena.level import ControllerLimits
 from referee.teams import resolve
 
 
@@ -34,7 +35,10 @@ def test_isolated_and_in_process_give_identical_bytes(tmp_path):
     assert all(r["task"]["reached"] == 6 for r in a["robots"])
 
 
-def hostile_match(tmp_path, body, limits=Limits()):
+FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
+
+
+def hostile_match(tmp_path, body, limits=FAST):
     """Slot 0 runs the hostile controller, the others reference ones."""
     text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 30")
     lv = parse_level(text.encode(), "race30.yaml")
@@ -43,9 +47,9 @@ def hostile_match(tmp_path, body, limits=Limits()):
     return run_match(lv, teams, seed=2, limits=limits)
 
 
-def check_contained(result, kind):
+def check_contained(result, *kinds):
     bad, *others = result["robots"]
-    assert [f["kind"] for f in bad["faults"]] == [kind], bad["faults"]
+    assert [f["kind"] for f in bad["faults"]] == list(kinds), bad["faults"]
     assert bad["stopped"]
     for r in others:  # the match went on for everyone else, every tick answered
         assert not r["faults"] and not r["stopped"] and r["localization"]["fraction"] == 1.0
@@ -60,8 +64,52 @@ def test_infinite_loop_times_out(tmp_path):
                         pass
                 return Command(0.05, 0.05)
     """)
-    check_contained(result, "timeout")
-    assert result["robots"][0]["faults"][0]["tick"] == 5
+    # skipped at the deadline, then disqualified when the overage bank ran dry
+    check_contained(result, "skipped_tick", "timeout")
+    assert [f["tick"] for f in result["robots"][0]["faults"]] == [5, 6]
+    assert "overage bank exhausted" in result["robots"][0]["faults"][1]["message"]
+
+
+def test_slow_steps_draw_on_the_bank_without_skipping(tmp_path):
+    result = hostile_match(tmp_path, """
+        import time
+        class Slow(Controller):
+            def step(self, obs):
+                if obs.tick in (3, 9):
+                    time.sleep(0.12)  # over step_time 0.05, under the 0.25 deadline
+                return Command(0.05, 0.05, estimate=(0, 0, 0))
+    """)
+    bad = result["robots"][0]
+    assert bad["faults"] == [] and bad["localization"]["fraction"] == 1.0
+
+
+def test_late_answers_are_skipped_ticks_and_the_robot_goes_on(tmp_path):
+    result = hostile_match(tmp_path, """
+        import time
+        class Late(Controller):
+            def step(self, obs):
+                if obs.tick in (3, 20):
+                    time.sleep(0.35)  # past the 0.25 s deadline
+                return Command(0.05, 0.05, estimate=(0, 0, 0))
+    """)
+    bad = result["robots"][0]
+    assert [(f["kind"], f["tick"]) for f in bad["faults"]] == [("skipped_tick", 3), ("skipped_tick", 20)]
+    assert not bad["stopped"]
+    loc = bad["localization"]
+    assert loc["estimates"] == loc["ticks"] - 2  # the skipped ticks carried no estimate
+
+
+def test_too_many_skips_in_a_row_disqualify(tmp_path):
+    result = hostile_match(tmp_path, """
+        import time
+        class Sluggish(Controller):
+            def step(self, obs):
+                if obs.tick >= 4:
+                    time.sleep(0.3)
+                return Command(0.05, 0.05)
+    """)
+    check_contained(result, "skipped_tick", "skipped_tick", "timeout")
+    assert "3 skipped ticks in a row" in result["robots"][0]["faults"][-1]["message"]
 
 
 def test_exit_is_a_crash(tmp_path):
@@ -81,7 +129,7 @@ def test_unbounded_allocation_hits_the_memory_limit(tmp_path):
                 hoard = []
                 while True:
                     hoard.append(bytearray(50 << 20))
-    """, Limits(memory=400 << 20))
+    """, dataclasses.replace(FAST, memory=300 << 20, step_deadline=3.0, overage_bank=5.0))
     check_contained(result, "memory")
 
 

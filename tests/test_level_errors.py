@@ -105,3 +105,14 @@ def test_valid_mini_level_checks_ok(write_level):
     proc = run_cli("check", str(write_level(MINI_LEVEL)))
     assert proc.returncode == 0, proc.stderr
     assert "ok" in proc.stdout
+
+
+def test_controller_limits_in_the_level(write_level):
+    text = MINI_LEVEL + "limits: {step_time: 0.02, step_deadline: 0.1, overage_bank: 1.5, max_skips: 2, memory_mb: 256}\n"
+    lv = parse_level(text.encode(), "x.yaml")
+    assert (lv.limits.step_time, lv.limits.step_deadline, lv.limits.overage_bank, lv.limits.max_skips,
+            lv.limits.memory) == (0.02, 0.1, 1.5, 2, 256 << 20)
+    bad = MINI_LEVEL + "limits: {step_time: 0.2, step_deadline: 0.1}\n"
+    with pytest.raises(LevelError) as info:
+        parse_level(bad.encode(), "x.yaml")
+    assert info.value.key == "limits.step_deadline" and info.value.line == line_of(bad, "limits:")
