@@ -1,7 +1,9 @@
 # Two set-up commands: `make demo` and `make test`. Each creates .venv on first use.
 # The package is installed non-editable, so tests exercise what users install
 # (levels shipped as package data included); the stamp re-installs on any source change.
-PYTHON ?= python3
+# Prefer the system interpreter: when the referee runs as root, controllers run as `nobody`,
+# who must be able to start the venv's Python (a pyenv under /root would be closed to it).
+PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || echo python3)
 VENV   := .venv
 PY     := $(VENV)/bin/python
 SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' 2>/dev/null)

@@ -19,6 +19,7 @@ from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
 from referee.bot import Fault, InProcessBot
+from referee.privacy import make_undumpable
 from referee.process import ProcessBot
 from referee.estimates import EstimateStats
 from referee.replay import ReplayWriter
@@ -105,6 +106,8 @@ class Match:
         self.world = World(level)
         self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
         limits = level.limits if limits is None else limits
+        if isolate:
+            make_undumpable()  # before any controller exists: no one reads our memory via /proc
         self.bots = [ProcessBot(t, limits) if isolate else InProcessBot(t) for t in teams]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]

@@ -1,8 +1,9 @@
 """A controller in its own process: a fresh interpreter running `robots.runner`.
 
 The process is spawned (exec'd, never a fork of the referee, so it holds no world state),
-in its own session, with a minimal environment and an empty working folder. It imports only
-`robots` and the team's code. The referee talks to it over its stdin/stdout with the
+in its own session, with a minimal environment and an empty working folder; when the referee
+is root it runs as `nobody`, with the team's file copied where that user can read it. It
+imports only `robots` and the team's code. The referee talks to it over its stdin/stdout with the
 messages of `robots.protocol` and waits for each answer no longer than the step's time
 allowance; whatever goes wrong becomes a typed `Fault`.
 """
@@ -22,9 +23,11 @@ from pathlib import Path
 import robots
 from arena.level import ControllerLimits
 from referee.bot import Fault
+from referee.privacy import check_readable_by_others, drop_to, share_team_file
 from referee.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
+from robots.loading import is_file_spec
 
 FAULT_KINDS = {"exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
@@ -45,6 +48,14 @@ class ProcessBot:
         self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
 
     def _spawn(self) -> None:
+        spec, user = self.team.spec, drop_to()
+        as_user: dict = {}
+        if user is not None:  # the referee is root: the controller runs as nobody
+            check_readable_by_others(sys.executable, ROBOTS_HOME)
+            os.chmod(self.folder.name, 0o755)
+            if is_file_spec(spec):
+                spec = share_team_file(spec, Path(self.folder.name))
+            as_user = dict(user=user.pw_uid, group=user.pw_gid, extra_groups=[])
         env = {k: v for k, v in os.environ.items() if k in ("PATH", "LANG", "LC_ALL", "TZ")}
         # the child imports the very `robots` package this referee uses, installed or not
         env.update(PYTHONPATH=ROBOTS_HOME, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1",
@@ -52,9 +63,9 @@ class ProcessBot:
         stderr = open(self.log, "ab") if self.log else subprocess.DEVNULL
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "robots.runner", self.team.spec, "--memory", str(int(self.limits.memory))],
+                [sys.executable, "-m", "robots.runner", spec, "--memory", str(int(self.limits.memory))],
                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
-                env=env, start_new_session=True, close_fds=True)
+                env=env, start_new_session=True, close_fds=True, **as_user)
         finally:
             if self.log:
                 stderr.close()

@@ -8,6 +8,8 @@ format of docs/replay.md.
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 from typing import IO
 
@@ -22,7 +24,11 @@ class ReplayWriter:
     """Writes one match's replay as it runs."""
 
     def __init__(self, path: str | Path, level: Level, seed: int, teams: list[str], software: str):
-        self.file: IO[str] = open(path, "w", encoding="utf-8", newline="\n")
+        # written to a private file (mode 0600) beside the target and moved into place only
+        # when the match has ended, so no controller can read it while it runs
+        self.path = Path(path)
+        fd, self.partial = tempfile.mkstemp(dir=self.path.resolve().parent, prefix=".laserarena-", suffix=".part")
+        self.file: IO[str] = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
         self._write({"format": FORMAT, "version": VERSION, "software": software,
                      "level": {"name": level.name, "hash": level.hash}, "seed": seed, "teams": teams,
                      "record_rate": level.record_rate})
@@ -37,3 +43,5 @@ class ReplayWriter:
     def close(self, result: dict) -> None:
         self._write({"result": result})
         self.file.close()
+        os.chmod(self.partial, 0o644)
+        os.replace(self.partial, self.path)

@@ -56,3 +56,14 @@ def write_level(tmp_path):
         p.write_text(text)
         return p
     return write
+
+
+@pytest.fixture
+def shared_dir():
+    """A scratch folder any user may write: controllers run as `nobody` when tests run as root."""
+    import shutil
+    import tempfile
+    d = Path(tempfile.mkdtemp(prefix="laserarena-test-", dir="/tmp"))
+    d.chmod(0o777)
+    yield d
+    shutil.rmtree(d, ignore_errors=True)

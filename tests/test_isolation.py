@@ -161,8 +161,8 @@ def test_no_world_state_in_the_controller_process(tmp_path):
     assert result["end_reason"] == "time_limit"
 
 
-def test_forked_children_do_not_outlive_the_match(tmp_path):
-    pidfile = tmp_path / "child.pid"
+def test_forked_children_do_not_outlive_the_match(tmp_path, shared_dir):
+    pidfile = shared_dir / "child.pid"
     result = hostile_match(tmp_path, f"""
         class Forker(Controller):
             def setup(self, brief):
@@ -187,3 +187,55 @@ def test_forked_children_do_not_outlive_the_match(tmp_path):
         time.sleep(0.02)
     else:
         pytest.fail(f"the forked child {pid} is still running")
+
+
+def test_cannot_read_the_referees_memory_or_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("LASERARENA_TEST_SECRET", "the-true-pose-is-here")
+    result = hostile_match(tmp_path, """
+        class Peek(Controller):
+            def step(self, obs):
+                parent = os.getppid()
+                found = []
+                try:
+                    found.append(open(f"/proc/{parent}/environ", "rb").read()[:64])
+                except OSError:
+                    pass
+                try:
+                    with open(f"/proc/{parent}/maps") as maps:
+                        start, end = (int(v, 16) for v in maps.readline().split()[0].split("-"))
+                    with open(f"/proc/{parent}/mem", "rb") as mem:
+                        mem.seek(start)
+                        found.append(mem.read(16))
+                except (OSError, ValueError):
+                    pass
+                if "LASERARENA_TEST_SECRET" in os.environ:
+                    found.append(b"inherited")
+                if found:
+                    raise RuntimeError(f"read the referee: {found}")
+                return Command(0.0, 0.0)
+    """)
+    bad = result["robots"][0]
+    assert bad["faults"] == [], bad["faults"]
+
+
+def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
+    # the replay goes to a folder the controller could read; it looks for it every step
+    replay = shared_dir / "match.replay"
+    lv = parse_level(levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 10").encode(),
+                     "race10.yaml")
+    snoop = team_file(tmp_path, f"""
+        class Snoop(Controller):
+            def step(self, obs):
+                for name in os.listdir({str(shared_dir)!r}):
+                    try:
+                        text = open(os.path.join({str(shared_dir)!r}, name), "rb").read(200)
+                    except OSError:
+                        continue
+                    if b"laserarena-replay" in text:
+                        raise RuntimeError("read the replay")
+                return Command(0.0, 0.0)
+    """)
+    result = run_match(lv, [resolve(snoop)] + [resolve("ref:dead-reckoning")] * 3, replay=replay, limits=FAST)
+    assert result["robots"][0]["faults"] == []
+    assert replay.read_bytes().startswith(b'{"format":"laserarena-replay"')  # and it is there at the end
+    assert not [p for p in shared_dir.iterdir() if p.name.endswith(".part")]

@@ -30,8 +30,8 @@ RECORDER = """
 """
 
 
-def test_vannoy_ideal_reflections_match_the_seed(tmp_path):
-    out = tmp_path / "log.json"
+def test_vannoy_ideal_reflections_match_the_seed(tmp_path, shared_dir):
+    out = shared_dir / "log.json"
     team = tmp_path / "recorder.py"
     team.write_text(f"OUT = {str(out)!r}\n" + textwrap.dedent(RECORDER))
     proc = run_cli("run", "vannoy", "--ideal", "--team", str(team), "--json", str(tmp_path / "r.json"))
