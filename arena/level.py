@@ -144,6 +144,7 @@ class ControllerLimits:
     overage_bank: float = 5.0  # s, summed over the match
     max_skips: int = 5  # consecutive skipped ticks
     memory: int = 1 << 30  # bytes of address space (0: none)
+    log_bytes: int = 1 << 20  # stdout + stderr kept per controller; more is an output flood (0: none)
 
 
 @dataclass(frozen=True)

@@ -360,7 +360,7 @@ def parse_level(data: bytes, source: str) -> Level:
     )
 
 
-LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb")
+LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb", "log_kb")
 
 
 def _limits(m: _Map) -> ControllerLimits:
@@ -379,6 +379,7 @@ def _limits(m: _Map) -> ControllerLimits:
         overage_bank=m.opt("overage_bank", _nonnegative, d.overage_bank),
         max_skips=skips,
         memory=int(m.opt("memory_mb", _positive, d.memory / 2**20) * 2**20),
+        log_bytes=int(m.opt("log_kb", _positive, d.log_bytes / 1024) * 1024),
     )
 
 

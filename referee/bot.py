@@ -21,7 +21,7 @@ class Fault:
 
     tick: int
     time: float
-    kind: str  # exception | bad_command | memory | crash | timeout | protocol | skipped_tick
+    kind: str  # exception | bad_command | memory | crash | timeout | output_flood | protocol | skipped_tick
     message: str
     fatal: bool = True
 

@@ -58,8 +58,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     for path in (args.json, args.replay):
         if path and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
+    if args.logs:
+        Path(args.logs).mkdir(parents=True, exist_ok=True)
     result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
-                       isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None)
+                       isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
+                       logs=Path(args.logs) if args.logs else None)
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -84,6 +87,7 @@ def parser() -> argparse.ArgumentParser:
                    help="ideal sensors: no noise, no missed or false pulses, no quantization")
     s.add_argument("--in-process", action="store_true",
                    help="run the controllers inside this process (for a debugger); same results within budget")
+    s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
     s.add_argument("--no-limits", action="store_true",
                    help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")

@@ -29,7 +29,7 @@ from robots.api import BeaconInfo, Brief, LaserInfo, Observation, RobotInfo, Sen
 
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 1
 NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
-                             overage_bank=float("inf"), max_skips=1 << 62, memory=0)
+                             overage_bank=float("inf"), max_skips=1 << 62, memory=0, log_bytes=0)
 
 
 class Hook(Protocol):
@@ -96,7 +96,7 @@ class Match:
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
                  replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-                 limits: ControllerLimits | None = None):
+                 limits: ControllerLimits | None = None, logs: Path | None = None):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
@@ -108,7 +108,8 @@ class Match:
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [ProcessBot(t, limits) if isolate else InProcessBot(t) for t in teams]
+        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None) if isolate
+                     else InProcessBot(t) for i, t in enumerate(teams)]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
@@ -213,9 +214,10 @@ class Match:
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-              limits: ControllerLimits | None = None) -> dict:
+              limits: ControllerLimits | None = None, logs: Path | None = None) -> dict:
     """Run one match and return its result. `ideal` turns every sensor noise and failure off;
     `isolate=False` runs the controllers inside this process instead of their own; `limits`
-    replaces the level's controller limits (NO_LIMITS for debugging)."""
-    return Match(level, teams, seed, replay, ideal, isolate, limits).run()
+    replaces the level's controller limits (NO_LIMITS for debugging); `logs` is a folder
+    for each controller's output (`slotN.log`), tracebacks included."""
+    return Match(level, teams, seed, replay, ideal, isolate, limits, logs).run()
 

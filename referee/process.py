@@ -60,15 +60,16 @@ class ProcessBot:
         # the child imports the very `robots` package this referee uses, installed or not
         env.update(PYTHONPATH=ROBOTS_HOME, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1",
                    OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-        stderr = open(self.log, "ab") if self.log else subprocess.DEVNULL
+        log = self.log or Path(self.folder.name) / "team.log"  # kept only with --logs
+        stderr = open(log, "wb")
         try:
             self.proc = subprocess.Popen(
-                [sys.executable, "-m", "robots.runner", spec, "--memory", str(int(self.limits.memory))],
+                [sys.executable, "-m", "robots.runner", spec, "--memory", str(int(self.limits.memory)),
+                 "--log-cap", str(int(self.limits.log_bytes))],
                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
                 env=env, start_new_session=True, close_fds=True, **as_user)
         finally:
-            if self.log:
-                stderr.close()
+            stderr.close()
 
     def _send(self, msg: dict) -> bool:
         try:
@@ -111,9 +112,12 @@ class ProcessBot:
         elif what == "crash":
             self.proc.wait()
             code = self.proc.returncode
-            kind = "crash"
-            message = (f"in {where}: killed by {signal.Signals(-code).name}" if code < 0
-                       else f"in {where}: exited with code {code}")
+            if code == -signal.SIGXFSZ:
+                kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
+            else:
+                kind = "crash"
+                message = (f"in {where}: killed by {signal.Signals(-code).name}" if code < 0
+                           else f"in {where}: exited with code {code}")
         elif what == "timeout":
             kind = "timeout"
             message = (f"in {where}: {self.skips} skipped ticks in a row" if self.skips >= self.limits.max_skips

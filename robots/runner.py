@@ -1,4 +1,4 @@
-"""The controller process: `python -m robots.runner SPEC [--memory BYTES]`.
+"""The controller process: `python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES]`.
 
 Started by the referee as a fresh interpreter. It sets its own resource limits before any
 team code loads, keeps the protocol on private copies of stdin and stdout, and sends
@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import signal
 import sys
 import traceback
 
@@ -58,9 +59,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="robots.runner")
     ap.add_argument("spec")
     ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
+    ap.add_argument("--log-cap", type=int, default=0, help="bytes the team may write (0: no cap)")
     args = ap.parse_args(argv)
     if args.memory:
         resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
+    if args.log_cap:  # writing past it raises SIGXFSZ: the referee reports an output flood
+        resource.setrlimit(resource.RLIMIT_FSIZE, (args.log_cap, args.log_cap))
+        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # CPython ignores it by default
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
     try:

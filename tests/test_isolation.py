@@ -239,3 +239,31 @@ def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
     assert result["robots"][0]["faults"] == []
     assert replay.read_bytes().startswith(b'{"format":"laserarena-replay"')  # and it is there at the end
     assert not [p for p in shared_dir.iterdir() if p.name.endswith(".part")]
+
+
+def test_output_flood_is_capped_and_reported(tmp_path):
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    lv = parse_level(levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 10").encode(),
+                     "race10.yaml")
+    flood = team_file(tmp_path, """
+        class Flood(Controller):
+            def step(self, obs):
+                while True:
+                    print("x" * 1000)
+    """)
+    crash = team_file(tmp_path, """
+        class Oops(Controller):
+            def step(self, obs):
+                print("about to fail")
+                return 1 / 0
+    """, "oops.py")
+    limits = dataclasses.replace(FAST, log_bytes=64 << 10)
+    result = run_match(lv, [resolve(flood), resolve(crash)] + [resolve("ref:dead-reckoning")] * 2,
+                       limits=limits, logs=logs)
+    assert [f["kind"] for f in result["robots"][0]["faults"]] == ["output_flood"]
+    assert (logs / "slot0.log").stat().st_size <= 64 << 10
+    log1 = (logs / "slot1.log").read_text()
+    assert "about to fail" in log1 and "ZeroDivisionError" in log1 and "Traceback" in log1
+    assert result["robots"][1]["faults"][0]["message"] == "in step: ZeroDivisionError: division by zero"
+    assert not result["robots"][2]["faults"] and not result["robots"][3]["faults"]
