@@ -42,6 +42,9 @@ class InProcessBot:
         self.team = team
         self.controller = None
 
+    def launch(self) -> None:
+        """Nothing to start: the controller lives in this process."""
+
     def setup(self, brief: Brief) -> Fault | None:
         try:
             self.controller = self.team.factory()

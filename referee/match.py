@@ -161,6 +161,8 @@ class Match:
 
     def _run(self) -> dict:
         level, world = self.level, self.world
+        for bot in self.bots:
+            bot.launch()
         for slot, bot in enumerate(self.bots):
             fault = bot.setup(brief_for(level, slot))
             if fault:

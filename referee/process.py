@@ -128,8 +128,13 @@ class ProcessBot:
         self.close()
         return Fault(tick, t, kind, message)
 
+    def launch(self) -> None:
+        """Start the process (all bots are launched before any is set up: start-ups overlap)."""
+        if self.proc is None:
+            self._spawn()
+
     def setup(self, brief: Brief) -> Fault | None:
-        self._spawn()
+        self.launch()
         if not self._send({"type": "setup", "brief": protocol.to_plain(brief)}):
             return self._fault(0, 0.0, "crash", "setup")
         reply = self._receive(self.limits.setup_time)

@@ -66,7 +66,14 @@ def parse(data: bytes) -> dict:
 
 
 def to_plain(obj: Any) -> Any:
-    """A dataclass as plain JSON-able data."""
+    """A dataclass as plain JSON-able data (the per-step messages without `asdict`'s deep copy)."""
+    if isinstance(obj, Observation):
+        return {"tick": obj.tick, "time": obj.time, "events": [
+            {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
+            for e in obj.events]}
+    if isinstance(obj, Command):
+        return {"left": obj.left, "right": obj.right, "estimate": obj.estimate,
+                "debug": [dataclasses.asdict(d) for d in obj.debug]}
     return dataclasses.asdict(obj)
 
 
