@@ -84,13 +84,17 @@ def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
     return rel
 
 
-def noisy_times(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator,
-                window: tuple[float, float]) -> np.ndarray:
-    """Event clock: Gaussian timing noise (kept inside the batch `window`, so no event is
-    reported before the previous tick or after the one that delivers it), then counter
-    quantization (a `clock_hz` counter)."""
+def jitter(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator,
+           window: tuple[float, float]) -> np.ndarray:
+    """Gaussian timing noise of the detector, kept inside the batch `window` (no event is
+    reported before the previous tick or after the one that delivers it)."""
     if p.get("timing_noise", 0.0) > 0:
         t = np.clip(t + rng.normal(0.0, p["timing_noise"], size=t.shape), *window)
+    return t
+
+
+def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+    """Event times truncated to whole ticks of a `clock_hz` counter (none if 0)."""
     if p.get("clock_hz", 0.0) > 0:
         t = np.floor(t * p["clock_hz"] + 1e-6) / p["clock_hz"]
     return t

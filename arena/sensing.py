@@ -153,10 +153,10 @@ class Sensing:
         robot, times = c.robot, c.t  # sorted by time, robot, beacon
         for r in np.unique(robot):
             mine = np.nonzero(robot == r)[0]
-            t = times[mine]
-            if self.kind == "sensor_array":
-                t = det.merge_into_next(t, p["merge_rate"], self.merge_rng)
-            times[mine] = det.noisy_times(t, p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
+            t = det.jitter(times[mine], p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
+            if self.kind == "sensor_array":  # a merged pulse shares the very edge of the next one
+                t = det.merge_into_next(np.sort(t), p["merge_rate"], self.merge_rng)
+            times[mine] = det.counter_clock(t, p)
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         angles = det.quantize_angle(c.phi, steps).tolist() if latched else [None] * len(c)

@@ -57,8 +57,10 @@ class ProcessBot:
                 spec = share_team_file(spec, Path(self.folder.name))
             as_user = dict(user=user.pw_uid, group=user.pw_gid, extra_groups=[])
         env = {k: v for k, v in os.environ.items() if k in ("PATH", "LANG", "LC_ALL", "TZ")}
-        # the child imports the very `robots` package this referee uses, installed or not
-        env.update(PYTHONPATH=ROBOTS_HOME, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1",
+        # the child imports the very `robots` package this referee uses, installed or not,
+        # and whatever else the referee was pointed at, so module specs load the same way
+        path = os.pathsep.join([ROBOTS_HOME] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
+        env.update(PYTHONPATH=path, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1",
                    OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
         log = self.log or Path(self.folder.name) / "team.log"  # kept only with --logs
         stderr = open(log, "wb")

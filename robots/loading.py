@@ -1,4 +1,5 @@
-"""Find a team's Controller class from a spec: `ref:NAME`, `FILE.py[:Class]` or `module:Class`.
+"""Find a team's Controller class from a spec: `ref:NAME`, `FILE.py[:Class]`, `module:Class`,
+or the NAME of an installed package's controller (entry point group `laserarena.controllers`).
 
 Lives in `robots` because the controller's own process uses it to load the team's code.
 """
@@ -10,6 +11,7 @@ import importlib
 import importlib.util
 import inspect
 import sys
+from importlib import metadata
 from pathlib import Path
 
 from robots.api import Controller
@@ -36,8 +38,20 @@ def load_class(spec: str) -> type[Controller]:
         path, _, cls = spec.partition(".py")
         return _from_file(Path(path + ".py"), cls.lstrip(":"), spec)
     if ":" not in spec:
-        raise LoadError(f"team {spec}: expected ref:NAME, FILE.py[:Class] or module:Class")
+        return _from_module(_entry_point(spec), spec)
     return _from_module(spec, spec)
+
+
+ENTRY_POINT_GROUP = "laserarena.controllers"
+
+
+def _entry_point(name: str) -> str:
+    """`module:Class` of an installed package's controller, declared in its entry points."""
+    found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
+    if not found:
+        raise LoadError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
+                        f"an installed controller (entry point group {ENTRY_POINT_GROUP})")
+    return found[0].value
 
 
 def _from_module(target: str, spec: str) -> type[Controller]:

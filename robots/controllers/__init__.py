@@ -3,4 +3,5 @@
 REFERENCE: dict[str, str] = {
     "idle": "robots.controllers.idle:Idle",
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
+    "starter": "robots.controllers.starter:Starter",
 }
