@@ -16,6 +16,7 @@ from referee import __version__
 from referee.canonical import dumps
 from referee.errors import UserError
 from referee.match import NO_LIMITS, run_match
+from referee.starter_kit import create
 from referee.summary import table
 from referee.teams import resolve
 
@@ -70,6 +71,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_new(args: argparse.Namespace) -> int:
+    folder = create(args.name, Path(args.dir))
+    print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
+    print(f"next: cd {folder} && laserarena run bac-line --team controller.py")
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="laserarena", description="LaserArena: spinning-laser beacon "
                                 "navigation contests, simulated and refereed.")
@@ -96,6 +104,11 @@ def parser() -> argparse.ArgumentParser:
     s = sub.add_parser("check", help="validate level files")
     s.add_argument("level", nargs="+")
     s.set_defaults(func=cmd_check)
+
+    s = sub.add_parser("new", help="write a starter controller package for a team")
+    s.add_argument("name")
+    s.add_argument("--dir", default=".", help="where to create it (default: here)")
+    s.set_defaults(func=cmd_new)
 
     s = sub.add_parser("levels", help="list the built-in levels")
     s.set_defaults(func=cmd_levels)

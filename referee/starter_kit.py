@@ -1,0 +1,74 @@
+"""`laserarena new NAME`: a ready controller package for a team to start from."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import robots.controllers.starter as starter
+from referee.errors import UserError
+
+README = """# {name}
+
+A LaserArena controller, started from `laserarena new {name}`. The controller is in
+`controller.py`: it localizes on labelled beacons and follows the task's waypoints. Read
+its comments, then make it better; the API is in LaserArena's docs/api.md and the
+tutorial in docs/controllers.md.
+
+## Run it
+
+```sh
+laserarena run bac-line --team controller.py --json result.json --logs logs
+laserarena run asabe --team controller.py --replay asabe.replay
+```
+
+The first prints the score table and writes the result (`result.json`) and whatever your
+controller prints (`logs/slot0.log`). Add `--ideal` to switch every sensor noise off while
+you debug, and `--in-process` to run it inside the referee for a debugger.
+
+## Test it
+
+```sh
+python -m pytest -q test_controller.py
+```
+
+## Submit it
+
+Hand in `controller.py` (and any modules it imports). The grader runs exactly what
+`laserarena run` runs here: your controller in its own process, with the level's time and
+memory limits, seeing only sensor events.
+"""
+
+TEST = '''"""Runs the controller on a level, as the grader would, and checks that it scores."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def test_controller_follows_the_line(tmp_path):
+    out = tmp_path / "result.json"
+    subprocess.run([sys.executable, "-m", "referee", "run", "bac-line", "--ideal", "--quiet",
+                    "--team", str(HERE / "controller.py"), "--json", str(out)], check=True)
+    robot = json.loads(out.read_text())["robots"][0]
+    assert robot["faults"] == []
+    assert robot["task"]["reached"] >= 5
+    assert robot["localization"]["fraction"] > 0.9
+'''
+
+
+def create(name: str, where: Path = Path(".")) -> Path:
+    """Write the starter kit into `where/name`; refuse to overwrite anything."""
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,63}", name):
+        raise UserError(f"{name}: a team name is a letter followed by letters, digits, - or _")
+    folder = where / name
+    if folder.exists():
+        raise UserError(f"{folder}: already exists; choose another name or folder")
+    folder.mkdir(parents=True)
+    (folder / "controller.py").write_text(Path(starter.__file__).read_text())
+    (folder / "test_controller.py").write_text(TEST)
+    (folder / "README.md").write_text(README.format(name=name))
+    return folder
