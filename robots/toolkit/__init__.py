@@ -1,0 +1,1 @@
+"""The localization toolkit: from laser timings to poses (docs/accuracy.md)."""

@@ -1,0 +1,94 @@
+"""From event times to angles: revolution bookkeeping, plausibility checks, BeAMS midpoints.
+
+A revolution is the time between two index clicks (Vannoy, Simi) or between two hits of the
+same beacon (Bac, where the robot has no index). Within it the laser turns 2 pi at a nearly
+constant rate, so an event's angle is 2 pi times the fraction of the revolution elapsed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from robots.api import SensorEvent
+
+TWO_PI = 2 * math.pi
+
+
+@dataclass(frozen=True)
+class Revolution:
+    """One laser turn: its start and end times and its hits as (angle, beacon id or None).
+    Angles are the laser's relative angle from the start, in the direction it spins, [0, 2 pi)."""
+
+    start: float
+    end: float
+    hits: tuple[tuple[float, str | None], ...]
+
+    @property
+    def period(self) -> float:
+        return self.end - self.start
+
+
+def angle_in(start: float, end: float, t: float) -> float:
+    """Angle swept by a uniformly turning laser from `start` to `t`, if a full turn takes end - start."""
+    return TWO_PI * (t - start) / (end - start)
+
+
+def midpoint(entry: float, exit_: float) -> float:
+    """BeAMS-style: a beacon seen from `entry` to `exit_` is at the middle of the two times,
+    which cancels the beam's width and the detector's threshold."""
+    return (entry + exit_) / 2
+
+
+def plausible(rev: Revolution, nominal: float, tolerance: float, max_hits: int, min_hits: int = 3) -> bool:
+    """The seeds' checks: a period within `tolerance` of the nominal one (Vannoy: "a reading
+    not considered close should generate an error"; Bac: the revolution time against a set
+    value), and a believable number of hits."""
+    return abs(rev.period - nominal) <= tolerance and min_hits <= len(rev.hits) <= max_hits
+
+
+class IndexRevolutions:
+    """Revolutions between consecutive index clicks (the laser passing straight ahead)."""
+
+    def __init__(self) -> None:
+        self.last_click: float | None = None
+        self.pending: list[SensorEvent] = []
+
+    def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent]) -> list[Revolution]:
+        """Take events in time order; return the revolutions they complete."""
+        done = []
+        for e in events:
+            if e.kind == "index":
+                if self.last_click is not None:
+                    hits = tuple((angle_in(self.last_click, e.time, h.time), h.beacon) for h in self.pending)
+                    done.append(Revolution(self.last_click, e.time, hits))
+                self.last_click, self.pending = e.time, []
+            elif e.kind == "hit" and self.last_click is not None:
+                self.pending.append(e)
+        return done
+
+
+class BeaconRevolutions:
+    """Revolutions from repeated hits of the same reference beacon, for labelled hits and no
+    index (Bac): each time `reference` is hit again a turn is complete. Angles are then measured
+    from the reference beacon."""
+
+    def __init__(self, reference: str) -> None:
+        self.reference = reference
+        self.last: float | None = None
+        self.pending: list[SensorEvent] = []
+
+    def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent]) -> list[Revolution]:
+        done = []
+        for e in events:
+            if e.kind != "hit":
+                continue
+            if e.beacon == self.reference:
+                if self.last is not None:
+                    hits = ((0.0, self.reference),) + tuple(
+                        (angle_in(self.last, e.time, h.time), h.beacon) for h in self.pending)
+                    done.append(Revolution(self.last, e.time, hits))
+                self.last, self.pending = e.time, []
+            elif self.last is not None:
+                self.pending.append(e)
+        return done

@@ -1,0 +1,74 @@
+"""Which beacon is which, for unlabelled returns (reflectors).
+
+Seen from inside the layout, the beacons come round in a fixed cyclic order; only which
+return is the first is unknown. Vannoy identified it by the sizes of the sectors between
+returns (long / medium / short). `by_sectors` generalizes that: it predicts the sector sizes
+from a reference point (the field centre, or the last known position), and matches the
+cyclic shift whose sector ranking agrees; it flags the case it cannot decide (sectors of
+nearly equal size, as at Vannoy's 120-degree point). `by_prediction` associates each return
+with the beacon whose predicted bearing from a prior pose is nearest, within a gate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+TWO_PI = 2 * math.pi
+
+
+@dataclass(frozen=True)
+class Association:
+    """Beacon ids for each return (None where unmatched), and whether the rule could decide."""
+
+    ids: tuple[str | None, ...]
+    ambiguous: bool = False
+
+
+def _gaps(angles: list[float]) -> list[float]:
+    """Sector sizes from each return to the next, going round (sum 2 pi)."""
+    n = len(angles)
+    return [(angles[(i + 1) % n] - angles[i]) % TWO_PI or TWO_PI for i in range(n)]
+
+
+def by_sectors(angles: list[float], beacons: dict[str, tuple[float, float]],
+               reference: tuple[float, float], margin: float = math.radians(5)) -> Association:
+    """Vannoy's sector-order rule for any layout: `angles` of one revolution's returns in the
+    order seen (counter-clockwise), `beacons` by id, `reference` a point inside the layout."""
+    ids = list(beacons)
+    n = len(ids)
+    if len(angles) != n:
+        return Association((None,) * len(angles), True)
+    rx, ry = reference
+    # beacons in counter-clockwise order seen from the reference, and their predicted sectors
+    ccw = sorted(ids, key=lambda b: math.atan2(beacons[b][1] - ry, beacons[b][0] - rx))
+    predicted = _gaps([math.atan2(beacons[b][1] - ry, beacons[b][0] - rx) for b in ccw])
+    measured = _gaps(sorted(angles))
+    rank = lambda g: sorted(range(n), key=lambda i: g[i])  # noqa: E731
+    matches = [s for s in range(n) if rank([measured[(i + s) % n] for i in range(n)]) == rank(predicted)]
+    close = min(abs(a - b) for i, a in enumerate(sorted(measured)) for b in sorted(measured)[i + 1:])
+    if len(matches) != 1 or close < margin:
+        return Association((None,) * n, True)
+    shift = matches[0]
+    order = sorted(range(n), key=lambda i: angles[i])  # positions of returns in angular order
+    out: list[str | None] = [None] * n
+    for k, i in enumerate(order):
+        out[i] = ccw[(k - shift) % n]
+    return Association(tuple(out))
+
+
+def by_prediction(bearings: list[float], beacons: dict[str, tuple[float, float]],
+                  pose: tuple[float, float, float], gate: float) -> Association:
+    """Each return to the beacon whose bearing from `pose` (x, y, heading) is nearest, if within
+    `gate` rad and not taken by a nearer return; others stay None."""
+    x, y, h = pose
+    predicted = {b: math.atan2(by - y, bx - x) - h for b, (bx, by) in beacons.items()}
+    pairs = sorted((abs(math.remainder(z - p, TWO_PI)), i, b)
+                   for i, z in enumerate(bearings) for b, p in predicted.items())
+    out: list[str | None] = [None] * len(bearings)
+    used: set[str] = set()
+    for err, i, b in pairs:
+        if err <= gate and out[i] is None and b not in used:
+            out[i] = b
+            used.add(b)
+    return Association(tuple(out), ambiguous=any(o is None for o in out))
