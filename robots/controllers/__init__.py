@@ -4,4 +4,5 @@ REFERENCE: dict[str, str] = {
     "idle": "robots.controllers.idle:Idle",
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
     "starter": "robots.controllers.starter:Starter",
+    "best": "robots.controllers.best:Best",
 }

@@ -1,0 +1,110 @@
+"""An extended Kalman filter that takes every laser event as its own update, at its own time.
+
+State: x, y (m), heading (rad), the laser's phase relative to the body (rad) and its spin
+rate (rad/s). Between events the robot moves as a unicycle with the wheel speeds its
+controller commanded, and the laser phase advances at the estimated rate (so slow wobble
+is tracked). A hit of beacon i says the beam pointed at it: heading + phase = bearing to i.
+An index click says phase = 0. An encoder-latched angle says bearing - heading = angle.
+Each update is gated: an innovation beyond `gate` standard deviations is rejected (a merged
+pulse, another robot's laser, a false return).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2 * math.pi
+
+
+def wrap(a: float) -> float:
+    return math.remainder(a, TWO_PI)
+
+
+class BearingEKF:
+    """The filter; `P` is the 5 x 5 covariance of (x, y, heading, phase, rate)."""
+
+    def __init__(self, x: float, y: float, heading: float, phase: float, rate: float,
+                 var_xy: float, var_heading: float, var_sum: float, var_rate: float,
+                 q_xy: float = 1e-4, q_heading: float = 3e-3, wobble: float = 0.005, wobble_time: float = 1.0):
+        """`rate` is the laser's nominal spin rate; its true rate wanders around it by a relative
+        `wobble` with correlation time `wobble_time` (a mean-reverting process). Tying the rate
+        to its nominal value is what lets the filter tell a robot that does not turn as
+        commanded (a collision) from a laser that spins a little faster."""
+        self.nominal = rate
+        self.wobble_var = (wobble * rate) ** 2
+        self.wobble_time = wobble_time
+        self.s = np.array([x, y, heading, phase, rate], dtype=float)
+        # heading and phase are often known only as a sum (the beam's world angle): correlate them
+        cov_hp = (var_sum - 2 * var_heading) / 2 if var_heading > var_sum else 0.0
+        var_phase = var_heading if var_heading > var_sum else var_sum
+        self.P = np.diag([var_xy, var_xy, var_heading, var_phase, var_rate])
+        self.P[2, 3] = self.P[3, 2] = cov_hp
+        self.q = (q_xy, q_heading)
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return float(self.s[0]), float(self.s[1]), wrap(float(self.s[2]))
+
+    def predict(self, dt: float, v: float, w: float) -> None:
+        """Move for `dt` s at forward speed v and turn rate w (the commanded wheels)."""
+        if dt <= 0:
+            return
+        x, y, h, phase, rate = self.s
+        mid = h + w * dt / 2
+        a = math.exp(-dt / self.wobble_time)
+        self.s = np.array([x + v * math.cos(mid) * dt, y + v * math.sin(mid) * dt, h + w * dt,
+                           phase + rate * dt, self.nominal + (rate - self.nominal) * a])
+        F = np.eye(5)
+        F[0, 2] = -v * math.sin(mid) * dt
+        F[1, 2] = v * math.cos(mid) * dt
+        F[3, 4] = dt
+        F[4, 4] = a
+        q_xy, q_h = self.q
+        moving = abs(v) + abs(w) * 0.05
+        Q = np.diag([q_xy * moving * dt + 1e-12, q_xy * moving * dt + 1e-12, q_h * abs(w) * dt + 1e-12,
+                     1e-12, self.wobble_var * (1 - a * a)])
+        self.P = F @ self.P @ F.T + Q
+
+    def _update(self, innovation: float, H: np.ndarray, r: float, gate: float) -> bool:
+        S = float(H @ self.P @ H) + r
+        if innovation * innovation > gate * gate * S:
+            return False
+        K = self.P @ H / S
+        self.s = self.s + K * innovation
+        I_KH = np.eye(5) - np.outer(K, H)
+        self.P = I_KH @ self.P @ I_KH.T + np.outer(K, K) * r  # Joseph form: stays symmetric
+        return True
+
+    def hit(self, bx: float, by: float, var: float, gate: float = 3.0) -> bool:
+        """The beam points at beacon (bx, by) now. Returns whether the update was accepted."""
+        x, y, h, phase, _ = self.s
+        dx, dy = bx - x, by - y
+        d2 = dx * dx + dy * dy
+        if d2 < 1e-8:
+            return False
+        innovation = wrap(math.atan2(dy, dx) - h - phase)
+        H = np.array([-dy / d2, dx / d2, 1.0, 1.0, 0.0])  # d(h + phase - bearing)/d(state)
+        return self._update(innovation, H, var, gate)
+
+    def index(self, var: float, gate: float = 3.0) -> bool:
+        """The laser points straight ahead now: phase = 0 (mod 2 pi)."""
+        self.s[3] = wrap(self.s[3])  # a whole turn is no error: keep the phase near 0
+        return self._update(-self.s[3], np.array([0, 0, 0, 1.0, 0]), var, gate)
+
+    def relative(self, bx: float, by: float, angle: float, var: float, gate: float = 3.0) -> bool:
+        """The laser, at `angle` from straight ahead (an encoder reading), points at (bx, by)."""
+        x, y, h, _, _ = self.s
+        dx, dy = bx - x, by - y
+        d2 = dx * dx + dy * dy
+        if d2 < 1e-8:
+            return False
+        innovation = wrap(math.atan2(dy, dx) - h - angle)
+        H = np.array([-dy / d2, dx / d2, 1.0, 0.0, 0.0])
+        return self._update(innovation, H, var, gate)
+
+    def predicted_bearing(self, bx: float, by: float) -> float:
+        """Bearing of (bx, by) relative to the current beam direction (rad, wrapped)."""
+        x, y, h, phase, _ = self.s
+        return wrap(math.atan2(by - y, bx - x) - h - phase)

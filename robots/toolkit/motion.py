@@ -1,0 +1,41 @@
+"""The robot's own motion as its controller knows it: commanded wheel speeds, ramped.
+
+The drive ramps each wheel towards its command at `max_wheel_accel` (docs/levels.md), so a
+controller that remembers its commands knows its forward speed and turn rate at any time,
+up to slip and collisions. Used to predict between fixes and to compensate a revolution's
+hits for the motion during it.
+"""
+
+from __future__ import annotations
+
+
+class Wheels:
+    """Wheel speeds over time, from the commands given."""
+
+    def __init__(self, track: float, accel: float, time: float = 0.0):
+        self.track, self.accel = track, accel
+        self.time = time
+        self.speeds = (0.0, 0.0)
+        self.target = (0.0, 0.0)
+
+    def command(self, left: float, right: float, top: float) -> None:
+        """A new command, effective now (clipped to the top speed, as the drive does)."""
+        self.target = (max(-top, min(top, left)), max(-top, min(top, right)))
+
+    def advance(self, time: float) -> tuple[float, float, float]:
+        """Move the clock to `time`; return (dt, mean forward speed, mean turn rate) over it."""
+        dt = time - self.time
+        if dt <= 0:
+            return 0.0, 0.0, 0.0
+        means, ends = [], []
+        for now, goal in zip(self.speeds, self.target):
+            ramp = abs(goal - now) / self.accel  # time to reach the command
+            end = goal if ramp <= dt else now + (goal - now) * dt / ramp
+            if ramp >= dt:
+                mean = (now + end) / 2
+            else:
+                mean = ((now + goal) / 2 * ramp + goal * (dt - ramp)) / dt
+            means.append(mean)
+            ends.append(end)
+        self.time, self.speeds = time, (ends[0], ends[1])
+        return dt, (means[0] + means[1]) / 2, (means[1] - means[0]) / self.track
