@@ -5,4 +5,6 @@ REFERENCE: dict[str, str] = {
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
     "starter": "robots.controllers.starter:Starter",
     "best": "robots.controllers.best:Best",
+    "vannoy": "robots.controllers.vannoy:Vannoy",
+    "ubersetzig": "robots.controllers.ubersetzig:Ubersetzig",
 }

@@ -37,7 +37,7 @@ class Best(Controller):
         self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
         self.ekf: BearingEKF | None = None
         self.first: list[SensorEvent] = []
-        self.revolutions = IndexRevolutions()
+        self.revolutions = IndexRevolutions(self.sign)
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
 
@@ -71,7 +71,7 @@ class Best(Controller):
                 self._start(fix.x, fix.y, fix.heading + self.omega * (e.time - t0), None)
             return
         for rev in self.revolutions.feed([e]):  # unlabelled: a full revolution between clicks
-            rel = [self.sign * a for a, _ in rev.hits]  # body-relative angles, counter-clockwise
+            rel = [a for a, _ in rev.hits]  # counter-clockwise from straight ahead
             if len(rel) != len(self.beacons):
                 continue
             ref = self.brief.start[:2] if self.brief.start else (

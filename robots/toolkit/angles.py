@@ -18,7 +18,7 @@ TWO_PI = 2 * math.pi
 @dataclass(frozen=True)
 class Revolution:
     """One laser turn: its start and end times and its hits as (angle, beacon id or None).
-    Angles are the laser's relative angle from the start, in the direction it spins, [0, 2 pi)."""
+    Angles are counter-clockwise from the revolution's start, [0, 2 pi)."""
 
     start: float
     end: float
@@ -48,9 +48,13 @@ def plausible(rev: Revolution, nominal: float, tolerance: float, max_hits: int, 
 
 
 class IndexRevolutions:
-    """Revolutions between consecutive index clicks (the laser passing straight ahead)."""
+    """Revolutions between consecutive index clicks (the laser passing straight ahead): hit
+    angles are then counter-clockwise from straight ahead. `sign` is the spin direction (+1
+    counter-clockwise); where the hardware latches an angle itself (an encoder, a stepped
+    head), that reading is used instead of the time fraction."""
 
-    def __init__(self) -> None:
+    def __init__(self, sign: float = 1.0) -> None:
+        self.sign = sign
         self.last_click: float | None = None
         self.pending: list[SensorEvent] = []
 
@@ -60,7 +64,9 @@ class IndexRevolutions:
         for e in events:
             if e.kind == "index":
                 if self.last_click is not None:
-                    hits = tuple((angle_in(self.last_click, e.time, h.time), h.beacon) for h in self.pending)
+                    hits = tuple((h.angle if h.angle is not None else
+                                  (self.sign * angle_in(self.last_click, e.time, h.time)) % TWO_PI, h.beacon)
+                                 for h in self.pending)
                     done.append(Revolution(self.last_click, e.time, hits))
                 self.last_click, self.pending = e.time, []
             elif e.kind == "hit" and self.last_click is not None:
