@@ -5,6 +5,7 @@ REFERENCE: dict[str, str] = {
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
     "starter": "robots.controllers.starter:Starter",
     "best": "robots.controllers.best:Best",
+    "bac": "robots.controllers.bac:Bac",
     "vannoy": "robots.controllers.vannoy:Vannoy",
     "ubersetzig": "robots.controllers.ubersetzig:Ubersetzig",
 }

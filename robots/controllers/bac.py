@@ -1,0 +1,117 @@
+"""Bac, Grift & Menezes 2011: the corner-array table, as the paper describes it.
+
+Localization: revolutions from one array to the next pass of the same array (there is no
+index); the durations between pulses give the angles; a revolution whose time differs from
+the nominal one by more than its smallest pulse duration is discarded (this also catches a
+merged pulse, whose duration is 0); the closed form of appendix A gives (x, y) from arrays
+O, A and C, or, with one array missing, the three that remain. Heading: from consecutive
+positions more than 1 cm apart (per control period, the mean of its fixes; measured from
+the start of the current straight run); a turn command's angle is taken as achieved. Guidance: a 0.05 rad dead band (no new command), a pivot
+turn (one wheel held) for 0.05-0.3 rad, a spin turn above 0.3 rad, and the next waypoint
+within the task radius.
+"""
+
+from __future__ import annotations
+
+import math
+
+from robots.api import Brief, Command, Controller, Observation
+from robots.toolkit.angles import BeaconRevolutions, Revolution
+from robots.toolkit.solvers import bac, total
+
+DEAD_BAND, SPIN = 0.05, 0.3  # rad
+CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
+
+
+def wrap(a: float) -> float:
+    return math.remainder(a, 2 * math.pi)
+
+
+class Bac(Controller):
+    def setup(self, brief: Brief) -> None:
+        self.brief = brief
+        self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
+        self.sign = 1.0 if brief.laser.angular_velocity > 0 else -1.0
+        self.nominal = 2 * math.pi / abs(brief.laser.angular_velocity)
+        # the table's corners as the paper names them: O at the origin, L along x, W along y
+        xmin, ymin, xmax, ymax = brief.field
+        corner = lambda cx, cy: min(self.beacons, key=lambda b: math.dist(self.beacons[b], (cx, cy)))  # noqa: E731
+        self.o, self.a, self.c = corner(xmin, ymin), corner(xmax, ymin), corner(xmin, ymax)
+        self.length, self.width = xmax - xmin, ymax - ymin
+        self.origin = (xmin, ymin)
+        self.revolutions = BeaconRevolutions(self.o)
+        self.position: tuple[float, float] | None = brief.start[:2] if brief.start else None
+        self.heading: float | None = brief.start[2] if brief.start else None
+        self.last_for_heading = self.position
+        self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
+        self.target = 0
+        self.command = (0.0, 0.0)
+        self.turn_until: float | None = None
+        self.now = 0.0
+
+    def fix(self, rev: Revolution) -> tuple[float, float] | None:
+        """(x, y) from one revolution, or None if Bac's checks reject it."""
+        times = sorted(a for a, _ in rev.hits) + [2 * math.pi]
+        durations = [b - a for a, b in zip(times, times[1:])]
+        if abs(rev.period - self.nominal) > min(durations) / (2 * math.pi) * rev.period:
+            return None  # "compared to a manually defined value": tolerance = smallest pulse duration
+        ccw = {b: (self.sign * a) % (2 * math.pi) for a, b in rev.hits}  # counter-clockwise from O
+        if len(ccw) != len(rev.hits) or len(ccw) < 3:
+            return None
+        if self.a in ccw and self.c in ccw:
+            alpha, beta = ccw[self.a], 2 * math.pi - ccw[self.c]
+            f = bac(alpha, beta, self.length, self.width)
+            return (f.x + self.origin[0], f.y + self.origin[1]) if f.ok else None
+        ids = list(ccw)[:3]  # a missing pulse: the three that remain
+        f = total([self.beacons[b] for b in ids], [ccw[b] for b in ids])
+        return (f.x, f.y) if f.ok else None
+
+    def step(self, observation: Observation) -> Command:
+        self.now = observation.time
+        fixes = [p for p in map(self.fix, self.revolutions.feed(observation.events)) if p is not None]
+        if fixes:  # this period's position: the mean of its revolutions' fixes
+            p = (sum(f[0] for f in fixes) / len(fixes), sum(f[1] for f in fixes) / len(fixes))
+            self.position = p
+            forward = self.command[0] == self.command[1] > 0 and self.turn_until is None
+            if self.last_for_heading is None or not forward:
+                self.last_for_heading = p
+            elif math.dist(p, self.last_for_heading) > 0.01:  # "larger than 1 cm"
+                # measured from where this straight run began: the baseline grows as we drive
+                self.heading = math.atan2(p[1] - self.last_for_heading[1], p[0] - self.last_for_heading[0])
+        self.command = self._guide()
+        # with no heading yet (a robot that has not moved), report the position with heading 0
+        estimate = None if self.position is None else (*self.position, self.heading or 0.0)
+        return Command(*self.command, estimate=estimate)
+
+    def _guide(self) -> tuple[float, float]:
+        if self.turn_until is not None:  # a rotation command in progress
+            if self.now < self.turn_until:
+                return self.command
+            self.turn_until = None
+            return 0.0, 0.0  # one period at rest: the wheels ramp down, the turn is complete
+        if self.position is None:
+            return 0.0, 0.0
+        radius = self.brief.task.radius
+        while self.target < len(self.path) and math.dist(self.position, self.path[self.target]) < radius:
+            self.target += 1
+        if self.target >= len(self.path):
+            return 0.0, 0.0
+        if self.heading is None:
+            return CRUISE, CRUISE  # drive straight until two fixes give a heading
+        tx, ty = self.path[self.target]
+        error = wrap(math.atan2(ty - self.position[1], tx - self.position[0]) - self.heading)
+        if abs(error) <= DEAD_BAND:  # no new command: keep driving straight
+            return (CRUISE, CRUISE)
+        # "whether the robot should rotate left or right and through how many degrees"
+        track, top = self.brief.robot.track, self.brief.robot.max_wheel_speed
+        if abs(error) <= SPIN:  # mode 1: hold one wheel, turn with the other
+            v = 0.6 * top
+            self.turn_until = self.now + abs(error) * track / v
+            command = (0.0, v) if error > 0 else (v, 0.0)
+        else:  # mode 2: a spin turn, wheels opposite
+            w = 0.5 * top
+            self.turn_until = self.now + abs(error) * track / (2 * w)
+            command = (-w, w) if error > 0 else (w, -w)
+        self.heading = wrap(self.heading + error)  # taken as achieved; fixes correct it later
+        self.last_for_heading = None
+        return command
