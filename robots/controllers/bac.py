@@ -8,7 +8,8 @@ O, A and C, or, with one array missing, the three that remain. Heading: from con
 positions more than 1 cm apart (per control period, the mean of its fixes; measured from
 the start of the current straight run); a turn command's angle is taken as achieved. Guidance: a 0.05 rad dead band (no new command), a pivot
 turn (one wheel held) for 0.05-0.3 rad, a spin turn above 0.3 rad, and the next waypoint
-within the task radius.
+within the task radius. A path that is one straight line from the start is driven as in the
+paper's straight-line experiment: both wheels at the same speed, no steering.
 """
 
 from __future__ import annotations
@@ -45,8 +46,10 @@ class Bac(Controller):
         self.last_for_heading = self.position
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
+        self.straight = self._straight_line()
         self.command = (0.0, 0.0)
         self.turn_until: float | None = None
+        self.steady_from = 0.0  # revolutions starting earlier overlapped a rotation
         self.now = 0.0
 
     def fix(self, rev: Revolution) -> tuple[float, float] | None:
@@ -68,7 +71,9 @@ class Bac(Controller):
 
     def step(self, observation: Observation) -> Command:
         self.now = observation.time
-        fixes = [p for p in map(self.fix, self.revolutions.feed(observation.events)) if p is not None]
+        # a revolution during a rotation command sees the beam turn at the wrong rate: skip it
+        revs = [r for r in self.revolutions.feed(observation.events) if r.start >= self.steady_from]
+        fixes = [p for p in map(self.fix, revs) if p is not None]
         if fixes:  # this period's position: the mean of its revolutions' fixes
             p = (sum(f[0] for f in fixes) / len(fixes), sum(f[1] for f in fixes) / len(fixes))
             self.position = p
@@ -83,11 +88,31 @@ class Bac(Controller):
         estimate = None if self.position is None else (*self.position, self.heading or 0.0)
         return Command(*self.command, estimate=estimate)
 
+    def _straight_line(self) -> bool:
+        """The paper's straight-line run: start and waypoints on one line, no steering at all."""
+        if self.brief.start is None or len(self.path) < 2:
+            return False
+        x0, y0, _ = self.brief.start
+        (x1, y1) = self.path[-1]
+        length = math.dist((x0, y0), (x1, y1))
+        return length > 0 and all(abs((x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)) / length < 0.005
+                                  for px, py in self.path)
+
     def _guide(self) -> tuple[float, float]:
+        if self.straight:  # "started with both wheels set to move at the same velocity"
+            x0, y0, _ = self.brief.start
+            x1, y1 = self.path[-1]
+            done = self.position is not None and (
+                (self.position[0] - x1) * (x1 - x0) + (self.position[1] - y1) * (y1 - y0) >= 0)
+            while self.position is not None and self.target < len(self.path) and \
+                    math.dist(self.position, self.path[self.target]) < self.brief.task.radius:
+                self.target += 1
+            return (0.0, 0.0) if done else (CRUISE, CRUISE)
         if self.turn_until is not None:  # a rotation command in progress
             if self.now < self.turn_until:
                 return self.command
             self.turn_until = None
+            self.steady_from = self.now + self.brief.control_period
             return 0.0, 0.0  # one period at rest: the wheels ramp down, the turn is complete
         if self.position is None:
             return 0.0, 0.0
@@ -113,5 +138,6 @@ class Bac(Controller):
             self.turn_until = self.now + abs(error) * track / (2 * w)
             command = (-w, w) if error > 0 else (w, -w)
         self.heading = wrap(self.heading + error)  # taken as achieved; fixes correct it later
+        self.steady_from = float("inf")
         self.last_for_heading = None
         return command
