@@ -8,4 +8,6 @@ REFERENCE: dict[str, str] = {
     "bac": "robots.controllers.bac:Bac",
     "vannoy": "robots.controllers.vannoy:Vannoy",
     "ubersetzig": "robots.controllers.ubersetzig:Ubersetzig",
+    "simi": "robots.controllers.simi:Simi",
+    "osentoski": "robots.controllers.osentoski:Osentoski",
 }

@@ -1,0 +1,83 @@
+"""Osentoski: three lights in a line; a turret samples brightness 120 times a turn.
+
+From each scan: keep the samples clearly brighter than the scan's typical value (0 = bright), find
+the local minima, refine each by a parabola through its neighbours; with exactly three peaks,
+the middle one in counter-clockwise order is the middle light, and the angles between it and
+the outer ones give the position by the law of sines. The heading follows from the middle
+light's bearing. A scan that does not show three clear peaks (near a light, lights merging
+from afar, a shaky servo) is skipped, as the seed's robot had to.
+"""
+
+from __future__ import annotations
+
+import math
+
+from robots.api import Brief, Command, Controller, Observation
+from robots.toolkit.solvers import law_of_sines
+
+
+def peaks(samples: tuple[int, ...]) -> list[float]:
+    """Angles (counter-clockwise from straight ahead) of the bright spots of one scan."""
+    n = len(samples)
+    # "a filter using the average light value": a robust average (the median, as most samples
+    # are dark) and the noise around it (median absolute deviation); spikes within it are noise
+    ordered = sorted(samples)
+    median = ordered[n // 2]
+    mad = sorted(abs(s - median) for s in samples)[n // 2]
+    threshold = median - max(5.0, 6.0 * mad)
+    found = []
+    for k in range(n):
+        a, b, c = samples[k - 1], samples[k], samples[(k + 1) % n]
+        if b < threshold and b <= a and b < c:
+            curve = a - 2 * b + c
+            offset = 0.5 * (a - c) / curve if curve > 0 else 0.0  # vertex of the parabola
+            found.append(((k + offset) * 2 * math.pi / n) % (2 * math.pi))
+    return found
+
+
+class Osentoski(Controller):
+    def setup(self, brief: Brief) -> None:
+        self.brief = brief
+        lights = [(b.x, b.y) for b in brief.beacons]
+        # the middle light is the one between the other two
+        self.middle = min(range(3), key=lambda i: sum(math.dist(lights[i], lights[j]) for j in range(3)))
+        outer = [lights[i] for i in range(3) if i != self.middle]
+        self.m = lights[self.middle]
+        self.spacing = math.dist(outer[0], outer[1]) / 2
+        cx, cy = (brief.field[0] + brief.field[2]) / 2, (brief.field[1] + brief.field[3]) / 2
+        # frame: origin at the middle light, x towards the outer light that leaves the field
+        # centre on the -y side (the law of sines puts the robot at y < 0)
+        for first, second in (outer, outer[::-1]):
+            ux, uy = (second[0] - first[0]) / (2 * self.spacing), (second[1] - first[1]) / (2 * self.spacing)
+            if -(cx - self.m[0]) * uy + (cy - self.m[1]) * ux < 0:
+                self.axis = (ux, uy)
+                break
+        self.pose: tuple[float, float, float] | None = None
+
+    def fix(self, samples: tuple[int, ...]) -> tuple[float, float, float] | None:
+        found = peaks(samples)
+        if len(found) != 3:
+            return None
+        order = sorted(found)
+        gaps = [(order[(i + 1) % 3] - order[i]) % (2 * math.pi) for i in range(3)]
+        big = max(range(3), key=lambda i: gaps[i])
+        if gaps[big] < math.pi:
+            return None  # lights on more than one side: not the line of three
+        # counter-clockwise after the big gap: the light at +x of our frame, the middle, the -x one
+        right, mid, left = (order[(big + 1 + k) % 3] for k in range(3))
+        fix = law_of_sines(self.spacing, (left - mid) % (2 * math.pi), (mid - right) % (2 * math.pi))
+        if not fix.ok:
+            return None
+        (ux, uy), (mx, my) = self.axis, self.m
+        x = mx + fix.x * ux - fix.y * uy
+        y = my + fix.x * uy + fix.y * ux
+        heading = math.atan2(my - y, mx - x) - mid
+        return x, y, math.remainder(heading, 2 * math.pi)
+
+    def step(self, observation: Observation) -> Command:
+        for e in observation.events:
+            if e.kind == "scan":
+                pose = self.fix(e.samples)
+                if pose is not None:
+                    self.pose = pose
+        return Command(0.0, 0.0, estimate=self.pose)

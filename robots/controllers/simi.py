@@ -1,0 +1,30 @@
+"""Simi 2000: flash detectors latch the laser's encoder; Newton-Raphson gives x, y and heading.
+
+Each revolution between index clicks yields one encoder angle per detector; the pose is
+solved from them by Newton-Raphson, started from the last pose (the very first time from
+the field centre, as Simi started from a fixed guess). The robot stands still (a localize
+task) or drives its path by the same stop-and-go as Vannoy's and Ubersetzig's robots.
+"""
+
+from __future__ import annotations
+
+import math
+
+from robots.controllers.stop_and_scan import StopAndScan
+from robots.toolkit.angles import Revolution
+from robots.toolkit.solvers import newton
+
+
+class Simi(StopAndScan):
+    def fix(self, rev: Revolution) -> tuple[float, float, float] | None:
+        seen = {b: a for a, b in rev.hits if b is not None}
+        if len(seen) < 3:
+            return None
+        xmin, ymin, xmax, ymax = self.brief.field
+        guess = self.pose or ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
+        ids = sorted(seen)
+        fix = newton([self.beacons[b] for b in ids], [seen[b] for b in ids], guess)
+        return (fix.x, fix.y, fix.heading) if fix.ok else None
+
+    def _believable(self, pose: tuple[float, float, float]) -> bool:
+        return True  # labelled detectors and an encoder: no association to get wrong
