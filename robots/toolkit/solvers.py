@@ -11,7 +11,7 @@ the circle through three beacons.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,9 +21,9 @@ DEGENERATE = 1e-12
 MAX_STEP = 0.25  # m: Newton's largest position step
 
 
-@dataclass(frozen=True)
-class Fix:
-    """A position fix: (x, y) m, heading rad, a reliability (0 when degenerate), and why not."""
+class Fix(NamedTuple):
+    """A position fix: (x, y) m, heading rad, a reliability (0 when degenerate), and why not.
+    (An immutable named tuple rather than a dataclass: solvers make millions of these.)"""
 
     x: float
     y: float
@@ -63,18 +63,21 @@ def _collinear(p1, p2, p3) -> bool:
 
 # ---- ToTal ---------------------------------------------------------------------------------
 
-def total(beacons: list[tuple[float, float]], bearings: list[float]) -> Fix:
+def total(beacons: list[tuple[float, float]], bearings: list[float], heading: bool = True) -> Fix:
     """ToTal three-object triangulation (Pierlot & Van Droogenbroeck, IEEE T-RO 2014),
     from the paper's formulas: beacons shifted to the second one, three cotangents, the three
     circle centres, and the intersection point. |D| is the reliability: it falls to 0 on the
-    circle through the beacons, where the position cannot be determined."""
+    circle through the beacons, where the position cannot be determined. The heading (the
+    circular mean of what each beacon says) is a second step; `heading=False` skips it, as the
+    paper's position-only timings do."""
     if len(beacons) != 3 or len(bearings) != 3:
         return failed("ToTal needs exactly three beacons")
     (x1, y1), (x2, y2), (x3, y3) = beacons
-    if _collinear(*beacons):
-        return failed("collinear beacons")
     a1, a2, a3 = bearings
     x1p, y1p, x3p, y3p = x1 - x2, y1 - y2, x3 - x2, y3 - y2
+    cross = x1p * y3p - x3p * y1p
+    if cross * cross <= 1e-18 * (x1p * x1p + y1p * y1p) * (x3p * x3p + y3p * y3p):
+        return failed("collinear beacons")
     t12 = _cot(a2 - a1)
     t23 = _cot(a3 - a2)
     denom = t12 + t23
@@ -82,38 +85,67 @@ def total(beacons: list[tuple[float, float]], bearings: list[float]) -> Fix:
     x12, y12 = x1p + t12 * y1p, y1p - t12 * x1p
     x23, y23 = x3p - t23 * y3p, y3p + t23 * x3p
     x31, y31 = (x3p + x1p) + t31 * (y3p - y1p), (y3p + y1p) - t31 * (x3p - x1p)
-    k31 = x1p * x3p + y1p * y3p + t31 * (x1p * y3p - x3p * y1p)
+    k31 = x1p * x3p + y1p * y3p + t31 * cross
     d = (x12 - x23) * (y23 - y31) - (y12 - y23) * (x23 - x31)
     if abs(d) < DEGENERATE:
         return failed("robot on the circle through the beacons")
     x = x2 + k31 * (y12 - y23) / d
     y = y2 + k31 * (x23 - x12) / d
-    if min(math.dist((x, y), b) for b in beacons) < 1e-9:
-        return failed("robot at a beacon")
-    return Fix(x, y, heading_from(x, y, beacons, bearings), abs(d))
+    if not heading:
+        return Fix(x, y, math.nan, abs(d))
+    # heading: the circular mean of what each beacon says (unit vectors turned back by bearings)
+    sx = sy = 0.0
+    for (bx, by), b in ((beacons[0], a1), (beacons[1], a2), (beacons[2], a3)):
+        dx, dy = bx - x, by - y
+        n = math.hypot(dx, dy)
+        if n < 1e-9:
+            return failed("robot at a beacon")
+        c, s_ = math.cos(b), math.sin(b)
+        sx += (dx * c + dy * s_) / n
+        sy += (dy * c - dx * s_) / n
+    return Fix(x, y, math.atan2(sy, sx), abs(d))
+
+
+CHUNK = 8192  # problems per pass: keeps the temporaries in cache
 
 
 def total_batch(beacons: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ToTal for N problems at once: beacons (N, 3, 2) or (3, 2), bearings (N, 3).
     Returns x, y and the reliability |D| (0 where degenerate, with x, y NaN)."""
-    beacons = np.broadcast_to(beacons, bearings.shape + (2,))
-    x1p = beacons[:, 0, 0] - beacons[:, 1, 0]
-    y1p = beacons[:, 0, 1] - beacons[:, 1, 1]
-    x3p = beacons[:, 2, 0] - beacons[:, 1, 0]
-    y3p = beacons[:, 2, 1] - beacons[:, 1, 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t12 = np.clip(1.0 / np.tan(bearings[:, 1] - bearings[:, 0]), -COT_CLAMP, COT_CLAMP)
-        t23 = np.clip(1.0 / np.tan(bearings[:, 2] - bearings[:, 1]), -COT_CLAMP, COT_CLAMP)
+    beacons = np.asarray(beacons, dtype=float)
+    n = len(bearings)
+    if n > CHUNK:
+        parts = [_total_chunk(beacons if beacons.ndim == 2 else beacons[i:i + CHUNK], bearings[i:i + CHUNK])
+                 for i in range(0, n, CHUNK)]
+        return tuple(np.concatenate(p) for p in zip(*parts))
+    return _total_chunk(beacons, bearings)
+
+
+def _total_chunk(beacons: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if beacons.ndim == 2:  # one layout for all: its offsets are plain numbers
+        (x1, y1), (x2, y2), (x3, y3) = beacons.tolist()
+    else:
+        x1, y1, x2, y2, x3, y3 = (beacons[:, i, j] for i in range(3) for j in range(2))
+    x1p, y1p, x3p, y3p = x1 - x2, y1 - y2, x3 - x2, y3 - y2
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t12 = 1.0 / np.tan(bearings[:, 1] - bearings[:, 0])
+        t23 = 1.0 / np.tan(bearings[:, 2] - bearings[:, 1])
+        np.clip(t12, -COT_CLAMP, COT_CLAMP, out=t12)
+        np.clip(t23, -COT_CLAMP, COT_CLAMP, out=t23)
         t31 = (1.0 - t12 * t23) / (t12 + t23)
         x12, y12 = x1p + t12 * y1p, y1p - t12 * x1p
         x23, y23 = x3p - t23 * y3p, y3p + t23 * x3p
         x31, y31 = (x3p + x1p) + t31 * (y3p - y1p), (y3p + y1p) - t31 * (x3p - x1p)
-        k31 = x1p * x3p + y1p * y3p + t31 * (x1p * y3p - x3p * y1p)
+        k31 = (x1p * x3p + y1p * y3p) + t31 * (x1p * y3p - x3p * y1p)
         d = (x12 - x23) * (y23 - y31) - (y12 - y23) * (x23 - x31)
-        bad = np.abs(d) < DEGENERATE
-        x = np.where(bad, np.nan, beacons[:, 1, 0] + k31 * (y12 - y23) / d)
-        y = np.where(bad, np.nan, beacons[:, 1, 1] + k31 * (x23 - x12) / d)
-        reliability = np.where(bad, 0.0, np.abs(d))
+        k = k31 / d
+        x = x2 + k * (y12 - y23)
+        y = y2 + k * (x23 - x12)
+        reliability = np.abs(d)
+        bad = reliability < DEGENERATE
+        if bad.any():
+            x[bad] = y[bad] = np.nan
+            reliability[bad] = 0.0
     return x, y, reliability
 
 
