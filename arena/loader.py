@@ -17,7 +17,7 @@ from typing import Any, Callable
 import yaml
 
 from arena.level import (
-    Beacon, Beacons, ControllerLimits, Field, Laser, Level, Obstacle, Pose, RobotSlot, Task,
+    Beacon, Beacons, ControllerLimits, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules, Task,
 )
 from arena.robot_models import ROBOT_MODELS
 from arena.units import LENGTH_UNITS
@@ -290,7 +290,7 @@ def parse_level(data: bytes, source: str) -> Level:
     top = _Map(ctx, _locate(root, source), "", (
         "name", "description", "units", "seed", "time_limit", "physics_rate", "control_period",
         "record_rate", "field", "obstacles", "beacons", "laser", "robots", "task",
-        "default_controller", "limits"))
+        "default_controller", "limits", "rules"))
 
     units = top.opt("units", _choice(*LENGTH_UNITS), "m")
     ctx.scale = LENGTH_UNITS[units]
@@ -357,7 +357,20 @@ def parse_level(data: bytes, source: str) -> Level:
         task=task,
         default_controller=top.req("default_controller", _text),
         limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
+        rules=_rules(top.sub("rules", ("speed_limit", "min_impulse", "penalties"))) if top.has("rules") else Rules(),
     )
+
+
+def _rules(m: _Map) -> Rules:
+    d = Rules()
+    penalties = dict(d.penalties)
+    if m.has("penalties"):
+        pm = m.sub("penalties", tuple(d.penalties))
+        for name in d.penalties:
+            penalties[name] = pm.opt(name, _nonnegative, penalties[name])
+    return Rules(speed_limit=m.opt("speed_limit", _nonnegative, 0.0) * m.ctx.scale,
+                 min_impulse=m.opt("min_impulse", _nonnegative, d.min_impulse),
+                 penalties=MappingProxyType(penalties))
 
 
 LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb", "log_kb")

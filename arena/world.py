@@ -7,6 +7,7 @@ slot order, then `space.step(dt)`, then the clock.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import pymunk
 
@@ -17,6 +18,23 @@ WALL_THICKNESS = 0.02  # m; walls lie just outside the field border
 
 # Collision categories, for shape filters (the laser's occlusion queries use them too).
 CAT_WALL, CAT_OBSTACLE, CAT_BEACON, CAT_ROBOT = 1, 2, 4, 8
+# Collision types, for contact callbacks; the names are what a contact reports it touched.
+KIND_OF_TYPE = {1: "robot", 2: "wall", 3: "obstacle", 4: "beacon"}
+TYPE_OF_CATEGORY = {CAT_WALL: 2, CAT_OBSTACLE: 3, CAT_BEACON: 4, CAT_ROBOT: 1}
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A robot touching something, from first touch to separation: when it began, what it
+    touched ("robot" and the other slot, "wall", "obstacle", "beacon"), where, and the
+    largest collision impulse (N s) of any step while touching."""
+
+    tick: int
+    robot: int
+    other: str
+    other_robot: int | None
+    point: tuple[float, float]
+    impulse: float
 
 
 class World:
@@ -61,9 +79,46 @@ class World:
             self.bodies.append(body)
             self.shapes.append(shape)
             self.drives.append(DiffDrive(self.space, body, m))
+            shape.collision_type = 1
+            shape.slot = r.slot
         self.state = self._read_state()
+        self.contacts: list[Contact] = []  # finished contacts, in order of their end
+        self._touching: dict[tuple[int, int], list] = {}
+        for other_type in KIND_OF_TYPE:
+            self.space.on_collision(1, other_type, begin=self._begin, post_solve=self._post_solve,
+                                    separate=self._separate)
+
+    def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        a, b = arbiter.shapes
+        p = arbiter.contact_point_set.points
+        point = tuple(p[0].point_a) if p else tuple(a.body.position)
+        self._touching[(id(a), id(b))] = [self.tick + 1, a, b, point, 0.0]
+
+    def _post_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        a, b = arbiter.shapes
+        entry = self._touching.get((id(a), id(b)))
+        if entry is not None:
+            entry[4] = max(entry[4], arbiter.total_impulse.length)
+
+    def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        a, b = arbiter.shapes
+        entry = self._touching.pop((id(a), id(b)), None)
+        if entry is not None:
+            self._finish(entry)
+
+    def _finish(self, entry: list) -> None:
+        tick, a, b, point, impulse = entry
+        other = KIND_OF_TYPE[b.collision_type]
+        self.contacts.append(Contact(tick, a.slot, other, getattr(b, "slot", None) if other == "robot" else None,
+                                     (float(point[0]), float(point[1])), impulse))
+
+    def end_contacts(self) -> None:
+        """Close every contact still going on (at the end of a match)."""
+        for key in sorted(self._touching, key=lambda k: self._touching[k][0]):
+            self._finish(self._touching.pop(key))
 
     def _static(self, shape: pymunk.Shape, category: int) -> None:
+        shape.collision_type = TYPE_OF_CATEGORY[category]
         shape.friction = 0.6
         shape.elasticity = 0.1
         shape.filter = pymunk.ShapeFilter(categories=category)

@@ -23,11 +23,13 @@ from referee.privacy import make_undumpable
 from referee.process import ProcessBot
 from referee.estimates import EstimateStats
 from referee.replay import ReplayWriter
+from referee.rules import Rules
+from referee.scoring import score
 from referee.tasks import TaskTracker
 from referee.teams import Team
 from robots.api import BeaconInfo, Brief, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
-RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 1
+RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 2
 NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
                              overage_bank=float("inf"), max_skips=1 << 62, memory=0, log_bytes=0)
 
@@ -74,12 +76,16 @@ def to_event(d: Detection) -> SensorEvent:
 
 
 class _TaskHook:
-    def __init__(self, tracker: TaskTracker):
-        self.tracker = tracker
+    def __init__(self, tracker: TaskTracker, every: int):
+        self.tracker, self.every = tracker, every
 
     def after_step(self, world: World) -> None:
+        sample = world.tick % self.every == 0
         for slot in range(len(world.bodies)):
-            self.tracker.update(slot, world.pose(slot), world.time)
+            pose = world.pose(slot)
+            self.tracker.update(slot, pose, world.time)
+            if sample:
+                self.tracker.sample_path(slot, pose)
 
 
 class _RecordHook:
@@ -115,7 +121,9 @@ class Match:
         self.stopped = [False] * len(teams)
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
-        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker)]
+        self.rules = Rules(level)
+        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker, level.steps_per_record),
+                                  self.rules]
         self.writer = None
         if replay is not None:
             self.writer = ReplayWriter(replay, level, self.seed, [t.label for t in teams], __version__)
@@ -124,8 +132,11 @@ class Match:
 
     def _fault(self, slot: int, fault: Fault) -> None:
         self.faults[slot].append(fault)
-        self.stopped[slot] = True
-        self.world.command(slot, 0.0, 0.0)
+        p = self.world.pose(slot)
+        self.rules.controller(slot, fault.tick * self.level.steps_per_control, fault.kind, (p.x, p.y), fault.message)
+        if fault.fatal:
+            self.stopped[slot] = True
+            self.world.command(slot, 0.0, 0.0)
 
     def _over(self) -> bool:
         return all(self.stopped[s] or self.tracker.done(s) for s in range(len(self.teams)))
@@ -141,11 +152,8 @@ class Match:
                 continue
             events, self.inbox[slot] = tuple(self.inbox[slot]), []
             out = bot.step(Observation(tick=tick, time=time, events=events))
-            if isinstance(out, Fault):
-                if out.fatal:
-                    self._fault(slot, out)
-                else:  # a skipped tick: the last command stays in force
-                    self.faults[slot].append(out)
+            if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
+                self._fault(slot, out)
                 self.estimates[slot].add(truth, None)
                 continue
             self.world.command(slot, float(out.left), float(out.right))
@@ -181,6 +189,7 @@ class Match:
                 self.end_reason = "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) \
                     else "all_stopped"
                 break
+        self.rules.finish(world)
         result = self._result()
         if self.writer:
             self.writer.close(result)
@@ -194,9 +203,10 @@ class Match:
             robots.append({
                 "slot": slot,
                 "team": team.label,
-                "score": self.tracker.score(slot, stats.fraction),
+                "score": score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
                 "task": self.tracker.summary(slot),
                 "localization": stats.summary(),
+                "fouls": [f.to_dict() for f in self.rules.fouls[slot]],
                 "faults": [f.to_dict() for f in self.faults[slot]],
                 "stopped": self.stopped[slot],
                 "final_pose": [pose.x, pose.y, pose.heading],

@@ -1,7 +1,6 @@
-"""Task progress: which waypoints each robot has reached, whether it reached its goal, when.
-
-Checked after every physics step against the true pose. The provisional score is the task
-completion in percent (docs/results.md); the referee issue replaces it with full scoring.
+"""Task progress: which waypoints each robot has reached, whether it reached its goal, when,
+and how far it strayed from the ideal path. Checked against the true pose; scoring of the
+progress is in referee/scoring.py and docs/rules.md.
 """
 
 from __future__ import annotations
@@ -9,6 +8,7 @@ from __future__ import annotations
 import math
 
 from arena.level import Level, Pose
+from referee.rules import cross_track
 
 
 class TaskTracker:
@@ -21,6 +21,11 @@ class TaskTracker:
         self.reached_at: list[list[float]] = [[] for _ in level.robots]
         self.finished: list[float | None] = [None] * len(level.robots)
         self.final_distance: list[float] = [math.nan] * len(level.robots)
+        self.start_distance = [math.dist((r.start.x, r.start.y), self.targets(r.slot)[0]) if self.targets(r.slot)
+                               else math.nan for r in level.robots]
+        # the ideal polyline: from the start through every waypoint
+        self.polyline = [[(r.start.x, r.start.y), *self.targets(r.slot)] for r in level.robots]
+        self.deviation: list[list[float]] = [[] for _ in level.robots]
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
         """The points robot `slot` must reach in order."""
@@ -41,21 +46,33 @@ class TaskTracker:
             if self.next[slot] == len(targets):
                 self.finished[slot] = time
 
+    def sample_path(self, slot: int, pose: Pose) -> None:
+        """Record the robot's distance from the ideal path (at the record rate, until it finishes)."""
+        if self.kind in ("waypoints", "race") and not self.done(slot):
+            self.deviation[slot].append(cross_track(self.polyline[slot], pose.x, pose.y))
+
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None
 
-    def score(self, slot: int, estimate_fraction: float) -> float:
-        """Provisional score: task completion in percent (localize: ticks with an estimate)."""
+    def progress(self, slot: int) -> float:
+        """Task completion, 0..1: waypoints reached; or how much of the way to the goal."""
         targets = self.targets(slot)
-        if not targets:
-            return 100.0 * estimate_fraction
-        return 100.0 * self.next[slot] / len(targets)
+        if self.kind == "goto":
+            if self.done(slot):
+                return 1.0
+            return max(0.0, 1.0 - self.final_distance[slot] / self.start_distance[slot]) if self.start_distance[slot] else 0.0
+        return self.next[slot] / len(targets) if targets else 0.0
 
     def summary(self, slot: int) -> dict:
         out: dict = {"kind": self.kind, "finished": self.finished[slot]}
         targets = self.targets(slot)
         if self.kind in ("waypoints", "race"):
             out.update(reached=self.next[slot], total=len(targets), reached_at=self.reached_at[slot])
+            dev = self.deviation[slot]
+            if dev:
+                mean = sum(dev) / len(dev)
+                std = math.sqrt(sum((d - mean) ** 2 for d in dev) / len(dev))
+                out["cross_track_mm"] = {"mean": 1000 * mean, "std": 1000 * std, "max": 1000 * max(dev)}
         elif self.kind == "goto":
             out.update(final_distance=self.final_distance[slot])
         return out

@@ -156,7 +156,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
 def test_waypoint_task_ends_match_when_done():
     result = run_match(level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 12")), [resolve("ref:dead-reckoning")])
     r = result["robots"][0]
-    assert r["task"]["reached"] == 2 and r["score"] == 100.0
+    assert r["task"]["reached"] == 2 and r["score"]["task"] == 100.0
     assert result["end_reason"] == "task_complete"
     assert result["end_time"] == pytest.approx(r["task"]["finished"])
     # the robot drove ~1 m at <= 0.17 m/s: it cannot have finished sooner than that allows

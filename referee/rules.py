@@ -1,0 +1,95 @@
+"""Fouls: typed events with tick, time, robot and place, each costing the level's penalty.
+
+After every physics step the rules hook looks at the world: contacts that ended (a collision
+with a robot, wall, obstacle or beacon, if its impulse reached `min_impulse`), robots whose
+centre left the field, robots faster than `speed_limit` (one foul per spell). Skipped ticks and
+controller faults become fouls too (the match reports them here).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from arena.level import Level
+from arena.world import World
+
+
+@dataclass(frozen=True)
+class Foul:
+    """One foul: its kind, when (tick and time), which robot, where, and details."""
+
+    kind: str  # robot_collision | wall_collision | obstacle_collision | beacon_collision |
+    #            leave_field | speeding | skipped_tick | fault
+    tick: int
+    time: float
+    robot: int
+    place: tuple[float, float]
+    penalty: float
+    detail: dict
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "tick": self.tick, "time": self.time, "place": list(self.place),
+                "penalty": self.penalty, **self.detail}
+
+
+class Rules:
+    """The rules hook of a match: collects fouls per robot."""
+
+    def __init__(self, level: Level):
+        self.level = level
+        self.rules = level.rules
+        self.fouls: list[list[Foul]] = [[] for _ in level.robots]
+        self.seen_contacts = 0
+        self.outside = [False] * len(level.robots)
+        self.speeding = [False] * len(level.robots)
+
+    def _add(self, kind: str, tick: int, robot: int, place: tuple[float, float], **detail) -> None:
+        penalty = self.rules.penalties.get(kind, 0.0)
+        self.fouls[robot].append(Foul(kind, tick, tick / self.level.physics_rate, robot,
+                                      (float(place[0]), float(place[1])), penalty, detail))
+
+    def after_step(self, world: World) -> None:
+        for c in world.contacts[self.seen_contacts:]:
+            if c.impulse >= self.rules.min_impulse:
+                if c.other == "robot":
+                    self._add("robot_collision", c.tick, c.robot, c.point, impulse=c.impulse, other=c.other_robot)
+                    self._add("robot_collision", c.tick, c.other_robot, c.point, impulse=c.impulse, other=c.robot)
+                else:
+                    self._add(f"{c.other}_collision", c.tick, c.robot, c.point, impulse=c.impulse)
+        self.seen_contacts = len(world.contacts)
+        f = self.level.field
+        limit = self.rules.speed_limit
+        for slot, body in enumerate(world.bodies):
+            x, y = world.state[3 * slot], world.state[3 * slot + 1]
+            out = not f.contains(x, y)
+            if out and not self.outside[slot]:
+                self._add("leave_field", world.tick, slot, (x, y))
+            self.outside[slot] = out
+            if limit:
+                v = body.velocity.length
+                fast = v > limit + 1e-9
+                if fast and not self.speeding[slot]:
+                    self._add("speeding", world.tick, slot, (x, y), speed=v)
+                self.speeding[slot] = fast
+
+    def controller(self, slot: int, tick: int, kind: str, place: tuple[float, float], message: str) -> None:
+        """A skipped tick or a fault reported by the controller's process."""
+        self._add("skipped_tick" if kind == "skipped_tick" else "fault", tick, slot, place, fault=kind,
+                  message=message)
+
+    def finish(self, world: World) -> None:
+        """End of match: contacts still going on count too."""
+        world.end_contacts()
+        self.after_step(world)
+
+
+def cross_track(path: list[tuple[float, float]], x: float, y: float) -> float:
+    """Distance (m) from (x, y) to the polyline through `path`."""
+    best = math.inf
+    for (ax, ay), (bx, by) in zip(path, path[1:]):
+        dx, dy = bx - ax, by - ay
+        n2 = dx * dx + dy * dy
+        t = 0.0 if n2 == 0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / n2))
+        best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+    return best

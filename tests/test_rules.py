@@ -1,0 +1,128 @@
+"""Scoring and fouls with scripted controllers whose outcome is known in advance."""
+
+import math
+import textwrap
+
+import pytest
+
+from arena.loader import parse_level
+from referee.match import run_match
+from referee.teams import resolve
+from conftest import MINI_LEVEL
+
+
+def level(text):
+    return parse_level(text.encode(), "rules.yaml")
+
+
+def team(tmp_path, body, name="t.py"):
+    p = tmp_path / name
+    p.write_text("from robots.api import *\nimport math\n\n" + textwrap.dedent(body))
+    return resolve(str(p))
+
+
+def play(text, *teams):
+    return run_match(level(text), list(teams), isolate=False)
+
+
+STRAIGHT = """
+    class Straight(Controller):
+        def step(self, obs):
+            return Command(0.1, 0.1, estimate=None)
+"""
+
+
+def test_waypoints_score_time_and_cross_track(tmp_path):
+    # a robot driving dead straight along y = 0.5 through waypoints on y = 0.5 and y = 0.52
+    text = MINI_LEVEL.replace("time_limit: 4", "time_limit: 20").replace(
+        "path: [[1.0, 0.5], [1.5, 0.5]]", "path: [[1.0, 0.52], [1.5, 0.5]]")
+    r = play(text, team(tmp_path, STRAIGHT))["robots"][0]
+    assert r["task"]["reached"] == 2
+    finished = r["task"]["finished"]
+    # it drives 1 m at 0.1 m/s after a 0.2 s ramp, reaching the last point 5 cm short of it
+    assert finished == pytest.approx((0.95 + 0.1 * 0.2 / 2) / 0.1, abs=0.05)
+    sc = r["score"]
+    assert sc["task"] == 100 and sc["time"] == pytest.approx(20 * (1 - finished / 20))
+    assert sc["localization"] == 0 and sc["penalties"] == 0
+    assert sc["total"] == pytest.approx(sc["task"] + sc["time"])
+    # cross-track from the polyline (0.5,0.5)->(1.0,0.52)->(1.5,0.5) for a robot on y = 0.5:
+    # 0 at the ends, 2 cm at x = 1.0 (distance to a line of slope 0.04 is 0.02 cos(atan 0.04) at most)
+    ct = r["task"]["cross_track_mm"]
+    assert ct["max"] == pytest.approx(20 / math.hypot(1, 0.04), abs=0.3)
+    assert 5 < ct["mean"] < 12 and ct["std"] > 0
+
+
+def test_goto_partial_credit_and_localize_scored_on_error(tmp_path):
+    goto = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
+                              "kind: goto\n  radius: 0.05\n  goal: [1.5, 0.5]")
+    half = team(tmp_path, """
+        class Half(Controller):
+            def step(self, obs):
+                return Command(0.125, 0.125) if obs.time < 4.0 else Command(0.0, 0.0)
+    """)
+    r = play(goto.replace("time_limit: 4", "time_limit: 8"), half)["robots"][0]
+    d = r["task"]["final_distance"]
+    assert 0.4 < d < 0.6 and r["score"]["task"] == pytest.approx(100 * (1 - d / 1.0), abs=1e-6)
+    localize = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
+                                  "kind: localize")
+    off = team(tmp_path, """
+        class Off(Controller):
+            def step(self, obs):
+                return Command(0.0, 0.0, estimate=(0.51, 0.5, 0.0))
+    """, "off.py")
+    r = play(localize, off)["robots"][0]
+    # 1 cm off every tick: quality 1 / (1 + 10 mm / 10 mm) = 0.5 -> 50 of 100 points
+    assert r["score"]["localization"] == pytest.approx(50.0) and r["score"]["task"] == 0
+
+
+TWO = MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [3.0, 1.0]").replace("""robots:
+  - model: boe-bot
+    start: [0.5, 0.5, 0]
+    start_known: true
+""", """robots:
+  - model: boe-bot
+    start: [0.5, 0.5, 0]
+    path: [[2.5, 0.5]]
+  - model: boe-bot
+    start: [2.5, 0.5, 180]
+    path: [[0.5, 0.5]]
+""").replace("  path: [[1.0, 0.5], [1.5, 0.5]]\n", "").replace("time_limit: 4", "time_limit: 12")
+
+
+LOCALIZE = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
+                              "kind: localize").replace("time_limit: 4", "time_limit: 20")
+
+
+def test_robot_and_wall_collisions_are_fouls_with_impulse(tmp_path):
+    head_on = team(tmp_path, STRAIGHT)
+    result = play(TWO, head_on, head_on)
+    for r in result["robots"]:
+        kinds = [f["kind"] for f in r["fouls"]]
+        assert "robot_collision" in kinds
+        hit = next(f for f in r["fouls"] if f["kind"] == "robot_collision")
+        # they meet in the middle, x = 1.5, each 0.1 m/s: about when 0.895 m each is covered
+        assert hit["place"][0] == pytest.approx(1.5, abs=0.06)
+        assert hit["time"] == pytest.approx((1.0 - 0.105 / 2) / 0.1 + 0.1, abs=0.3)
+        assert hit["impulse"] > 0 and hit["penalty"] == 2.0
+    wall = play(LOCALIZE, team(tmp_path, STRAIGHT))  # drives on into the east wall at x = 2
+    fouls = wall["robots"][0]["fouls"]
+    assert [f["kind"] for f in fouls] == ["wall_collision"] and fouls[0]["place"][0] == pytest.approx(2.0, abs=0.01)
+    assert wall["robots"][0]["score"]["penalties"] == 1.0
+
+
+def test_leaving_the_field_speeding_and_faults_are_fouls(tmp_path):
+    open_field = LOCALIZE.replace("  size: [2.0, 1.0]", "  size: [2.0, 1.0]\n  walls: false") + \
+        "rules: {speed_limit: 0.05, penalties: {leave_field: 7}}\n"
+    r = play(open_field, team(tmp_path, STRAIGHT))["robots"][0]
+    kinds = [f["kind"] for f in r["fouls"]]
+    assert kinds == ["speeding", "leave_field"]
+    speeding, leave = r["fouls"]
+    assert speeding["speed"] > 0.05 and speeding["time"] == pytest.approx(0.05 / 0.5, abs=0.01)
+    assert leave["place"][0] == pytest.approx(2.0, abs=0.01) and leave["penalty"] == 7
+    crash = team(tmp_path, """
+        class Crash(Controller):
+            def step(self, obs):
+                raise RuntimeError("no")
+    """, "crash.py")
+    r = play(MINI_LEVEL, crash)["robots"][0]
+    assert [f["kind"] for f in r["fouls"]] == ["fault"] and r["score"]["penalties"] == 25.0
