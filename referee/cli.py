@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import levels
@@ -71,6 +72,34 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_grade(args: argparse.Namespace) -> int:
+    from referee import grade as g
+    found = []
+    for name in args.level:
+        lv = find_level(name)
+        path = Path(name) if Path(name).is_file() else levels.path(name)
+        found.append((lv, path.resolve()))
+    teams = []
+    for spec in args.team:
+        team = resolve(spec)  # a bad spec fails here, in one line, before any match
+        teams.append(team.spec)
+    if args.seeds < 1:
+        raise UserError("--seeds must be at least 1")
+    db = Path(args.db)
+    if not db.resolve().parent.is_dir():
+        raise UserError(f"{db}: the folder does not exist")
+    jobs = g.make_jobs(found, teams, args.seeds)
+    start = time.perf_counter()
+    journal = g.grade(jobs, db, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    rows = g.leaderboard(journal, jobs)
+    text = g.write_leaderboard(rows, Path(args.out))
+    if not args.quiet:
+        print(text, end="")
+        print(f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
+              f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return 0
+
+
 def cmd_new(args: argparse.Namespace) -> int:
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
@@ -104,6 +133,17 @@ def parser() -> argparse.ArgumentParser:
     s = sub.add_parser("check", help="validate level files")
     s.add_argument("level", nargs="+")
     s.set_defaults(func=cmd_check)
+
+    s = sub.add_parser("grade", help="grade teams x levels x seeds headless, resumable, into a leaderboard")
+    s.add_argument("level", nargs="+")
+    s.add_argument("--team", action="append", required=True, metavar="T", help="a team spec (repeat)")
+    s.add_argument("--seeds", type=int, default=3, help="seeds 1..N per team and level (default 3)")
+    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
+    s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
+    s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_grade)
 
     s = sub.add_parser("new", help="write a starter controller package for a team")
     s.add_argument("name")
