@@ -57,7 +57,7 @@ class DiffDrive:
             self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
             self.control.angular_velocity = (self.wheels[1] - self.wheels[0]) / self.model.track
         v = (self.wheels[0] + self.wheels[1]) / 2
-        motion = (v, heading)
+        motion = (v, heading if v else 0.0)  # standing or spinning in place: velocity stays 0
         if motion != self._motion:
             self._motion = motion
             self.control.velocity = (v * math.cos(heading), v * math.sin(heading))

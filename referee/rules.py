@@ -8,8 +8,9 @@ controller faults become fouls too (the match reports them here).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from arena.level import Level
 from arena.world import World
@@ -43,6 +44,9 @@ class Rules:
         self.seen_contacts = 0
         self.outside = [False] * len(level.robots)
         self.speeding = [False] * len(level.robots)
+        f = level.field
+        eps = 1e-9
+        self.bounds = (f.xmin - eps, f.ymin - eps, f.xmax + eps, f.ymax + eps)
 
     def _add(self, kind: str, tick: int, robot: int, place: tuple[float, float], **detail) -> None:
         penalty = self.rules.penalties.get(kind, 0.0)
@@ -58,11 +62,12 @@ class Rules:
                 else:
                     self._add(f"{c.other}_collision", c.tick, c.robot, c.point, impulse=c.impulse)
         self.seen_contacts = len(world.contacts)
-        f = self.level.field
+        xmin, ymin, xmax, ymax = self.bounds
         limit = self.rules.speed_limit
+        state = world.state
         for slot, body in enumerate(world.bodies):
-            x, y = world.state[3 * slot], world.state[3 * slot + 1]
-            out = not f.contains(x, y)
+            x, y = state[3 * slot], state[3 * slot + 1]
+            out = not (xmin <= x <= xmax and ymin <= y <= ymax)
             if out and not self.outside[slot]:
                 self._add("leave_field", world.tick, slot, (x, y))
             self.outside[slot] = out
@@ -84,12 +89,17 @@ class Rules:
         self.after_step(world)
 
 
-def cross_track(path: list[tuple[float, float]], x: float, y: float) -> float:
-    """Distance (m) from (x, y) to the polyline through `path`."""
-    best = math.inf
-    for (ax, ay), (bx, by) in zip(path, path[1:]):
-        dx, dy = bx - ax, by - ay
-        n2 = dx * dx + dy * dy
-        t = 0.0 if n2 == 0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / n2))
-        best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
-    return best
+class Polyline:
+    """A path as arrays of segments, for fast distances to it."""
+
+    def __init__(self, points: list[tuple[float, float]]):
+        p = np.asarray(points, dtype=float)
+        self.a = p[:-1]
+        self.d = p[1:] - p[:-1]
+        self.n2 = np.maximum((self.d ** 2).sum(axis=1), 1e-300)
+
+    def distance(self, x: float, y: float) -> float:
+        """Distance (m) from (x, y) to the polyline."""
+        rx, ry = x - self.a[:, 0], y - self.a[:, 1]
+        t = np.clip((rx * self.d[:, 0] + ry * self.d[:, 1]) / self.n2, 0.0, 1.0)
+        return float(np.sqrt(((rx - t * self.d[:, 0]) ** 2 + (ry - t * self.d[:, 1]) ** 2).min()))

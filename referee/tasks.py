@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from arena.level import Level, Pose
-from referee.rules import cross_track
+from referee.rules import Polyline
 
 
 class TaskTracker:
@@ -24,7 +24,9 @@ class TaskTracker:
         self.start_distance = [math.dist((r.start.x, r.start.y), self.targets(r.slot)[0]) if self.targets(r.slot)
                                else math.nan for r in level.robots]
         # the ideal polyline: from the start through every waypoint
-        self.polyline = [[(r.start.x, r.start.y), *self.targets(r.slot)] for r in level.robots]
+        self.polyline = [Polyline([(r.start.x, r.start.y), *self.targets(r.slot)])
+                         if self.targets(r.slot) else None for r in level.robots]
+        self.finished_count = 0
         self.deviation: list[list[float]] = [[] for _ in level.robots]
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
@@ -34,22 +36,24 @@ class TaskTracker:
             return ((g.x, g.y),)
         return self.level.robots[slot].path if self.kind in ("waypoints", "race") else ()
 
-    def update(self, slot: int, pose: Pose, time: float) -> None:
-        """Advance robot `slot`'s progress with its pose at `time`."""
+    def update(self, slot: int, x: float, y: float, time: float) -> None:
+        """Advance robot `slot`'s progress with its position (x, y) at `time`."""
         targets = self.targets(slot)
         if self.kind == "goto":
-            self.final_distance[slot] = math.dist((pose.x, pose.y), targets[0])
+            self.final_distance[slot] = math.dist((x, y), targets[0])
         radius = self.level.task.radius
-        while self.next[slot] < len(targets) and math.dist((pose.x, pose.y), targets[self.next[slot]]) <= radius:
+        while self.next[slot] < len(targets) and math.dist((x, y), targets[self.next[slot]]) <= radius:
             self.next[slot] += 1
             self.reached_at[slot].append(time)
             if self.next[slot] == len(targets):
                 self.finished[slot] = time
+                self.finished_count += 1
 
-    def sample_path(self, slot: int, pose: Pose) -> None:
+    def sample_path(self, slot: int, pose: Pose | tuple[float, float]) -> None:
         """Record the robot's distance from the ideal path (at the record rate, until it finishes)."""
         if self.kind in ("waypoints", "race") and not self.done(slot):
-            self.deviation[slot].append(cross_track(self.polyline[slot], pose.x, pose.y))
+            x, y = (pose.x, pose.y) if isinstance(pose, Pose) else pose
+            self.deviation[slot].append(self.polyline[slot].distance(x, y))
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None

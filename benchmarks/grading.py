@@ -1,0 +1,55 @@
+"""Grading throughput on this machine: `asabe` with its reference controller (ref:bac).
+
+Run: python benchmarks/grading.py [--matches 6]
+Prints the CPU seconds one 180 s match costs (referee and controller processes, isolation
+included) and matches per hour with one worker and with the local pool (all cores).
+Targets (issue 6): under 2 s of CPU per 180 s match (over 90x real time), near-linear scaling.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import tempfile
+import time
+from pathlib import Path
+
+import levels
+from arena.loader import load_level
+from referee import grade as g
+
+
+def cpu() -> float:
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def run(matches: int, workers: int) -> tuple[float, float]:
+    """Wall and CPU seconds to grade `matches` seeds of asabe."""
+    path = levels.path("asabe")
+    jobs = g.make_jobs([(load_level(path), path)], ["ref:bac"], matches)
+    with tempfile.TemporaryDirectory() as d:
+        c0, w0 = cpu(), time.perf_counter()
+        g.grade(jobs, Path(d) / "bench.sqlite", workers=workers, quiet=True)
+        return time.perf_counter() - w0, cpu() - c0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--matches", type=int, default=6)
+    args = ap.parse_args()
+    n = args.matches
+    wall1, cpu1 = run(n, 1)
+    workers = os.cpu_count() or 1
+    wall_k, _ = run(n, workers)
+    per_match_cpu = cpu1 / n
+    print(f"grading asabe (180 s matches, ref:bac, isolated), {n} matches")
+    print(f"  CPU per match            {per_match_cpu:8.2f} s   ({180 / per_match_cpu:.0f}x real time; target < 2 s)")
+    print(f"  1 worker                 {3600 * n / wall1:8.0f} matches/hour")
+    print(f"  {workers} workers                {3600 * n / wall_k:8.0f} matches/hour   "
+          f"(speed-up {wall1 / wall_k:.2f}x on {workers} cores)")
+
+
+if __name__ == "__main__":
+    main()
