@@ -95,6 +95,8 @@ def test_late_answers_are_skipped_ticks_and_the_robot_goes_on(tmp_path):
     bad = result["robots"][0]
     assert [(f["kind"], f["tick"]) for f in bad["faults"]] == [("skipped_tick", 3), ("skipped_tick", 20)]
     assert not bad["stopped"]
+    skips = [f for f in bad["fouls"] if f["kind"] == "skipped_tick"]  # and each is a foul
+    assert [f["time"] for f in skips] == pytest.approx([3 * 0.2, 20 * 0.2]) and skips[0]["penalty"] == 0.5
     loc = bad["localization"]
     assert loc["estimates"] == loc["ticks"] - 2  # the skipped ticks carried no estimate
 
