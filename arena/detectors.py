@@ -37,6 +37,7 @@ class Detection:
     angle: float | None = None
     samples: tuple[int, ...] = ()
     source: int = -1
+    beam: tuple[float, float, float, float] | None = None  # laser (x, y) -> target (x, y), for replays
 
 
 def effective_params(params: Mapping[str, float], ideal: bool) -> dict[str, float]:

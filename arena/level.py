@@ -180,6 +180,7 @@ class Level:
     default_controller: str
     limits: ControllerLimits = ControllerLimits()
     rules: Rules = Rules()
+    text: str = ""  # the file's text, so a replay can carry its level whole
 
     @property
     def dt(self) -> float:

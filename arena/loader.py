@@ -358,6 +358,7 @@ def parse_level(data: bytes, source: str) -> Level:
         default_controller=top.req("default_controller", _text),
         limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
         rules=_rules(top.sub("rules", ("speed_limit", "min_impulse", "penalties"))) if top.has("rules") else Rules(),
+        text=text,
     )
 
 

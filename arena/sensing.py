@@ -162,9 +162,10 @@ class Sensing:
         angles = det.quantize_angle(c.phi, steps).tolist() if latched else [None] * len(c)
         labels = [self.ids[b] for b in c.beacon.tolist()] if self.kind != "reflector" else [None] * len(c)
         shared = self.crosstalk == "shared"
-        for r, t, beacon, angle in zip(robot.tolist(), times.tolist(), labels, angles):
+        beams = zip(c.x.tolist(), c.y.tolist(), self.bx[c.beacon].tolist(), self.by[c.beacon].tolist())
+        for r, t, beacon, angle, beam in zip(robot.tolist(), times.tolist(), labels, angles, beams):
             for rx in (range(self.n) if shared else (r,)):
-                out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r))
+                out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r, beam=beam))
         if self.kind == "reflector" and p["false_rate"] > 0:
             for r in range(self.n):
                 self._false_returns(traj, r, out[r])

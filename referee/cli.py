@@ -100,6 +100,13 @@ def cmd_grade(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_verify(args: argparse.Namespace) -> int:
+    from referee.verify import verify
+    ok, message = verify(Path(args.replay), args.team)
+    print(f"{args.replay}: {message}")
+    return 0 if ok else 1
+
+
 def cmd_new(args: argparse.Namespace) -> int:
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
@@ -144,6 +151,11 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
+
+    s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
+    s.add_argument("replay")
+    s.add_argument("--team", action="append", metavar="T", help="where a team's controller is here (in slot order)")
+    s.set_defaults(func=cmd_verify)
 
     s = sub.add_parser("new", help="write a starter controller package for a team")
     s.add_argument("name")

@@ -9,6 +9,7 @@ time limit, or as soon as every robot has finished its task or been stopped by a
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Protocol
 
@@ -89,13 +90,17 @@ class _TaskHook:
                 self.tracker.sample_path(slot, (x, y))
 
 
+def poses(world: World) -> list[tuple[float, float, float]]:
+    return [(p.x, p.y, p.heading) for p in map(world.pose, range(len(world.bodies)))]
+
+
 class _RecordHook:
     def __init__(self, writer: ReplayWriter, every: int):
         self.writer, self.every = writer, every
 
     def after_step(self, world: World) -> None:
         if world.tick % self.every == 0:
-            self.writer.frame(world)
+            self.writer.frame(world.time, poses(world))
 
 
 class Match:
@@ -127,7 +132,8 @@ class Match:
                                   self.rules]
         self.writer = None
         if replay is not None:
-            self.writer = ReplayWriter(replay, level, self.seed, [t.label for t in teams], __version__)
+            self.writer = ReplayWriter(replay, level, level.text, self.seed, ideal,
+                                       [(t.label, t.spec) for t in teams], __version__)
             self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
         self.end_reason = "time_limit"
 
@@ -148,6 +154,9 @@ class Match:
         time = self.world.time
         for slot, detections in enumerate(self.sensing.flush()):
             self.inbox[slot].extend(to_event(d) for d in detections)
+            if self.writer:
+                for d in detections:
+                    self.writer.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
         for slot, bot in enumerate(self.bots):
             truth = self.world.pose(slot)
             if self.stopped[slot]:
@@ -161,6 +170,11 @@ class Match:
                 continue
             self.world.command(slot, float(out.left), float(out.right))
             self.estimates[slot].add(truth, out.estimate)
+            if self.writer:
+                if out.estimate is not None:
+                    self.writer.record("est", t=time, r=slot, e=list(out.estimate))
+                if out.debug:
+                    self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in out.debug])
 
     def run(self) -> dict:
         """Run the match to its end and return the result (see docs/results.md)."""
@@ -179,7 +193,7 @@ class Match:
             if fault:
                 self._fault(slot, fault)
         if self.writer:
-            self.writer.frame(world)
+            self.writer.frame(world.time, poses(world))
         total_steps = round(level.time_limit * level.physics_rate)
         spc = level.steps_per_control
         while world.tick < total_steps:
@@ -195,6 +209,11 @@ class Match:
         self.rules.finish(world)
         result = self._result()
         if self.writer:
+            for slot in range(len(self.teams)):
+                for foul in self.rules.fouls[slot]:
+                    self.writer.record("foul", r=slot, **foul.to_dict())
+                for fault in self.faults[slot]:
+                    self.writer.record("fault", r=slot, **fault.to_dict())
             self.writer.close(result)
         return result
 

@@ -5,6 +5,7 @@ import json
 from arena.loader import load_level
 from referee.canonical import dumps
 from referee.match import run_match
+from referee.replay import load
 from referee.teams import resolve
 import levels
 from conftest import run_cli
@@ -25,11 +26,11 @@ def test_two_processes_give_identical_bytes(tmp_path):
     assert (dumps(result) + "\n").encode() == outs[0][0]
     assert replay.read_bytes() == outs[0][1]
     # the replay carries a frame per record period and ends with the same result
-    lines = outs[0][1].decode().splitlines()
-    header, frames, last = json.loads(lines[0]), lines[1:-1], json.loads(lines[-1])
-    assert header["seed"] == 7 and header["level"]["hash"] == level.hash
-    assert last["result"] == json.loads(outs[0][0])
-    assert len(frames) == round(last["result"]["end_time"] * level.record_rate) + 1
+    rep = load(replay)
+    assert rep.header["seed"] == 7 and rep.header["level"]["hash"] == level.hash
+    assert rep.result == json.loads(outs[0][0])
+    assert len(rep.frames) == round(rep.result["end_time"] * level.record_rate) + 1
+    assert rep.events and rep.estimates
 
 
 def test_seed_is_recorded_and_defaults_to_the_level_seed(tmp_path):

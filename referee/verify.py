@@ -1,0 +1,42 @@
+"""`laserarena verify REPLAY`: re-simulate a match from its replay's header, compare bit for bit."""
+
+from __future__ import annotations
+
+import gzip
+import tempfile
+from pathlib import Path
+
+from arena.loader import parse_level
+from referee.errors import UserError
+from referee.match import run_match
+from referee.replay import controller_hash, load
+from referee.teams import resolve
+
+
+def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, str]:
+    """(identical?, a one-line account). Teams come from the header unless overridden (a team's
+    file may live elsewhere on this machine); each must hash as the replay says."""
+    try:
+        rep = load(path)
+    except (OSError, ValueError) as e:
+        raise UserError(str(e)) from None
+    h = rep.header
+    level = parse_level(h["level"]["text"].encode(), f"{path}:level")
+    if level.hash != h["level"]["hash"]:
+        return False, "the embedded level does not match its hash"
+    specs = team_overrides or [t["spec"] for t in h["teams"]]
+    if len(specs) != len(h["teams"]):
+        raise UserError(f"{path} has {len(h['teams'])} teams; got {len(specs)} --team")
+    teams = []
+    for spec, recorded in zip(specs, h["teams"]):
+        if controller_hash(spec) != recorded["hash"]:
+            return False, f"controller {spec} differs from the one recorded ({recorded['label']})"
+        teams.append(resolve(spec))
+    with tempfile.TemporaryDirectory() as d:
+        again = Path(d) / "again.replay"
+        run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"])
+        a, b = gzip.open(path).read().splitlines(), gzip.open(again).read().splitlines()
+    if a == b:
+        return True, f"identical: {len(a)} records, {rep.duration:.1f} s, result and every frame reproduced"
+    first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
+    return False, f"differs from record {first} on ({len(a)} recorded, {len(b)} re-simulated)"
