@@ -23,6 +23,8 @@ $(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
 demo: $(VENV)/.installed
 	mkdir -p out
 	$(VENV)/bin/laserarena run asabe --json out/demo.json --replay out/demo.replay
+	$(VENV)/bin/laserarena render out/demo.replay --out out/demo.mp4 --fps 15
+	$(VENV)/bin/laserarena verify out/demo.replay
 
 test: $(VENV)/.installed
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider

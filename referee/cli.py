@@ -107,6 +107,19 @@ def cmd_verify(args: argparse.Namespace) -> int:
     return 0 if ok else 1
 
 
+def cmd_render(args: argparse.Namespace) -> int:
+    from referee.render import render
+    try:
+        w, h = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+        raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT, e.g. 960x640") from None
+    n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
+               end=args.to, quiet=args.quiet)
+    if not args.quiet:
+        print(f"wrote {n} frames to {args.out}")
+    return 0
+
+
 def cmd_new(args: argparse.Namespace) -> int:
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
@@ -151,6 +164,16 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
+
+    s = sub.add_parser("render", help="render a replay to PNG frames or an MP4, headless")
+    s.add_argument("replay")
+    s.add_argument("--out", required=True, help="a folder (PNG frames) or FILE.mp4")
+    s.add_argument("--fps", type=int, default=30)
+    s.add_argument("--size", default="960x640", help="WIDTHxHEIGHT in pixels")
+    s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")
+    s.add_argument("--to", type=float, default=None, metavar="T", help="end time (s)")
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_render)
 
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")

@@ -1,0 +1,133 @@
+"""Replays to pictures: scenes at any instant, PNG frames or an H.264 MP4, headless.
+
+`Scenes` turns a replay into `arena.draw.Scene`s (the viewer uses it too); `render` writes
+them at a frame rate over a time range, to a folder of PNGs or an MP4 (imageio-ffmpeg, which
+ships its own ffmpeg), with a progress bar.
+"""
+
+from __future__ import annotations
+
+import bisect
+import os
+import sys
+from pathlib import Path
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless unless a display is asked for
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import numpy as np  # noqa: E402
+import pygame  # noqa: E402
+
+from arena.draw import Painter, RobotView, Scene  # noqa: E402
+from arena.loader import parse_level  # noqa: E402
+from referee.errors import UserError  # noqa: E402
+from referee.replay import Replay, load  # noqa: E402
+
+TRAIL = 8.0  # s of trail behind each robot
+BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams
+
+
+class Scenes:
+    """Scenes of one replay at any time."""
+
+    def __init__(self, rep: Replay):
+        self.rep = rep
+        h = rep.header
+        self.level = parse_level(h["level"]["text"].encode(), h["level"]["name"])
+        self.rate = h["record_rate"]
+        self.times = np.array([t for t, _ in rep.frames])
+        self.poses = np.array([p for _, p in rep.frames])  # (frames, robots, 3)
+        self.duration = rep.duration
+        ev = sorted((e for e in rep.events if e.get("line")), key=lambda e: e["t"])
+        self.event_times = [e["t"] for e in ev]
+        self.events = ev
+        self.estimates = {}
+        self.debug = {}
+        for e in rep.estimates:
+            self.estimates.setdefault(e["r"], ([], []))
+            self.estimates[e["r"]][0].append(e["t"])
+            self.estimates[e["r"]][1].append(e["e"])
+        for d in rep.debug:
+            self.debug.setdefault(d["r"], ([], []))
+            self.debug[d["r"]][0].append(d["t"])
+            self.debug[d["r"]][1].append(d["d"])
+        self.stopped_at = {f["r"]: f["time"] for f in rep.faults if f["kind"] != "skipped_tick"}
+        self.foul_times = tuple(sorted(f["time"] for f in rep.fouls))
+        self.paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in self.level.robots)
+        if self.level.task.goal is not None:
+            g = self.level.task.goal
+            self.paths = tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in self.level.robots)
+        self.teams = [t["label"] for t in rep.header["teams"]]
+
+    def at(self, t: float) -> Scene:
+        i = int(min(max(round(t * self.rate), 0), len(self.times) - 1))
+        first = max(0, i - int(TRAIL * self.rate))
+        robots = []
+        for slot, r in enumerate(self.level.robots):
+            x, y, h = self.poses[i, slot]
+            trail = tuple(map(tuple, self.poses[first:i + 1:2, slot, :2].tolist()))
+            robots.append(RobotView(slot, float(x), float(y), float(h), r.model.length, r.model.width, trail,
+                                    _latest(self.estimates.get(slot), t), self.stopped_at.get(slot, 1e18) <= t))
+        lo = bisect.bisect_right(self.event_times, t - BEAM_WINDOW)
+        hi = bisect.bisect_right(self.event_times, t)
+        beams = tuple((e["s"] if e["s"] >= 0 else e["r"], *e["line"]) for e in self.events[lo:hi])
+        drawings = tuple((slot, d) for slot in self.debug for d in (_latest(self.debug[slot], t) or []))
+        fouls = sum(1 for f in self.foul_times if f <= t)
+        hud = (f"{self.level.name}  seed {self.rep.header['seed']}   t = {t:6.2f} s / {self.duration:.1f} s"
+               f"   fouls {fouls}",
+               self._standings(t))
+        return Scene(tuple(robots), beams, self.paths, drawings, hud, (t, self.foul_times, self.duration))
+
+    def _standings(self, t: float) -> str:
+        result = self.rep.result
+        if result and t >= self.duration - 1e-9:
+            return "   ".join(f"{r['slot']} {r['team']}: {r['score']['total']:.1f}" for r in result["robots"])
+        return "   ".join(f"{slot} {team}" for slot, team in enumerate(self.teams))
+
+
+def _latest(series: tuple[list, list] | None, t: float):
+    if not series:
+        return None
+    i = bisect.bisect_right(series[0], t) - 1
+    return series[1][i] if i >= 0 else None
+
+
+def render(replay: Path, out: Path, fps: int = 30, size: tuple[int, int] = (960, 640),
+           start: float = 0.0, end: float | None = None, quiet: bool = False) -> int:
+    """Write frames (a folder of PNGs, or an .mp4); return how many."""
+    try:
+        scenes = Scenes(load(replay))
+    except (OSError, ValueError) as e:
+        raise UserError(str(e)) from None
+    end = scenes.duration if end is None else min(end, scenes.duration)
+    if fps <= 0 or size[0] < 64 or size[1] < 64 or end < start:
+        raise UserError("render: need fps > 0, a size of at least 64x64 and --from <= --to")
+    times = [start + k / fps for k in range(int(round((end - start) * fps)) + 1)]
+    painter = Painter(scenes.level, size)
+    surface = pygame.Surface(size)
+    mp4 = out.suffix.lower() == ".mp4"
+    if mp4:
+        import imageio_ffmpeg
+        writer = imageio_ffmpeg.write_frames(str(out), size, fps=fps, codec="libx264", pix_fmt_in="rgb24",
+                                             macro_block_size=16, quality=None,
+                                             output_params=["-preset", "veryfast", "-crf", "26"])
+        writer.send(None)
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+    try:
+        for k, t in enumerate(times):
+            painter.draw(surface, scenes.at(t))
+            if mp4:
+                writer.send(pygame.image.tobytes(surface, "RGB"))
+            else:
+                pygame.image.save(surface, str(out / f"frame_{k:05d}.png"))
+            if not quiet and sys.stderr.isatty() and (k % 15 == 0 or k == len(times) - 1):
+                done = (k + 1) / len(times)
+                print(f"\r[{'#' * round(24 * done):<24}] {k + 1}/{len(times)} frames", end="", file=sys.stderr, flush=True)
+    finally:
+        if mp4:
+            writer.close()
+    if not quiet and sys.stderr.isatty():
+        print(file=sys.stderr)
+    return len(times)

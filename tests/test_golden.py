@@ -1,0 +1,52 @@
+"""The golden replay: a change detector, as the replay issue asks.
+
+It fails when a change alters simulation results (physics, sensing, noise, controllers,
+scoring) without a bump of the replay format version or of `referee.replay.BEHAVIOUR`. After a
+deliberate change, bump BEHAVIOUR and regenerate: `python tests/test_golden.py`.
+"""
+
+import gzip
+import hashlib
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import levels
+from arena.loader import parse_level
+from referee.match import run_match
+from referee.replay import BEHAVIOUR, VERSION
+from referee.teams import resolve
+
+GOLDEN = Path(__file__).parent / "golden" / "replay.json"
+
+
+def content_hash() -> str:
+    """sha256 of the decompressed replay of a 6 s four-robot race with sensing noise."""
+    text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 6")
+    level = parse_level(text.encode(), "levels/asabe-race.yaml")
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "golden.replay"
+        run_match(level, [resolve("ref:best"), resolve("ref:bac"), resolve("ref:dead-reckoning"),
+                          resolve("ref:starter")], seed=11, replay=path, isolate=False)
+        lines = gzip.open(path).read().splitlines()
+    header = json.loads(lines[0])
+    header.pop("software")  # the version string may change without the simulation changing
+    for team in header["teams"]:
+        team.pop("hash")  # source hashes change with comments; behaviour is what we guard
+    body = b"\n".join([json.dumps(header, sort_keys=True).encode()] + lines[1:])
+    return "sha256:" + hashlib.sha256(body).hexdigest()
+
+
+def test_golden_replay():
+    golden = json.loads(GOLDEN.read_text())
+    assert (golden["format"], golden["behaviour"]) == (VERSION, BEHAVIOUR), \
+        "the replay format or behaviour version changed: regenerate with `python tests/test_golden.py`"
+    assert content_hash() == golden["sha256"], (
+        "simulation results changed without a version bump: if that is intended, bump "
+        "referee.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`")
+
+
+if __name__ == "__main__":
+    GOLDEN.write_text(json.dumps({"format": VERSION, "behaviour": BEHAVIOUR, "sha256": content_hash()}, indent=2) + "\n")
+    print(f"wrote {GOLDEN}", file=sys.stderr)
