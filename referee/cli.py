@@ -120,6 +120,17 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_watch(args: argparse.Namespace) -> int:
+    from referee.watch import KEYS_HELP, watch
+    try:
+        w, h = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+        raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT") from None
+    print(KEYS_HELP)
+    watch(args.target, args.team, args.seed, (w, h), args.speed, args.frames)
+    return 0
+
+
 def cmd_new(args: argparse.Namespace) -> int:
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
@@ -174,6 +185,15 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--to", type=float, default=None, metavar="T", help="end time (s)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_render)
+
+    s = sub.add_parser("watch", help="watch a level live or play a replay in a window")
+    s.add_argument("target", help="a level (file or built-in name) or a replay file")
+    s.add_argument("--team", action="append", metavar="T", help="for a level: the controller of each slot")
+    s.add_argument("--seed", type=int)
+    s.add_argument("--speed", type=float, default=1.0, help="playback speed (x real time)")
+    s.add_argument("--size", default="960x700")
+    s.add_argument("--frames", type=int, help="close after this many frames (for scripts and tests)")
+    s.set_defaults(func=cmd_watch)
 
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")

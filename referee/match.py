@@ -108,7 +108,7 @@ class Match:
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
                  replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-                 limits: ControllerLimits | None = None, logs: Path | None = None):
+                 limits: ControllerLimits | None = None, logs: Path | None = None, recorder=None):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
@@ -130,10 +130,11 @@ class Match:
         self.rules = Rules(level)
         self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker, level.steps_per_record),
                                   self.rules]
-        self.writer = None
+        self.writer = recorder  # anything with ReplayWriter's frame / record / close
         if replay is not None:
             self.writer = ReplayWriter(replay, level, level.text, self.seed, ideal,
                                        [(t.label, t.spec) for t in teams], __version__)
+        if self.writer is not None:
             self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
         self.end_reason = "time_limit"
 

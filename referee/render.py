@@ -16,7 +16,6 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless unless a display i
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
 from arena.draw import Painter, RobotView, Scene  # noqa: E402
@@ -29,44 +28,53 @@ BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams
 
 
 class Scenes:
-    """Scenes of one replay at any time."""
+    """Scenes of one replay at any time; `update()` takes in records added since (live play)."""
 
     def __init__(self, rep: Replay):
         self.rep = rep
         h = rep.header
         self.level = parse_level(h["level"]["text"].encode(), h["level"]["name"])
         self.rate = h["record_rate"]
-        self.times = np.array([t for t, _ in rep.frames])
-        self.poses = np.array([p for _, p in rep.frames])  # (frames, robots, 3)
-        self.duration = rep.duration
-        ev = sorted((e for e in rep.events if e.get("line")), key=lambda e: e["t"])
-        self.event_times = [e["t"] for e in ev]
-        self.events = ev
-        self.estimates = {}
-        self.debug = {}
-        for e in rep.estimates:
-            self.estimates.setdefault(e["r"], ([], []))
-            self.estimates[e["r"]][0].append(e["t"])
-            self.estimates[e["r"]][1].append(e["e"])
-        for d in rep.debug:
-            self.debug.setdefault(d["r"], ([], []))
-            self.debug[d["r"]][0].append(d["t"])
-            self.debug[d["r"]][1].append(d["d"])
-        self.stopped_at = {f["r"]: f["time"] for f in rep.faults if f["kind"] != "skipped_tick"}
-        self.foul_times = tuple(sorted(f["time"] for f in rep.fouls))
         self.paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in self.level.robots)
         if self.level.task.goal is not None:
             g = self.level.task.goal
             self.paths = tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in self.level.robots)
         self.teams = [t["label"] for t in rep.header["teams"]]
+        self.event_times: list[float] = []
+        self.events: list[dict] = []
+        self.estimates: dict[int, tuple[list, list]] = {}
+        self.debug: dict[int, tuple[list, list]] = {}
+        self.seen = {"e": 0, "est": 0, "dbg": 0}
+        self.update()
+
+    @property
+    def duration(self) -> float:
+        return self.rep.duration
+
+    def update(self) -> None:
+        rep = self.rep
+        for e in rep.events[self.seen["e"]:]:
+            if e.get("line"):
+                i = bisect.bisect_right(self.event_times, e["t"])
+                self.event_times.insert(i, e["t"])
+                self.events.insert(i, e)
+        for name, source, target, key in (("est", rep.estimates, self.estimates, "e"), ("dbg", rep.debug, self.debug, "d")):
+            for rec in source[self.seen[name]:]:
+                times, values = target.setdefault(rec["r"], ([], []))
+                times.append(rec["t"])
+                values.append(rec[key])
+        self.seen = {"e": len(rep.events), "est": len(rep.estimates), "dbg": len(rep.debug)}
+        self.stopped_at = {f["r"]: f["time"] for f in rep.faults if f["kind"] != "skipped_tick"}
+        self.foul_times = tuple(sorted(f["time"] for f in rep.fouls))
 
     def at(self, t: float) -> Scene:
-        i = int(min(max(round(t * self.rate), 0), len(self.times) - 1))
+        frames = self.rep.frames
+        i = int(min(max(round(t * self.rate), 0), len(frames) - 1))
         first = max(0, i - int(TRAIL * self.rate))
         robots = []
         for slot, r in enumerate(self.level.robots):
-            x, y, h = self.poses[i, slot]
-            trail = tuple(map(tuple, self.poses[first:i + 1:2, slot, :2].tolist()))
+            x, y, h = frames[i][1][slot]
+            trail = tuple((f[1][slot][0], f[1][slot][1]) for f in frames[first:i + 1:2])
             robots.append(RobotView(slot, float(x), float(y), float(h), r.model.length, r.model.width, trail,
                                     _latest(self.estimates.get(slot), t), self.stopped_at.get(slot, 1e18) <= t))
         lo = bisect.bisect_right(self.event_times, t - BEAM_WINDOW)

@@ -76,6 +76,27 @@ class ReplayWriter:
         os.replace(self.partial, self.path)
 
 
+class MemoryRecorder:
+    """The ReplayWriter interface, recording into a `Replay` in memory (for live viewing)."""
+
+    def __init__(self, level: Level, level_text: str, seed: int, ideal: bool, teams: list[tuple[str, str]]):
+        self.replay = Replay({"format": FORMAT, "version": VERSION, "level": {"name": level.name, "hash": level.hash,
+                              "text": level_text}, "seed": seed, "ideal": ideal, "record_rate": level.record_rate,
+                              "control_period": level.control_period,
+                              "teams": [{"label": label, "spec": spec} for label, spec in teams]})
+
+    def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
+        self.replay.frames.append((time, [list(p) for p in poses]))
+
+    def record(self, record_kind: str, **fields) -> None:
+        lists = {"e": self.replay.events, "est": self.replay.estimates, "dbg": self.replay.debug,
+                 "foul": self.replay.fouls, "fault": self.replay.faults}
+        lists[record_kind].append({"k": record_kind, **fields})
+
+    def close(self, result: dict) -> None:
+        self.replay.result = result
+
+
 @dataclass
 class Replay:
     """A replay read back: the header, the frames, and the other records by kind."""

@@ -66,3 +66,9 @@ def test_mp4_decodes_to_the_right_frame_count(replay, tmp_path):
     assert frames == n
     pngs = render(replay, tmp_path / "png", fps=5, size=(320, 240), start=0, end=1, quiet=True)
     assert pngs == 6 and len(list((tmp_path / "png").glob("frame_*.png"))) == 6
+
+
+def test_watch_plays_a_replay_and_a_live_match_headless(replay):
+    from referee.watch import watch
+    assert watch(str(replay), max_frames=5, speed=8.0) == 5
+    assert watch("bac-line", max_frames=5, speed=8.0) == 5

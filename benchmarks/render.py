@@ -1,0 +1,62 @@
+"""Render and encode speed at 960x640: drawing frames, encoding them to H.264, and both.
+
+Run: python benchmarks/render.py
+Target (issue 7): encoding at least 100 frames per second here.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import imageio_ffmpeg  # noqa: E402
+import pygame  # noqa: E402
+
+import levels  # noqa: E402
+from arena.draw import Painter  # noqa: E402
+from arena.loader import parse_level  # noqa: E402
+from referee.match import run_match  # noqa: E402
+from referee.render import Scenes  # noqa: E402
+from referee.replay import load  # noqa: E402
+from referee.teams import resolve  # noqa: E402
+
+SIZE = (960, 640)
+
+
+def main() -> None:
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "race.replay"
+        text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 20")
+        run_match(parse_level(text.encode(), "race20.yaml"), [resolve("ref:dead-reckoning")] * 4,
+                  replay=path, isolate=False)
+        scenes = Scenes(load(path))
+        painter, surface = Painter(scenes.level, SIZE), pygame.Surface(SIZE)
+        times = [k / 30 for k in range(600)]
+        start = time.perf_counter()
+        frames = []
+        for t in times:
+            painter.draw(surface, scenes.at(t))
+            frames.append(pygame.image.tobytes(surface, "RGB"))
+        draw_fps = len(times) / (time.perf_counter() - start)
+        writer = imageio_ffmpeg.write_frames(str(Path(d) / "b.mp4"), SIZE, fps=30, codec="libx264",
+                                             pix_fmt_in="rgb24", macro_block_size=16, quality=None,
+                                             output_params=["-preset", "veryfast", "-crf", "26"])
+        writer.send(None)
+        start = time.perf_counter()
+        for f in frames:
+            writer.send(f)
+        writer.close()
+        encode_fps = len(frames) / (time.perf_counter() - start)
+    print(f"render at {SIZE[0]}x{SIZE[1]}, {len(times)} frames of a four-robot race")
+    print(f"  draw                 {draw_fps:8.0f} frames/s")
+    print(f"  encode (H.264)       {encode_fps:8.0f} frames/s   (target >= 100)")
+    print(f"  both, one after other{1 / (1 / draw_fps + 1 / encode_fps):8.0f} frames/s")
+
+
+if __name__ == "__main__":
+    main()
