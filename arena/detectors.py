@@ -48,6 +48,24 @@ def effective_params(params: Mapping[str, float], ideal: bool) -> dict[str, floa
     return out
 
 
+def angle_noise(kind: str, p: Mapping[str, float], omega: float) -> float:
+    """The std (rad) of one bearing measured by this hardware, from its parameters: timing
+    jitter and the counter clock times the beam's rate, and angle quantization (a uniform
+    step of q has std q / sqrt 12). Light turrets sample every 2 pi / N."""
+    var = (abs(omega) * p.get("timing_noise", 0.0)) ** 2
+    steps = [p.get("quantization", 0)]
+    if kind == "flash_detector":
+        steps.append(p.get("counts_per_turn", 0))
+    if kind == "light":
+        steps.append(p.get("samples_per_turn", 0))
+    for n in steps:
+        if n:
+            var += (TWO_PI / n) ** 2 / 12
+    if p.get("clock_hz", 0.0):
+        var += (abs(omega) / p["clock_hz"]) ** 2 / 12
+    return math.sqrt(var)
+
+
 def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
     """Angle between each beacon's facing direction and the direction back to the laser (rad)."""
     back = c.bearing + np.pi - facing[c.beacon]

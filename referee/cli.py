@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+import numpy as np
 import time
 from pathlib import Path
 
@@ -131,6 +133,21 @@ def cmd_watch(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_map(args: argparse.Namespace) -> int:
+    from referee import accuracy_map as am
+    maps = [am.compute(find_level(args.level), cells=args.cells)]
+    if args.compare:
+        maps.append(am.compute(find_level(args.compare), cells=args.cells))
+    am.draw(maps, Path(args.out))
+    for m in maps:
+        finite = m.error[m.error == m.error]
+        print(f"{m.level.name}: bearing noise {1000 * m.sigma:.3f} mrad; position error bound "
+              f"median {1000 * float(np.median(finite)):.2f} mm, best {1000 * float(finite.min()):.2f} mm; "
+              f"{100 * float((m.seen < 3).mean()):.0f} % of the field sees fewer than 3 beacons")
+    print(f"wrote {args.out}")
+    return 0
+
+
 def cmd_new(args: argparse.Namespace) -> int:
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
@@ -194,6 +211,13 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--size", default="960x700")
     s.add_argument("--frames", type=int, help="close after this many frames (for scripts and tests)")
     s.set_defaults(func=cmd_watch)
+
+    s = sub.add_parser("map", help="draw where a beacon layout localizes well (Cramer-Rao bound)")
+    s.add_argument("level")
+    s.add_argument("--out", default="map.png")
+    s.add_argument("--compare", metavar="LEVEL", help="a second layout, drawn beside on the same scale")
+    s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
+    s.set_defaults(func=cmd_map)
 
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")
