@@ -10,7 +10,7 @@ SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' 
 export SDL_VIDEODRIVER ?= dummy
 export SDL_AUDIODRIVER ?= dummy
 
-.PHONY: demo test clean
+.PHONY: demo test bench clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -28,6 +28,9 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
+
+bench: $(VENV)/.installed
+	$(VENV)/bin/python benchmarks/all.py --json out/bench.json
 
 clean:
 	rm -rf $(VENV) out build *.egg-info

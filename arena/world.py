@@ -27,7 +27,7 @@ TYPE_OF_CATEGORY = {CAT_WALL: 2, CAT_OBSTACLE: 3, CAT_BEACON: 4, CAT_ROBOT: 1}
 class Contact:
     """A robot touching something, from first touch to separation: when it began, what it
     touched ("robot" and the other slot, "wall", "obstacle", "beacon"), where, and the
-    largest collision impulse (N s) of any step while touching."""
+    collision impulse at first touch (N s)."""
 
     tick: int
     robot: int
@@ -85,20 +85,21 @@ class World:
         self.contacts: list[Contact] = []  # finished contacts, in order of their end
         self._touching: dict[tuple[int, int], list] = {}
         for other_type in KIND_OF_TYPE:
-            self.space.on_collision(1, other_type, begin=self._begin, post_solve=self._post_solve,
-                                    separate=self._separate)
+            self.space.on_collision(1, other_type, begin=self._begin, separate=self._separate)
 
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
+        """First touch: the collision impulse is what it takes to stop the approach along the
+        contact normal, reduced mass x closing speed x (1 + restitution). Measured once here,
+        so no Python callback runs on every step of a long contact."""
         a, b = arbiter.shapes
-        p = arbiter.contact_point_set.points
-        point = tuple(p[0].point_a) if p else tuple(a.body.position)
-        self._touching[(id(a), id(b))] = [self.tick + 1, a, b, point, 0.0]
-
-    def _post_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
-        a, b = arbiter.shapes
-        entry = self._touching.get((id(a), id(b)))
-        if entry is not None:
-            entry[4] = max(entry[4], arbiter.total_impulse.length)
+        cps = arbiter.contact_point_set
+        point = tuple(cps.points[0].point_a) if cps.points else tuple(a.body.position)
+        ma = a.body.mass
+        mb = b.body.mass if b.body.body_type == pymunk.Body.DYNAMIC else math.inf
+        reduced = ma if mb == math.inf else ma * mb / (ma + mb)
+        closing = (a.body.velocity - b.body.velocity).dot(cps.normal)
+        impulse = reduced * abs(closing) * (1 + arbiter.restitution)
+        self._touching[(id(a), id(b))] = [self.tick + 1, a, b, point, impulse]
 
     def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         a, b = arbiter.shapes

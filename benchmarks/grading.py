@@ -35,20 +35,24 @@ def run(matches: int, workers: int) -> tuple[float, float]:
         return time.perf_counter() - w0, cpu() - c0
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--matches", type=int, default=6)
-    args = ap.parse_args()
-    n = args.matches
+def measure(n: int = 6) -> dict:
+    """CPU per 180 s match, and matches per hour on one worker and on every core."""
     wall1, cpu1 = run(n, 1)
     workers = os.cpu_count() or 1
     wall_k, _ = run(n, workers)
-    per_match_cpu = cpu1 / n
-    print(f"grading asabe (180 s matches, ref:bac, isolated), {n} matches")
-    print(f"  CPU per match            {per_match_cpu:8.2f} s   ({180 / per_match_cpu:.0f}x real time; target < 2 s)")
-    print(f"  1 worker                 {3600 * n / wall1:8.0f} matches/hour")
-    print(f"  {workers} workers                {3600 * n / wall_k:8.0f} matches/hour   "
-          f"(speed-up {wall1 / wall_k:.2f}x on {workers} cores)")
+    return {"matches": n, "cpu_per_match_s": cpu1 / n, "per_hour_1": 3600 * n / wall1,
+            "workers": workers, "per_hour_all": 3600 * n / wall_k, "speedup": wall1 / wall_k}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--matches", type=int, default=6)
+    m = measure(ap.parse_args().matches)
+    print(f"grading asabe (180 s matches, ref:bac, isolated), {m['matches']} matches")
+    print(f"  CPU per match            {m['cpu_per_match_s']:8.2f} s   ({180 / m['cpu_per_match_s']:.0f}x real time; target < 2 s)")
+    print(f"  1 worker                 {m['per_hour_1']:8.0f} matches/hour")
+    print(f"  {m['workers']} workers                {m['per_hour_all']:8.0f} matches/hour   "
+          f"(speed-up {m['speedup']:.2f}x on {m['workers']} cores)")
 
 
 if __name__ == "__main__":

@@ -21,10 +21,10 @@ from pathlib import Path
 from typing import IO
 
 from arena.level import Level
-from referee.canonical import dumps
+from referee.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
-BEHAVIOUR = 1  # bump when a change alters simulation results (the golden-replay test says so)
+BEHAVIOUR = 2  # bump when a change alters simulation results (the golden-replay test says so)
 
 
 def controller_hash(spec: str) -> str:
@@ -62,11 +62,24 @@ class ReplayWriter:
     def _write(self, obj: dict) -> None:
         self.file.write(dumps(obj, indent=None) + "\n")
 
+    def _fast(self, obj: dict) -> None:
+        """The hot records (frames, events, estimates): floats already rounded, flat values."""
+        self.file.write(json.dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
+
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
-        self._write({"k": "f", "t": time, "p": [list(p) for p in poses]})
+        self._fast({"k": "f", "t": round(time, DECIMALS), "p": [[round(v, DECIMALS) for v in p] for p in poses]})
 
     def record(self, record_kind: str, **fields) -> None:
-        self._write({"k": record_kind, **fields})
+        if record_kind in ("e", "est"):
+            line, est = fields.get("line"), fields.get("e")
+            fields["t"] = round(fields["t"], DECIMALS)
+            if line is not None:
+                fields["line"] = [round(v, DECIMALS) for v in line]
+            if est is not None:
+                fields["e"] = [round(v, DECIMALS) for v in est]
+            self._fast({"k": record_kind, **fields})
+        else:
+            self._write({"k": record_kind, **fields})
 
     def close(self, result: dict) -> None:
         self._write({"k": "result", "result": result})
