@@ -19,13 +19,10 @@ import math
 from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.angles import BeaconRevolutions, Revolution
 from robots.toolkit.solvers import bac, total
+from robots.toolkit.steering import next_waypoint, wrap
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
 CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
-
-
-def wrap(a: float) -> float:
-    return math.remainder(a, 2 * math.pi)
 
 
 class Bac(Controller):
@@ -116,9 +113,7 @@ class Bac(Controller):
             return 0.0, 0.0  # one period at rest: the wheels ramp down, the turn is complete
         if self.position is None:
             return 0.0, 0.0
-        radius = self.brief.task.radius
-        while self.target < len(self.path) and math.dist(self.position, self.path[self.target]) < radius:
-            self.target += 1
+        self.target = next_waypoint(self.path, self.target, *self.position, self.brief.task.radius)
         if self.target >= len(self.path):
             return 0.0, 0.0
         if self.heading is None:

@@ -17,14 +17,11 @@ from robots.toolkit.associate import by_sectors
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels
 from robots.toolkit.solvers import circles, least_squares
+from robots.toolkit.steering import next_waypoint, wrap
 from robots.toolkit.angles import IndexRevolutions
 
 BEARING_VAR = 2e-3 ** 2  # rad^2 per event
 GATE = 4.0  # standard deviations
-
-
-def wrap(a: float) -> float:
-    return math.remainder(a, 2 * math.pi)
 
 
 class Best(Controller):
@@ -114,9 +111,7 @@ class Best(Controller):
         if pose is None:
             return 0.0, 0.0
         x, y, h = pose
-        radius = self.brief.task.radius
-        while self.target < len(self.path) and math.dist((x, y), self.path[self.target]) < radius / 2:
-            self.target += 1
+        self.target = next_waypoint(self.path, self.target, x, y, self.brief.task.radius / 2)
         if self.target >= len(self.path):
             return 0.0, 0.0
         tx, ty = self.path[self.target]

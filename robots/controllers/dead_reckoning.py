@@ -11,15 +11,11 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation
+from robots.toolkit.steering import next_waypoint, wrap
 
 SUBSTEPS = 20  # integration steps per control period
 SPIN_ABOVE = 0.3  # rad: heading errors above this turn on the spot
 CRUISE = 0.8  # fraction of the top wheel speed used on straights
-
-
-def wrap(angle: float) -> float:
-    """Angle wrapped to (-pi, pi]."""
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 class DeadReckoning(Controller):
@@ -41,9 +37,7 @@ class DeadReckoning(Controller):
 
     def _steer(self) -> tuple[float, float]:
         x, y, h = self.pose
-        radius = self.brief.task.radius
-        while self.target < len(self.path) and math.dist((x, y), self.path[self.target]) < radius / 2:
-            self.target += 1
+        self.target = next_waypoint(self.path, self.target, x, y, self.brief.task.radius / 2)
         if self.target >= len(self.path):
             return 0.0, 0.0
         tx, ty = self.path[self.target]

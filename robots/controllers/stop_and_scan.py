@@ -11,15 +11,12 @@ import math
 from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.angles import IndexRevolutions, Revolution, plausible
 from robots.toolkit.motion import Wheels
+from robots.toolkit.steering import wrap
 
 LEG = 0.6  # m driven between scans at most
 SETTLE = 0.3  # s standing still before a scan counts
 MAX_JUMP = 0.3  # m between a fix and the dead-reckoned pose
 MAX_FAILED_SCANS = 3  # then drive on by dead reckoning
-
-
-def wrap(a: float) -> float:
-    return math.remainder(a, 2 * math.pi)
 
 
 class StopAndScan(Controller):

@@ -15,11 +15,9 @@ import math
 
 import numpy as np
 
+from robots.toolkit.steering import wrap
+
 TWO_PI = 2 * math.pi
-
-
-def wrap(a: float) -> float:
-    return math.remainder(a, TWO_PI)
 
 
 class BearingEKF:
