@@ -148,12 +148,17 @@ def load(path: str | Path) -> Replay:
         raise ValueError(f"{path}: replay format version {header.get('version')}, this is {VERSION}")
     rep = Replay(header)
     lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
-    for rec in it:
-        k = rec.get("k")
-        if k == "f":
-            rep.frames.append((rec["t"], rec["p"]))
-        elif k == "result":
-            rep.result = rec["result"]
-        elif k in lists:
-            lists[k].append(rec)
+    try:
+        for rec in it:
+            k = rec.get("k")
+            if k == "f":
+                rep.frames.append((rec["t"], rec["p"]))
+            elif k == "result":
+                rep.result = rec["result"]
+            elif k in lists:
+                lists[k].append(rec)
+    except (OSError, EOFError, json.JSONDecodeError) as e:
+        raise ValueError(f"{path}: a truncated or damaged replay ({e})") from None
+    if not rep.frames:
+        raise ValueError(f"{path}: a replay without frames")
     return rep

@@ -72,3 +72,17 @@ def test_watch_plays_a_replay_and_a_live_match_headless(replay):
     from referee.watch import watch
     assert watch(str(replay), max_frames=5, speed=8.0) == 5
     assert watch("bac-line", max_frames=5, speed=8.0) == 5
+
+
+def test_bad_replays_and_arguments_are_one_line_errors(replay, tmp_path):
+    from conftest import run_cli
+    cut = tmp_path / "cut.replay"
+    cut.write_bytes(replay.read_bytes()[: len(replay.read_bytes()) // 2])
+    (tmp_path / "text.replay").write_text("not a replay")
+    for args in (["verify", str(tmp_path / "text.replay")], ["render", str(cut), "--out", str(tmp_path / "o.mp4")],
+                 ["render", str(replay), "--out", str(tmp_path / "o.mp4"), "--size", "12x"],
+                 ["render", str(tmp_path / "missing.replay"), "--out", str(tmp_path / "o.mp4")]):
+        proc = run_cli(*args)
+        assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
+        assert "Traceback" not in proc.stderr
+    assert "truncated" in run_cli("render", str(cut), "--out", str(tmp_path / "o.mp4")).stderr
