@@ -13,7 +13,6 @@ import csv
 import io
 import json
 import math
-import os
 import sqlite3
 import sys
 import time
@@ -221,6 +220,3 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
     out.with_suffix(".md").write_text(text)
     return text
 
-
-def default_workers() -> int:
-    return max(1, (os.cpu_count() or 1))

@@ -3,7 +3,10 @@
 Imports nothing from `arena` or `referee`: this package is what runs inside a team's process.
 """
 
-from robots.api import (  # noqa: F401  (the public API, importable as `from robots import ...`)
+from robots.api import (
     API_VERSION, BeaconInfo, Brief, Command, Controller, Drawing, LaserInfo, Observation,
     RobotInfo, SensorEvent, TaskInfo,
 )
+
+__all__ = ["API_VERSION", "BeaconInfo", "Brief", "Command", "Controller", "Drawing", "LaserInfo",
+           "Observation", "RobotInfo", "SensorEvent", "TaskInfo"]  # the public API: `from robots import ...`

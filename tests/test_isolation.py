@@ -1,7 +1,6 @@
 """Controllers in their own processes: same results as in-process; hostile code is contained."""
 
 import dataclasses
-import os
 import textwrap
 import time
 

@@ -1,6 +1,5 @@
 """The match loop: faults stop one robot and not the match; estimates are scored against truth."""
 
-import math
 import textwrap
 
 import pytest

@@ -8,7 +8,6 @@ task) or drives its path by the same stop-and-go as Vannoy's and Ubersetzig's ro
 
 from __future__ import annotations
 
-import math
 
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
