@@ -55,6 +55,24 @@ def _fault(out, kind: str, where: str, e: BaseException) -> None:
                          "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")})
 
 
+def _built(cls, brief):
+    controller = cls()
+    controller.setup(brief)
+    return controller
+
+
+def _guarded(out, where: str, call) -> tuple[bool, object]:
+    """Run the team's code: (True, its value), or report a fault (memory or exception) and
+    return (False, None). A team's SystemExit counts too: it ends the controller."""
+    try:
+        return True, call()
+    except MemoryError as e:
+        _fault(out, "memory", where, e)
+    except BaseException as e:
+        _fault(out, "exception", where, e)
+    return False, None
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="robots.runner")
     ap.add_argument("spec")
@@ -79,35 +97,20 @@ def main(argv: list[str] | None = None) -> int:
         if msg is None or msg["type"] == "stop":
             return 0
         if msg["type"] == "setup":
-            try:
-                controller = cls()
-                controller.setup(protocol.brief_from(msg["brief"]))
-            except MemoryError as e:
-                _fault(out, "memory", "setup", e)
-                return 1
-            except Exception as e:
-                _fault(out, "exception", "setup", e)
+            brief = protocol.brief_from(msg["brief"])
+            ok, controller = _guarded(out, "setup", lambda: _built(cls, brief))
+            if not ok:
                 return 1
             protocol.write(out, {"type": "ready"})
         elif msg["type"] == "step" and controller is not None:
             obs = protocol.observation_from(msg["obs"])
-            try:
-                cmd = controller.step(obs)
-                if not isinstance(cmd, Command):  # the same words as a referee-side check
-                    protocol.write(out, {"type": "fault", "kind": "bad_command",
-                                         "message": protocol.command_problem(cmd)})
-                    return 1
-                plain = protocol.to_plain(cmd)
-            except MemoryError as e:
-                _fault(out, "memory", "step", e)
+            ok, cmd = _guarded(out, "step", lambda: controller.step(obs))
+            if not ok:
                 return 1
-            except Exception as e:
-                _fault(out, "exception", "step", e)
+            if not isinstance(cmd, Command):  # the same words as a referee-side check
+                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": protocol.command_problem(cmd)})
                 return 1
-            except BaseException as e:  # a team's SystemExit or similar: it ends the controller
-                _fault(out, "exception", "step", e)
-                return 1
-            protocol.write(out, {"type": "command", "tick": obs.tick, "command": plain})
+            protocol.write(out, {"type": "command", "tick": obs.tick, "command": protocol.to_plain(cmd)})
         else:
             raise protocol.ProtocolError(f"unexpected message {msg['type']!r}")
 

@@ -77,14 +77,7 @@ class BearingEKF:
 
     def hit(self, bx: float, by: float, var: float, gate: float = 3.0) -> bool:
         """The beam points at beacon (bx, by) now. Returns whether the update was accepted."""
-        x, y, h, phase, _ = self.s
-        dx, dy = bx - x, by - y
-        d2 = dx * dx + dy * dy
-        if d2 < 1e-8:
-            return False
-        innovation = wrap(math.atan2(dy, dx) - h - phase)
-        H = np.array([-dy / d2, dx / d2, 1.0, 1.0, 0.0])  # d(h + phase - bearing)/d(state)
-        return self._update(innovation, H, var, gate)
+        return self._pointing(bx, by, self.s[3], 1.0, var, gate)
 
     def index(self, var: float, gate: float = 3.0) -> bool:
         """The laser points straight ahead now: phase = 0 (mod 2 pi)."""
@@ -93,13 +86,18 @@ class BearingEKF:
 
     def relative(self, bx: float, by: float, angle: float, var: float, gate: float = 3.0) -> bool:
         """The laser, at `angle` from straight ahead (an encoder reading), points at (bx, by)."""
-        x, y, h, _, _ = self.s
+        return self._pointing(bx, by, angle, 0.0, var, gate)
+
+    def _pointing(self, bx: float, by: float, offset: float, d_phase: float, var: float, gate: float) -> bool:
+        """heading + offset = bearing to (bx, by), where the offset is the laser phase state
+        (d_phase 1) or a measured angle (d_phase 0)."""
+        x, y, h = self.s[0], self.s[1], self.s[2]
         dx, dy = bx - x, by - y
         d2 = dx * dx + dy * dy
         if d2 < 1e-8:
             return False
-        innovation = wrap(math.atan2(dy, dx) - h - angle)
-        H = np.array([-dy / d2, dx / d2, 1.0, 0.0, 0.0])
+        innovation = wrap(math.atan2(dy, dx) - h - offset)
+        H = np.array([-dy / d2, dx / d2, 1.0, d_phase, 0.0])  # d(h + offset - bearing)/d(state)
         return self._update(innovation, H, var, gate)
 
     def predicted_bearing(self, bx: float, by: float) -> float:
