@@ -115,8 +115,9 @@ class Match:
         self.teams = teams
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
-        self.world = World(level)
-        self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
+        tree = RandomTree(self.seed)
+        self.world = World(level, None if ideal else tree)
+        self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
@@ -250,9 +251,9 @@ class Match:
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
               limits: ControllerLimits | None = None, logs: Path | None = None) -> dict:
-    """Run one match and return its result. `ideal` turns every sensor noise and failure off;
-    `isolate=False` runs the controllers inside this process instead of their own; `limits`
-    replaces the level's controller limits (NO_LIMITS for debugging); `logs` is a folder
-    for each controller's output (`slotN.log`), tracebacks included."""
+    """Run one match and return its result. `ideal` turns every sensor noise and failure and
+    every drive error off; `isolate=False` runs the controllers inside this process instead of
+    their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
+    `logs` is a folder for each controller's output (`slotN.log`), tracebacks included."""
     return Match(level, teams, seed, replay, ideal, isolate, limits, logs).run()
 
