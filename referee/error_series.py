@@ -46,6 +46,12 @@ class ErrorTrack:
     heading: list[float] = field(default_factory=list)
     done: int = 0  # estimate records taken in
     frame_times: list[float] = field(default_factory=list)
+    squares: list[float] = field(default_factory=list)  # running sum of squared position errors
+
+    def rms_until(self, t: float) -> float | None:
+        """RMS position error (m) of the estimates reported up to time `t`, None if none."""
+        n = self.until(t)
+        return math.sqrt(self.squares[n - 1] / n) if n else None
 
     def extend(self, rep: Replay) -> None:
         """Take in the robot's estimate records whose truth is already recorded."""
@@ -59,6 +65,7 @@ class ErrorTrack:
                 self.times.append(rec["t"])
                 self.position.append(d)
                 self.heading.append(h)
+                self.squares.append((self.squares[-1] if self.squares else 0.0) + d * d)
             self.done += 1
 
     def until(self, t: float) -> int:
