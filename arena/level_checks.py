@@ -203,6 +203,7 @@ def _module_exists(name: str) -> bool:
     return spec is not None
 
 
-def level_problem(level: Level) -> Problem | None:
-    """The first problem of a loaded level that the schema alone does not catch."""
-    return beacon_count_problem(level) or start_problem(level)
+def level_problem(level: Level, contest: bool = True) -> Problem | None:
+    """The first problem of a loaded level that the schema alone does not catch; `contest`
+    adds the checks that concern a contest rather than the physics (enough beacons)."""
+    return (beacon_count_problem(level) if contest else None) or start_problem(level)

@@ -276,8 +276,10 @@ def load_level(path: str | Path, display: str | None = None) -> Level:
 
 def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     """Parse and validate level YAML bytes; `source` names the file in errors. With `base`, the
-    level file's folder, the default controller must also exist (a file found relative to it);
-    a replay's level text is parsed without it, as its controller may live elsewhere."""
+    level file's folder, the checks that concern a contest rather than the physics run too:
+    the default controller must exist (a file found relative to `base`) and there must be
+    enough beacons for a fix. A replay's level text is parsed without `base` (its controller
+    may live elsewhere), as are test fixtures that simulate, say, two lights."""
     ctx = _Ctx(source)
     problem = level_checks.text_problem(data)
     if problem:
@@ -372,7 +374,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         rules=_rules(top.sub("rules", ("speed_limit", "min_impulse", "penalties"))) if top.has("rules") else Rules(),
         text=text,
     )
-    problem = level_checks.level_problem(level)
+    problem = level_checks.level_problem(level, contest=base is not None)
     if problem:
         raise ctx.fail(problem.line or _line_of(located, problem.key), problem.key, problem.message)
     return level
