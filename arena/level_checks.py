@@ -40,22 +40,45 @@ class Problem:
 
 def text_problem(data: bytes) -> Problem | None:
     """Size and nesting limits, checked on the YAML event stream (PyYAML's parser is iterative,
-    so this cannot exhaust the stack the way composing a 10 000-deep list would)."""
+    so this cannot exhaust the stack the way composing a 10 000-deep list would). Aliases count
+    as the values they repeat, so a few lines of nested aliases ("billion laughs") cannot
+    expand into millions of values or levels."""
     if len(data) > MAX_BYTES:
         return Problem("(file)", f"{len(data)} bytes; a level file may have at most {MAX_BYTES}")
-    depth = nodes = 0
+    stack: list[list] = []  # per open mapping or list: [anchor, values in it so far, height]
+    anchored: dict[str, tuple[int, int]] = {}  # anchor -> (values, height) of what it names
+    finished = 0  # values of the document's finished top nodes
+    deep = f"nested more than {MAX_DEPTH} levels deep"
     try:
         for event in yaml.parse(data.decode("utf-8", errors="replace"), Loader=yaml.SafeLoader):
+            line = event.start_mark.line + 1
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-                depth += 1
-                if depth > MAX_DEPTH:
-                    return Problem("(yaml)", f"nested more than {MAX_DEPTH} levels deep", event.start_mark.line + 1)
-            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-                depth -= 1
-            if isinstance(event, yaml.NodeEvent):
-                nodes += 1
-                if nodes > MAX_NODES:
-                    return Problem("(yaml)", f"more than {MAX_NODES} values", event.start_mark.line + 1)
+                if len(stack) >= MAX_DEPTH:
+                    return Problem("(yaml)", deep, line)
+                stack.append([event.anchor, 1, 1])
+                continue
+            if isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                anchor, values, height = stack.pop()
+                item = (values, height)
+            elif isinstance(event, yaml.AliasEvent):
+                if any(entry[0] == event.anchor for entry in stack):
+                    return Problem("(yaml)", f"the alias *{event.anchor} repeats a value that contains it", line)
+                anchor, item = None, anchored.get(event.anchor, (1, 0))
+                if len(stack) + item[1] > MAX_DEPTH:
+                    return Problem("(yaml)", deep, line)
+            elif isinstance(event, yaml.ScalarEvent):
+                anchor, item = event.anchor, (1, 0)
+            else:
+                continue
+            if anchor:
+                anchored[anchor] = item
+            if stack:
+                stack[-1][1] += item[0]
+                stack[-1][2] = max(stack[-1][2], item[1] + 1)
+            else:
+                finished += item[0]
+            if finished + sum(entry[1] for entry in stack) > MAX_NODES:
+                return Problem("(yaml)", f"more than {MAX_NODES} values (an alias counts as all it repeats)", line)
     except yaml.YAMLError:
         return None  # malformed YAML: the loader's composer reports it with its line
     return None

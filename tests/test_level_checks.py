@@ -178,6 +178,24 @@ def test_deep_nesting_is_one_line_not_a_recursion_error(tmp_path):
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
 
 
+def test_alias_bombs_count_what_they_repeat(tmp_path):
+    """A few lines of nested aliases would expand to 9^7 values, or nest 20 deep: one line each."""
+    lines = ['a: &a ["x", "x", "x", "x", "x", "x", "x", "x", "x"]']
+    for prev, name in zip("abcdef", "bcdefg"):
+        lines.append(f"{name}: &{name} [{', '.join([f'*{prev}'] * 9)}]")
+    path = tmp_path / "laughs.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    err = error(path)
+    assert err.key == "(yaml)" and "more than" in err.message and err.line <= len(lines)
+    deep = ["a: &a [[[[[1]]]]]"] + [f"{n}: &{n} [[[[[*{p}]]]]]" for p, n in zip("abc", "bcd")]
+    path.write_text("\n".join(deep) + "\n")
+    err = error(path)
+    assert err.key == "(yaml)" and "nested more than" in err.message and err.line == 4
+    path.write_text("name: mini\nloop: &a [1, *a]\n")  # a value that contains itself
+    err = error(path)
+    assert (err.key, err.line) == ("(yaml)", 2) and "contains it" in err.message
+
+
 def test_oversized_file_is_refused(tmp_path):
     path = tmp_path / "big.yaml"
     path.write_text(MINI_LEVEL + ("# padding padding padding\n" * 50000))
