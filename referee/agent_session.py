@@ -186,7 +186,9 @@ class AgentSession:
         return float(reward)
 
     def close(self) -> None:
-        """End the current match (its replay is written only if it reached its end)."""
+        """End the current match; an episode left before its end still gets its replay, ending there."""
         if self.match is not None:
+            if self.result is None and self.match.writer is not None:
+                self.result = self.match.end()
             self.match.close()
             self.match = None

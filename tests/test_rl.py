@@ -121,3 +121,22 @@ def test_random_policy_example_runs():
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "mean return" in proc.stdout
+
+
+def test_env_replays_load_and_plot(tmp_path):
+    """An episode's replay, even one left before its end, is a whole replay: it loads and plots."""
+    from referee.gym import LaserArenaEnv
+    from referee.plot import error_figure
+    from referee.replay import load
+    path = tmp_path / "episode.replay"
+    env = LaserArenaEnv(level="bac-line", replay=path, report_estimate=True)
+    env.reset(seed=3)
+    for _ in range(10):
+        env.step(np.array([0.5, 0.5, 0.0, 0.0, 0.0]))
+    env.reset(seed=4)  # leaves the first episode after 2 s
+    rep = load(path)
+    assert rep.duration == pytest.approx(2.0) and rep.result["seed"] == 3
+    fig = error_figure(path)
+    assert len(fig.robots[0].times) == 10  # one estimate per step
+    env.close()
+    assert load(path).result["seed"] == 4 and not list(tmp_path.glob(".laserarena-*"))
