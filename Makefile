@@ -17,7 +17,7 @@ $(VENV)/bin/python:
 
 $(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet '.[test,dask]'
+	$(PY) -m pip install --quiet '.[test,dask,rl]'
 	touch $@
 
 demo: $(VENV)/.installed
