@@ -170,21 +170,16 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
-def mix64(z: np.ndarray) -> np.ndarray:
-    """SplitMix64's finaliser: a counter-based hash, so a draw keyed by (robot, turn) is the
-    same whichever control period the turn's pulses fall in."""
-    z = z.astype(np.uint64)
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
-
-
-def unit_draws(key: int, robot: np.ndarray, turn: np.ndarray, salt: int) -> np.ndarray:
-    """Uniform draws in [0, 1), one per (key, robot, turn, salt), vectorised."""
+def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """64 random bits per (match key, robot, revolution), vectorised: SplitMix64's finaliser,
+    a counter-based hash, so a revolution's draw does not depend on which control period its
+    pulses fall in."""
     with np.errstate(over="ignore"):
         z = (np.uint64(key) + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03) + np.uint64(salt))
-        return (mix64(z) >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03))
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
 
 
 def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray,
@@ -200,8 +195,9 @@ def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray,
     left alone (its time was already delivered)."""
     if rate <= 0 or len(times) < 2:
         return times
-    merged = unit_draws(key, robot, turn, 1) < rate
-    victim = np.floor(unit_draws(key, robot, turn, 2) * n_beacons).astype(np.int64) == beacon
+    h = revolution_hash(key, robot, turn)
+    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0 ** -53 < rate  # the high 53 bits
+    victim = (h & np.uint64(0x7FF)).astype(np.int64) % n_beacons == beacon  # the low 11
     has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
     hit = np.nonzero(merged & victim & has_pred)[0]
     out = times.copy()

@@ -205,7 +205,10 @@ class Sensing:
         time; a sensor array's false pulse carries the label of an array drawn uniformly."""
         g = self.rng["false"][r]
         t0, t1 = traj.t[0], traj.t[-1]
-        times = np.sort(g.uniform(t0, t1, size=g.poisson(self.params["false_rate"] * (t1 - t0))))
+        count = g.poisson(self.params["false_rate"] * (t1 - t0))
+        if not count:
+            return
+        times = np.sort(g.uniform(t0, t1, size=count))
         if self.kind == "sensor_array":
             labels = g.integers(len(self.ids), size=len(times))
             for t, b in zip(det.counter_clock(times, self.params).tolist(), labels.tolist()):
