@@ -183,6 +183,9 @@ class Sensing:
         order = np.lexsort((c.beacon, times, c.robot))
         c, phase, times = c.take(order), phase[order], det.counter_clock(times[order], p)
         robot = c.robot  # sorted by robot, time, beacon
+        # a pulse that fired early, before this period began, is read at the counter's first
+        # tick inside it: the previous period's events are delivered already
+        times = np.maximum(times, det.first_tick_after(window[0], p))
         if self.kind == "sensor_array":
             turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
             times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"],
