@@ -144,7 +144,8 @@ def test_another_robot_blocks_the_beam():
 
 def test_a_robot_crossing_the_beam_blocks_it_for_the_right_time():
     # robot 1 drives north across the line from robot 0 to beacon Q. At every expected
-    # crossing, the truth comes from sampling the beam segment densely against robot 1's box.
+    # crossing, the truth comes from sampling the beam segment densely against robot 1's
+    # silhouette in the laser plane (a circle of the model's silhouette radius at its centre).
     w = make(omega=60.0, robots=ONE + "\n  - {model: boe-bot, start: [2.7, 0.5, 90]}")
     events, poses = sense(w, 8.0, commands=[(0, 0), (0.15, 0.15)])
     p0 = w.level.robots[0].start
@@ -160,12 +161,10 @@ def test_a_robot_crossing_the_beam_blocks_it_for_the_right_time():
         t = times[0] + k * period
         i = int(t / w.dt)
         f = t / w.dt - i
-        x, y, h = poses[i, 1] + f * (poses[i + 1, 1] - poses[i, 1])
-        lx = (sx - x) * math.cos(h) + (sy - y) * math.sin(h)
-        ly = -(sx - x) * math.sin(h) + (sy - y) * math.cos(h)
-        margin = np.max(np.minimum(m.length / 2 - np.abs(lx), m.width / 2 - np.abs(ly)))
+        x, y, _ = poses[i, 1] + f * (poses[i + 1, 1] - poses[i, 1])
+        margin = m.silhouette_radius - np.min(np.hypot(sx - x, sy - y))
         if abs(margin) < 1e-3:
-            continue  # grazing: the beam skims the corner, either answer is right
+            continue  # grazing: the beam skims the silhouette, either answer is right
         truly_blocked = margin > 0
         seen = np.any(np.abs(times - t) < 1e-4)
         assert seen != truly_blocked, f"t={t:.4f}: blocked={truly_blocked} but seen={seen}"
@@ -177,3 +176,53 @@ def test_obstacle_blocks_the_beam():
     w = make(obstacles="obstacles:\n  - {kind: circle, center: [1.0, 0.8], radius: 0.1}")
     (events,), _ = sense(w, 3.0)
     assert hits(events, "P") == [] and len(hits(events, "R")) >= 9
+
+
+def test_only_the_silhouette_at_beam_height_blocks():
+    # robot 1's footprint (105 x 95 mm) straddles the line from robot 0 to P, 35 mm from its
+    # centre; its silhouette in the laser plane (a 20 mm mast) does not reach the line
+    p0, b = (1.7, 1.2), (0.2, 0.3)
+    n = np.array([b[1] - p0[1], p0[0] - b[0]]) / math.dist(p0, b)  # unit normal to the line
+    centre = np.array([0.95, 0.75]) + 0.035 * n
+    start = f"[{centre[0]:.6f}, {centre[1]:.6f}, 0]"
+    w = make(robots=ONE + f"\n  - {{model: boe-bot, start: {start}}}")
+    m = w.level.robots[1].model
+    rel = np.array([0.95, 0.75]) - centre
+    assert abs(rel[0]) < m.length / 2 and abs(rel[1]) < m.width / 2  # the line crosses the footprint
+    assert m.silhouette_radius < 0.035
+    events, _ = sense(w, 3.0)
+    assert len(hits(events[0], "P")) >= 9
+    # a level may give a model a wider silhouette (a tall housing): then it blocks
+    w = make(robots=ONE + f"\n  - {{model: boe-bot, start: {start}, silhouette: 0.04}}")
+    events, _ = sense(w, 3.0)
+    assert hits(events[0], "P") == [] and len(hits(events[0], "Q")) >= 9
+
+
+def test_the_laser_lags_when_the_body_starts_turning():
+    # Bac: "the laser angular velocity was not constant while the robot turned". The rotor
+    # keeps its world rate when the body starts to spin, then the motor restores its relative
+    # rate (time constant tau) to omega - c x body rate: the beam's world rate ends at
+    # omega + (1 - c) x body rate.
+    omega, c, tau = 20.0, 0.5, 0.05
+    params = f"  params: {{spin_coupling: {c}, spin_time: {tau}}}"
+    w = make(params=params)
+    (events,), poses = sense(w, 4.0, commands=[(-0.2, 0.2)], ideal=False)
+    spin = (poses[-1, 0, 2] - poses[-241, 0, 2])  # rad/s over the last second (steady by then)
+    times = np.array([e.time for e in hits(events, "P")])
+    gaps = np.diff(times[times > 2.0])
+    assert np.allclose(gaps, 2 * math.pi / (omega + (1 - c) * spin), rtol=2e-3)
+    (ideal,), _ = sense(make(params=params), 4.0, commands=[(-0.2, 0.2)], ideal=True)
+    times = np.array([e.time for e in hits(ideal, "P")])
+    assert np.allclose(np.diff(times[times > 2.0]), 2 * math.pi / (omega + spin), rtol=2e-3)
+
+
+def test_first_order_closed_form_matches_the_recursion():
+    from arena.sensing import first_order
+    rng = np.random.default_rng(3)
+    for a in (0.93, 1e-4):  # the second underflows a^k: a time constant far below a step
+        y0, drive = np.array([0.4, -1.0]), rng.normal(size=(50, 2))
+        want, y = [], y0.copy()
+        for k in range(50):
+            y = a * y + drive[k]
+            want.append(y.copy())
+        assert np.allclose(first_order(a, y0, drive), want, rtol=1e-9, atol=1e-12)

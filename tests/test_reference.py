@@ -56,10 +56,16 @@ def test_localize_controllers_report(level):
 
 
 def test_bac_static_precision_of_table_1():
-    # Table 1: correct measurements std 1.7 mm in x and y, robot standing at (1.16, 0.53) m
+    # Table 1: "standard deviation among correct measurements" 1.7 mm in x and y, robot standing
+    # at (1.16, 0.53) m; erroneous ones (here: over 1 cm, some 6 std, from the median) "varied
+    # between 1% and 3.7%" of the measurements
     pairs = traced("bac-static", "ref:bac")
-    xs = [e[0] for e, _ in pairs[10:]]
-    ys = [e[1] for e, _ in pairs[10:]]
+    estimates = [e for e, _ in pairs[10:]]
+    mx, my = statistics.median(e[0] for e in estimates), statistics.median(e[1] for e in estimates)
+    correct = [e for e in estimates if math.hypot(e[0] - mx, e[1] - my) < 0.01]
+    assert len(estimates) - len(correct) <= 0.037 * len(estimates)
+    xs = [e[0] for e in correct]
+    ys = [e[1] for e in correct]
     sx, sy = statistics.pstdev(xs), statistics.pstdev(ys)
     assert 0.3e-3 < sx < 5e-3 and 0.3e-3 < sy < 5e-3, (sx, sy)  # "of the order of" 1.7 mm
     assert abs(statistics.mean(xs) - 1.16) < 3e-3 and abs(statistics.mean(ys) - 0.53) < 3e-3
