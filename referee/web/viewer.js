@@ -328,16 +328,20 @@
     slider.max = String(viewer.duration);
     slider.step = String(1 / viewer.scenes.rate);
     marks.textContent = "";
-    const mark = (cls, t, title) => {
-      const span = document.createElement("span");
+    $("incidents").textContent = "";
+    const mark = (cls, t, title) => {  // a tick on the timeline and a line in the list; both seek there
+      const span = document.createElement("span"), item = document.createElement("li");
       span.className = cls;
       span.style.left = `${100 * Math.min(t, d) / d}%`;
-      span.title = title;
-      span.addEventListener("click", () => { viewer.pause(); viewer.seek(t); });
+      span.title = item.textContent = title;
+      item.className = cls;
+      for (const el of [span, item]) el.addEventListener("click", () => { viewer.pause(); viewer.seek(t); });
       marks.appendChild(span);
+      $("incidents").appendChild(item);
     };
-    for (const f of rep.fouls) mark("foul", f.time, `${f.time.toFixed(2)} s: robot ${f.r} ${f.kind} (-${f.penalty})`);
-    for (const f of rep.faults) mark("fault", f.time, `${f.time.toFixed(2)} s: robot ${f.r} fault ${f.kind}: ${f.message}`);
+    const incidents = [...rep.fouls.map((f) => ["foul", f.time, `${f.time.toFixed(2)} s: robot ${f.r} ${f.kind} (-${f.penalty})`]),
+                       ...rep.faults.map((f) => ["fault", f.time, `${f.time.toFixed(2)} s: robot ${f.r} fault ${f.kind}: ${f.message}`])];
+    for (const args of incidents.sort((a, b) => a[1] - b[1])) mark(...args);
     const h = rep.header;
     $("title").textContent = `${viewer.name}: level ${viewer.scenes.geom.name}, seed ${h.seed}${h.ideal ? ", ideal sensors" : ""}, `
       + `${rep.fouls.length} foul(s), ${rep.faults.length} fault(s)`;
@@ -371,24 +375,24 @@
   function nowTable(scene) {
     const sc = viewer.scenes, rep = sc.rep, t = viewer.time, task = sc.geom.task;
     const byslot = new Map(((rep.result && rep.result.robots) || []).map((r) => [r.slot, r]));
-    table("now", ["robot", "x, y (m)", "heading", "estimate error", "task", "fouls", "penalties"], scene.robots.map((r) => {
-      let err = "no estimate";
+    table("now", ["robot", "x, y (m)", "heading (deg)", "estimate error (mm, deg)", "task", "fouls (points)"], scene.robots.map((r) => {
+      let err = "none";
       const series = sc.estimates.get(r.slot);
       const k = series ? bisectRight(series.times, t) - 1 : -1;
       if (k >= 0) {  // the estimate against the true pose at the tick it was reported
         const [ex, ey, eh] = series.values[k], [tx, ty, th] = rep.frames[sc.frameIndex(series.times[k])][1][r.slot];
-        err = `${(1000 * Math.hypot(ex - tx, ey - ty)).toFixed(1)} mm, ${(180 / Math.PI * Math.abs(wrap(eh - th))).toFixed(1)} deg`;
+        err = `${(1000 * Math.hypot(ex - tx, ey - ty)).toFixed(1)}, ${(180 / Math.PI * Math.abs(wrap(eh - th))).toFixed(1)}`;
       }
       const res = byslot.get(r.slot), done = res && res.task;
       let progress = task.kind;
-      if (done && "reached_at" in done) progress = `${done.reached_at.filter((x) => x <= t).length} / ${done.total} waypoints`;
+      if (done && "reached_at" in done) progress = `${done.reached_at.filter((x) => x <= t).length} / ${done.total} reached`;
       else if (task.goal) progress = `${Math.hypot(r.x - task.goal[0], r.y - task.goal[1]).toFixed(3)} m to goal`;
       if (done && done.finished !== null && done.finished <= t) progress += ", finished";
       if (r.stopped) progress += ", stopped";
       const fouls = rep.fouls.filter((f) => f.r === r.slot && f.time <= t);
       const penalty = fouls.reduce((a, f) => a + (f.penalty || 0), 0);
       return [r.slot, [`${r.slot} ${sc.teams[r.slot] ?? ""}`, `${r.x.toFixed(3)}, ${r.y.toFixed(3)}`,
-        `${(180 / Math.PI * wrap(r.heading)).toFixed(1)} deg`, err, progress, String(fouls.length), penalty.toFixed(1)]];
+        (180 / Math.PI * wrap(r.heading)).toFixed(1), err, progress, fouls.length ? `${fouls.length} (-${penalty.toFixed(1)})` : "0"]];
     }));
   }
 
