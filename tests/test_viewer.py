@@ -6,7 +6,9 @@ the browser tests skip, saying so, only where no chromium is installed.
 """
 
 import base64
+import gzip
 import io
+import json
 import math
 import re
 import shutil
@@ -66,14 +68,14 @@ def _short(name: str, seconds: float, extra: str = "") -> bytes:
 
 @pytest.fixture(scope="module")
 def replays(tmp_path_factory):
-    """Short replays of every beacon kind: four racing robots with debug drawings (sensor
-    arrays), reflectors with obstacles of every shape, flash detectors, lights."""
+    """Short replays of every beacon kind: four racing robots with debug drawings and a speed
+    limit they break (sensor arrays), reflectors with obstacles of every shape, flash detectors, lights."""
     d = tmp_path_factory.mktemp("viewer")
     (d / "drawing_bot.py").write_text(DRAWING_BOT)
     bot = resolve(str(d / "drawing_bot.py"))
     out = {}
     for key, data, teams in (
-            ("race", _short("asabe-race", 6), [bot, bot, resolve("ref:dead-reckoning"), resolve("ref:bac")]),
+            ("race", _short("asabe-race", 6, "rules:\n  speed_limit: 0.1\n"), [bot, bot, resolve("ref:dead-reckoning"), resolve("ref:bac")]),
             ("vannoy", _short("vannoy", 3, OBSTACLES), [resolve("ref:vannoy")]),
             ("simi", _short("simi", 2), [resolve("ref:simi")]),
             ("osentoski", _short("osentoski", 2), [resolve("ref:osentoski")])):
@@ -176,10 +178,24 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
         assert f"{1000 * math.hypot(ex - tx, ey - ty):.1f}, {math.degrees(turn):.1f}" in rows[1 + slot], rows
     assert page.locator("#final tr").count() == 1 + len(frame)
 
+    # every foul and fault is a mark on the timeline and a line in the list; a click seeks to it
+    incidents = sorted([f["time"] for f in rep.fouls] + [f["time"] for f in rep.faults])
+    assert len(rep.fouls) >= 2 and page.locator("#marks span").count() == len(incidents)
+    page.locator("#incidents li").nth(1).click()
+    assert page.evaluate("window.viewer.time") == incidents[1]
+    assert f"fouls {sum(f['time'] <= incidents[1] for f in rep.fouls)}" in page.evaluate(
+        "window.viewer.scenes.at(window.viewer.time).hud[0]")
+    page.evaluate("window.viewer.seek(2.5)")
+
     page.keyboard.press("ArrowRight")  # one frame on, while paused
     assert page.evaluate("window.viewer.time") == pytest.approx(2.5 + 1 / rep.header["record_rate"])
     page.keyboard.press("End")
     assert page.evaluate("window.viewer.time") == pytest.approx(rep.duration)
+    page.keyboard.press("Home")
+    page.keyboard.press(" ")  # space plays (the Play button, clicked before, must not take it as a click)
+    page.wait_for_function("window.viewer.playing && window.viewer.time > 0.2", timeout=WAIT_MS)
+    page.keyboard.press(" ")
+    assert page.evaluate("window.viewer.playing") is False
     assert page.errors == [] and page.remote == []
 
 
@@ -203,7 +219,7 @@ def test_task_progress_follows_the_result(replays, browser, tmp_path):
 def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key, t):
     """The canvas at time t and arena/draw.py's frame of the same size and time, compared.
 
-    Measured (Chromium 142-156, pygame-ce 2.5): mean absolute difference about 0.6 per channel
+    Measured (Chromium 156, pygame-ce 2.5.8): mean absolute difference about 0.6 per channel
     on the field, 1.2 over the whole frame; most of the difference is text (FreeType in pygame,
     Skia in Chromium, same font) and anti-aliased edges (the canvas smooths, pygame does not).
     The bounds sit between that and what a real error gives: the same page against pygame's
@@ -256,6 +272,16 @@ def test_other_replays_open_by_picker_and_drop(replays, browser, tmp_path):
     page.set_input_files("#file", str(cut))
     page.wait_for_function("window.viewer.error && window.viewer.error.startsWith('cut.replay')", timeout=WAIT_MS)
     assert "truncated or damaged" in page.evaluate("window.viewer.error")
+
+    # a header with fields this page does not know (a later writer's) is read all the same
+    lines = gzip.decompress(replays["race"].read_bytes()).decode().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    header["organizer_note"] = {"heat": 7}
+    newer = tmp_path / "newer.replay"
+    newer.write_bytes(gzip.compress((json.dumps(header) + "\n" + "".join(lines[1:])).encode()))
+    page.set_input_files("#file", str(newer))
+    page.wait_for_function("window.viewer.name === 'newer.replay'", timeout=WAIT_MS)
+    assert page.evaluate("window.viewer.error") is None
 
     # drag and drop of the race again, under another name: it plays
     data = base64.b64encode(replays["race"].read_bytes()).decode()

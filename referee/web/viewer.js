@@ -419,11 +419,14 @@
   }
 
   // ---- controls ----
-  $("play").addEventListener("click", () => (viewer.playing ? viewer.pause() : viewer.play()));
+  $("play").addEventListener("click", (e) => {
+    e.currentTarget.blur();  // so that space is the page's key, not a second click
+    viewer.playing ? viewer.pause() : viewer.play();
+  });
   $("speed").addEventListener("change", (e) => viewer.setSpeed(e.target.value));
   $("slider").addEventListener("input", (e) => viewer.seek(e.target.value));
   document.addEventListener("keydown", (e) => {
-    if (!viewer.scenes || e.target.tagName === "SELECT") return;
+    if (!viewer.scenes || e.target.tagName === "SELECT" || (e.target.tagName === "INPUT" && e.key !== " ")) return;
     const step = viewer.playing ? 1 : 1 / viewer.scenes.rate;
     const keys = { " ": () => (viewer.playing ? viewer.pause() : viewer.play()), ArrowLeft: () => viewer.seek(viewer.time - step),
                    ArrowRight: () => viewer.seek(viewer.time + step), Home: () => viewer.seek(0), End: () => viewer.seek(viewer.duration) };
