@@ -142,6 +142,25 @@ def cmd_watch(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_plot(args: argparse.Namespace) -> int:
+    from referee.plot import error_figure
+    if args.width < 320:
+        raise UserError("--width must be at least 320")
+    if not Path(args.out).resolve().parent.is_dir():
+        raise UserError(f"{args.out}: the folder does not exist")
+    fig = error_figure(Path(args.replay), Path(args.out), width=args.width)
+    for r in fig.robots:
+        if r.times:
+            rms = (sum(v * v for v in r.position_mm) / len(r.times)) ** 0.5
+            print(f"{r.slot} {r.team}: {len(r.times)} estimates, position error rms {rms:.1f} mm "
+                  f"max {max(r.position_mm):.1f} mm, heading error max {max(r.heading_deg):.1f} deg, "
+                  f"{len(r.fouls)} fouls, {len(r.faults)} faults")
+        else:
+            print(f"{r.slot} {r.team}: no estimates")
+    print(f"wrote {args.out}")
+    return 0
+
+
 def cmd_map(args: argparse.Namespace) -> int:
     from referee import accuracy_map as am
     maps = [am.compute(find_level(args.level), cells=args.cells)]
@@ -178,7 +197,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", metavar="OUT", help="write the result JSON here")
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
     s.add_argument("--ideal", action="store_true",
-                   help="ideal sensors: no noise, no missed or false pulses, no quantization")
+                   help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors")
     s.add_argument("--in-process", action="store_true",
                    help="run the controllers inside this process (for a debugger); same results within budget")
     s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
@@ -228,6 +247,12 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--compare", metavar="LEVEL", help="a second layout, drawn beside on the same scale")
     s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
     s.set_defaults(func=cmd_map)
+
+    s = sub.add_parser("plot", help="plot each robot's position and heading error over a replay")
+    s.add_argument("replay")
+    s.add_argument("--out", default="errors.png", help="the PNG to write (default errors.png)")
+    s.add_argument("--width", type=int, default=960, help="picture width in pixels")
+    s.set_defaults(func=cmd_plot)
 
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")

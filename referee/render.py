@@ -23,6 +23,7 @@ from arena.level import Level  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
 from referee.errors import UserError  # noqa: E402
 from referee.replay import Replay, load  # noqa: E402
+from referee.standings import Standings  # noqa: E402
 
 TRAIL = 8.0  # s of trail behind each robot
 BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams
@@ -43,6 +44,7 @@ class Scenes:
         self.estimates: dict[int, tuple[list, list]] = {}
         self.debug: dict[int, tuple[list, list]] = {}
         self.seen = {"e": 0, "est": 0, "dbg": 0}
+        self.standings = Standings(self.level, rep)
         self.update()
 
     @property
@@ -64,6 +66,7 @@ class Scenes:
         self.seen = {"e": len(rep.events), "est": len(rep.estimates), "dbg": len(rep.debug)}
         self.stopped_at = {f["r"]: f["time"] for f in rep.faults if f["kind"] != "skipped_tick"}
         self.foul_times = tuple(sorted(f["time"] for f in rep.fouls))
+        self.standings.update()
 
     def at(self, t: float) -> Scene:
         frames = self.rep.frames
@@ -81,15 +84,15 @@ class Scenes:
         drawings = tuple((slot, d) for slot in self.debug for d in (_latest(self.debug[slot], t) or []))
         fouls = sum(1 for f in self.foul_times if f <= t)
         hud = (f"{self.level.name}  seed {self.rep.header['seed']}   t = {t:6.2f} s / {self.duration:.1f} s"
-               f"   fouls {fouls}",
-               self._standings(t))
+               f"   fouls {fouls}", *self._standings(t))
         return Scene(tuple(robots), beams, self.paths, drawings, hud, (t, self.foul_times, self.duration))
 
-    def _standings(self, t: float) -> str:
+    def _standings(self, t: float) -> tuple[str, ...]:
+        """One line per robot; at the end of a finished replay, the referee's own scores."""
         result = self.rep.result
         if result and t >= self.duration - 1e-9:
-            return "   ".join(f"{r['slot']} {r['team']}: {r['score']['total']:.1f}" for r in result["robots"])
-        return "   ".join(f"{slot} {team}" for slot, team in enumerate(self.teams))
+            return tuple(f"{r['slot']} {r['team']}   final score {r['score']['total']:.1f}" for r in result["robots"])
+        return tuple(self.standings.line(slot, team, t) for slot, team in enumerate(self.teams))
 
 
 def paths(level: Level) -> tuple[tuple[tuple[float, float], ...], ...]:

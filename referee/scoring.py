@@ -23,7 +23,12 @@ def localization_quality(stats: EstimateStats) -> float:
     summary = stats.summary()
     if not summary["estimates"]:
         return 0.0
-    return stats.fraction / (1.0 + summary["position_rms"] / RMS_SCALE)
+    return quality(stats.fraction, summary["position_rms"])
+
+
+def quality(fraction: float, position_rms: float) -> float:
+    """The localization quality q of a fraction of ticks with an estimate and their RMS error (m)."""
+    return fraction / (1.0 + position_rms / RMS_SCALE)
 
 
 def score(tracker: TaskTracker, slot: int, stats: EstimateStats, fouls: list[Foul], time_limit: float) -> dict:
