@@ -16,9 +16,10 @@ import levels
 from arena import draw
 from arena.level import Level
 from arena.loader import LevelError, load_level, parse_level
-from referee import render
+from referee import render, scoring
 from referee.errors import UserError
 from referee.replay import load
+from referee.tasks import TaskTracker
 
 WEB = Path(__file__).with_name("web")
 # a line of HUD-like text: the page sizes its font so that this line is as wide as pygame draws it
@@ -28,6 +29,7 @@ SAMPLE = "asabe-race  seed 12   t =   3.07 s / 180.0 s   fouls 4   0 ref:bac: 81
 def level_geometry(level: Level) -> dict:
     """What the page needs to draw a level as arena/draw.py does (SI units, radians)."""
     f = level.field
+    tracker = TaskTracker(level)
     return {
         "name": level.name,
         "field": {"origin": list(f.origin), "size": list(f.size), "walls": f.walls},
@@ -39,15 +41,22 @@ def level_geometry(level: Level) -> dict:
         "paths": [[list(p) for p in path] for path in render.paths(level)],
         "task": {"kind": level.task.kind, "radius": level.task.radius,
                  "goal": None if level.task.goal is None else [level.task.goal.x, level.task.goal.y]},
+        # what the HUD's standings need (referee/standings.py): each slot's start and targets
+        "starts": [[r.start.x, r.start.y] for r in level.robots],
+        "targets": [[list(p) for p in tracker.targets(r.slot)] for r in level.robots],
+        "time_limit": level.time_limit, "control_period": level.control_period,
     }
 
 
 def _style() -> dict:
-    """arena/draw.py's colours and sizes and referee/render.py's time windows, so the page
-    and the pygame frames are drawn from one definition."""
+    """arena/draw.py's colours and sizes, referee/render.py's time windows and the scoring
+    constants, so the page and the pygame frames are drawn from one definition."""
     return {"palette": draw.PALETTE, "background": draw.BACKGROUND, "field": draw.FIELD, "wall": draw.WALL,
             "obstacle": draw.OBSTACLE, "beacon": draw.BEACON, "hud_height": draw.HUD_HEIGHT,
-            "trail": render.TRAIL, "beam_window": render.BEAM_WINDOW}
+            "hud_text": draw.HUD_TEXT, "trail": render.TRAIL, "beam_window": render.BEAM_WINDOW,
+            "points": {"task": scoring.TASK_POINTS, "time": scoring.TIME_POINTS,
+                       "localization": scoring.LOCALIZATION_POINTS, "localize_task": scoring.LOCALIZE_TASK_POINTS,
+                       "rms_scale": scoring.RMS_SCALE}}
 
 
 def _font() -> str:
@@ -62,6 +71,7 @@ def _fonts(level: Level, size: tuple[int, int]) -> dict:
     on its height only), so the page places text where pygame does."""
     painter = draw.Painter(level, size)
     return {key: {"size": f.point_size, "ascent": f.get_ascent(), "height": f.get_height(),
+                  "linesize": f.get_linesize(),
                   "sample": SAMPLE, "sample_width": f.size(SAMPLE)[0]}
             for key, f in (("big", painter.font), ("small", painter.small))}
 

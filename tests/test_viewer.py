@@ -19,7 +19,7 @@ import pygame
 import pytest
 
 import levels
-from arena.draw import BEACON, HUD_HEIGHT, Painter, color
+from arena.draw import BEACON, Painter, color
 from arena.loader import parse_level
 from conftest import MINI_LEVEL, run_cli
 from referee.match import run_match
@@ -172,10 +172,13 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
     rows = page.locator("#now tr").all_inner_texts()
     for slot in range(len(frame)):
         est = [e for e in rep.estimates if e["r"] == slot and e["t"] <= 2.5][-1]
-        tx, ty, th = rep.frames[round(est["t"] * rep.header["record_rate"])][1][slot]
+        tx, ty, th = rep.frames[round(est["t"] * rep.header["record_rate"])][1][slot]  # ticks fall on frames here
         ex, ey, eh = est["e"]
         turn = abs((eh - th + math.pi) % (2 * math.pi) - math.pi)
         assert f"{1000 * math.hypot(ex - tx, ey - ty):.1f}, {math.degrees(turn):.1f}" in rows[1 + slot], rows
+    # and the HUD's line per robot says what referee/standings.py says (score so far, waypoints, error)
+    hud = page.evaluate("window.viewer.scenes.at(window.viewer.time).hud")
+    assert hud == list(Scenes(rep).at(2.5).hud)
     assert page.locator("#final tr").count() == 1 + len(frame)
 
     # every foul and fault is a mark on the timeline and a line in the list; a click seeks to it
@@ -232,14 +235,16 @@ def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key,
     web = _canvas(page)
     ref, painter, scenes = _pygame(replays[key], t)
     assert web.shape == ref.shape
+    for when in (t, scenes.duration):  # the HUD's text, as referee/render.py writes it (the final scores at the end)
+        assert page.evaluate(f"window.viewer.scenes.at({when}).hud") == list(scenes.at(when).hud)
     diff = np.abs(web - ref)
-    field, whole = diff[:, HUD_HEIGHT:].mean(), diff.mean()
+    field, whole = diff[:, painter.hud_height:].mean(), diff.mean()
     print(f"{key} t={t}: mean abs difference {field:.3f} on the field, {whole:.3f} over the frame")
     assert field < 1.5 and whole < 2.5
 
     if key == "race":  # the bound tells a wrong frame from the right one (here the robots move)
         later, _, _ = _pygame(replays[key], t + 0.1)
-        assert np.abs(web - later)[:, HUD_HEIGHT:].mean() > 1.5
+        assert np.abs(web - later)[:, painter.hud_height:].mean() > 1.5
 
     # robots where the frame says, in both pictures, within 2 px
     frame = scenes.rep.frames[round(t * scenes.rate)][1]

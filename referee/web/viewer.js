@@ -20,10 +20,23 @@
     while (lo < hi) { const mid = (lo + hi) >> 1; if (x < arr[mid]) hi = mid; else lo = mid + 1; }
     return lo;
   }
+  function bisectLeft(arr, x) {
+    let lo = 0, hi = arr.length;
+    while (lo < hi) { const mid = (lo + hi) >> 1; if (arr[mid] < x) lo = mid + 1; else hi = mid; }
+    return lo;
+  }
   function latest(series, t) {
     if (!series) return null;
     const i = bisectRight(series.times, t) - 1;
     return i >= 0 ? series.values[i] : null;
+  }
+
+  const TAU = 2 * Math.PI;
+  function remainder(x, y) {  // IEEE remainder, as Python's math.remainder
+    const q = x / y;
+    let n = Math.round(q);
+    if (Math.abs(q % 1) === 0.5) n = 2 * Math.round(q / 2);
+    return x - n * y;
   }
 
   // ---- reading a replay: gzip'd JSON lines ----
@@ -52,6 +65,99 @@
     return rep;
   }
 
+  const frameAt = (rep, t) => Math.min(Math.max(pyRound(t * rep.header.record_rate), 0), rep.frames.length - 1);
+
+  // ---- estimate errors and standings (referee/error_series.py, referee/standings.py) ----
+  function truthAt(frames, times, slot, t) {  // the true pose at t, between frames linearly
+    const i = bisectLeft(times, t - 1e-9);
+    if (i >= frames.length) return null;
+    if (Math.abs(times[i] - t) <= 1e-9 || i === 0) return frames[i][1][slot];
+    const [t0, p0] = frames[i - 1], [t1, p1] = frames[i], a = p0[slot], b = p1[slot];
+    const w = (t - t0) / (t1 - t0), dh = remainder(b[2] - a[2], TAU);
+    return [a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), remainder(a[2] + w * dh, TAU)];
+  }
+
+  class Standings {
+    constructor(rep, geom) {
+      const n = geom.robots.length, kind = geom.task.kind, radius = geom.task.radius, P = S.points;
+      this.rep = rep; this.geom = geom; this.P = P;
+      this.targets = geom.targets;
+      this.progress = geom.robots.map(() => []);
+      this.finished = Array(n).fill(null);
+      const next = Array(n).fill(0), finalDistance = Array(n).fill(NaN);
+      const startDistance = geom.starts.map((s, slot) => (this.targets[slot].length
+        ? Math.hypot(s[0] - this.targets[slot][0][0], s[1] - this.targets[slot][0][1]) : NaN));
+      const progress = (slot) => {
+        const targets = this.targets[slot];
+        if (kind === "goto") {
+          if (this.finished[slot] !== null) return 1;
+          const p = Math.max(0, 1 - finalDistance[slot] / startDistance[slot]);
+          return Number.isNaN(p) || !startDistance[slot] ? 0 : p;
+        }
+        return targets.length ? next[slot] / targets.length : 0;
+      };
+      for (const [t, poses] of rep.frames) {
+        poses.forEach(([x, y], slot) => {
+          const targets = this.targets[slot];
+          if (t > 0) {  // the referee tracks after physics steps, never at the start
+            if (kind === "goto") finalDistance[slot] = Math.hypot(x - targets[0][0], y - targets[0][1]);
+            while (next[slot] < targets.length && Math.hypot(x - targets[next[slot]][0], y - targets[next[slot]][1]) <= radius) {
+              next[slot] += 1;
+              if (next[slot] === targets.length) this.finished[slot] = t;
+            }
+          }
+          this.progress[slot].push(progress(slot));
+        });
+      }
+      const frameTimes = rep.frames.map((f) => f[0]);
+      this.errors = geom.robots.map((_, slot) => {
+        const track = { times: [], position: [], heading: [], squares: [] };
+        for (const rec of rep.estimates) {
+          if (rec.r !== slot) continue;
+          const truth = truthAt(rep.frames, frameTimes, slot, rec.t);
+          if (truth === null) break;
+          const d = Math.hypot(rec.e[0] - truth[0], rec.e[1] - truth[1]);
+          track.times.push(rec.t);
+          track.position.push(d);
+          track.heading.push(Math.abs(remainder(rec.e[2] - truth[2], TAU)));
+          track.squares.push((track.squares.length ? track.squares[track.squares.length - 1] : 0) + d * d);
+        }
+        return track;
+      });
+    }
+
+    frame(t) { return frameAt(this.rep, t); }
+
+    score(slot, t) {  // the score had the match ended at t (docs/rules.md)
+      const localize = this.geom.task.kind === "localize", P = this.P;
+      const progress = this.progress[slot][this.frame(t)];
+      let points = localize ? 0 : P.task * progress;
+      const finished = this.finished[slot];
+      if (finished !== null && finished <= t && !localize) points += P.time * (1 - finished / this.geom.time_limit);
+      const track = this.errors[slot], n = bisectRight(track.times, t + 1e-9);
+      if (n) {
+        const ticks = Math.floor(t / this.geom.control_period + 1e-9) + 1;
+        const rms = Math.sqrt(track.squares[n - 1] / n);
+        points += (localize ? P.localize_task : P.localization) * (Math.min(1, n / ticks) / (1 + rms / P.rms_scale));
+      }
+      return points - this.rep.fouls.filter((f) => f.r === slot && f.time <= t).reduce((a, f) => a + f.penalty, 0);
+    }
+
+    errorNow(slot, t) {  // [position m, heading rad] of the latest estimate by t, or null
+      const track = this.errors[slot], i = bisectRight(track.times, t + 1e-9) - 1;
+      return i >= 0 ? [track.position[i], track.heading[i], track.times[i]] : null;
+    }
+
+    line(slot, team, t) {  // the HUD line of one robot
+      const kind = this.geom.task.kind, progress = this.progress[slot][this.frame(t)], targets = this.targets[slot].length;
+      const task = kind === "localize" ? "localize" : kind === "goto" ? `${(100 * progress).toFixed(0)} % of the way`
+        : `${pyRound(progress * targets)}/${targets} waypoints`;
+      const err = this.errorNow(slot, t);
+      const shown = err ? `err ${(1000 * err[0]).toFixed(0)} mm ${(180 / Math.PI * err[1]).toFixed(0)} deg` : "no estimate";
+      return `${slot} ${team}   score ${this.score(slot, t).toFixed(1).padStart(6)}   ${task}   ${shown}`;
+    }
+  }
+
   // ---- scenes: what to draw at time t (referee/render.py's Scenes) ----
   class Scenes {
     constructor(rep, geom) {
@@ -76,9 +182,10 @@
       this.stoppedAt = new Map();
       for (const f of rep.faults) if (f.kind !== "skipped_tick") this.stoppedAt.set(f.r, f.time);
       this.foulTimes = rep.fouls.map((f) => f.time).sort((a, b) => a - b);
+      this.standings = new Standings(rep, geom);
     }
 
-    frameIndex(t) { return Math.min(Math.max(pyRound(t * this.rate), 0), this.rep.frames.length - 1); }
+    frameIndex(t) { return frameAt(this.rep, t); }
 
     at(t) {
       const frames = this.rep.frames, i = this.frameIndex(t);
@@ -97,15 +204,15 @@
       for (const [slot, series] of this.debug) for (const d of latest(series, t) || []) drawings.push([slot, d]);
       const fouls = this.foulTimes.filter((f) => f <= t).length;
       const hud = [`${this.geom.name}  seed ${this.rep.header.seed}   t = ${t.toFixed(2).padStart(6)} s / `
-                   + `${this.duration.toFixed(1)} s   fouls ${fouls}`, this.standings(t)];
+                   + `${this.duration.toFixed(1)} s   fouls ${fouls}`, ...this.standingLines(t)];
       return { robots, beams, paths: this.geom.paths, drawings, hud, timeline: [t, this.foulTimes, this.duration] };
     }
 
-    standings(t) {
+    standingLines(t) {  // one line per robot; at the end of a finished replay, the referee's own scores
       const result = this.rep.result;
       if (result && t >= this.duration - 1e-9)
-        return result.robots.map((r) => `${r.slot} ${r.team}: ${r.score.total.toFixed(1)}`).join("   ");
-      return this.teams.map((team, slot) => `${slot} ${team}`).join("   ");
+        return result.robots.map((r) => `${r.slot} ${r.team}   final score ${r.score.total.toFixed(1)}`);
+      return this.teams.map((team, slot) => this.standings.line(slot, team, t));
     }
   }
 
@@ -149,15 +256,17 @@
     constructor(geom, size) {
       this.geom = geom;
       this.size = size;
-      const [w, h] = size, f = geom.field, H = S.hud_height;
+      const [w, h] = size, f = geom.field;
+      this.font = DATA.fonts.big;
+      this.small = DATA.fonts.small;
+      this.line = this.font.linesize + 2;
+      const H = this.hudHeight = Math.max(S.hud_height, 6 + (1 + geom.robots.length) * this.line + 14);
       this.xmin = f.origin[0]; this.ymin = f.origin[1];
       this.xmax = f.origin[0] + f.size[0]; this.ymax = f.origin[1] + f.size[1];
       const margin = Math.max(12, Math.floor(Math.min(w, h) / 30));
       this.scale = Math.min((w - 2 * margin) / f.size[0], (h - H - 2 * margin) / f.size[1]);
       this.ox = (w - f.size[0] * this.scale) / 2 - this.xmin * this.scale;
       this.oy = H + (h - H - f.size[1] * this.scale) / 2 + this.ymax * this.scale;
-      this.font = DATA.fonts.big;
-      this.small = DATA.fonts.small;
       this.px = Math.max(1, pyRound(this.scale * 0.004));
     }
 
@@ -257,9 +366,12 @@
     }
 
     hud(ctx, scene) {
-      const [w] = this.size, H = S.hud_height;
+      const [w] = this.size, H = this.hudHeight;
       draw.rect(ctx, [40, 42, 48], 0, 0, w, H);
-      scene.hud.slice(0, 2).forEach((line, i) => this.text(ctx, line, this.font, 10, 6 + i * (Math.floor(H / 2) - 4), [235, 235, 235]));
+      scene.hud.slice(0, 1 + this.geom.robots.length).forEach((line, i) => {
+        const c = i === 0 ? S.hud_text : mix(colour(i - 1), S.hud_text, 0.45);  // a robot's line in its colour
+        this.text(ctx, line, this.font, 10, 6 + i * this.line, c);
+      });
       const [now, marks, duration] = scene.timeline, y = H - 6, span = Math.max(duration, 1e-9);
       draw.line(ctx, [110, 110, 120], [10, y], [w - 10, y], 3);
       for (const m of marks) {  // fouls
@@ -370,19 +482,12 @@
       [`${r.slot} ${r.team}`, ...["task", "time", "localization", "penalties", "total"].map((k) => (r.score[k] ?? 0).toFixed(1))]]));
   }
 
-  function wrap(a) { return Math.atan2(Math.sin(a), Math.cos(a)); }
-
   function nowTable(scene) {
     const sc = viewer.scenes, rep = sc.rep, t = viewer.time, task = sc.geom.task;
     const byslot = new Map(((rep.result && rep.result.robots) || []).map((r) => [r.slot, r]));
-    table("now", ["robot", "x, y (m)", "heading (deg)", "estimate error (mm, deg)", "task", "fouls (points)"], scene.robots.map((r) => {
-      let err = "none";
-      const series = sc.estimates.get(r.slot);
-      const k = series ? bisectRight(series.times, t) - 1 : -1;
-      if (k >= 0) {  // the estimate against the true pose at the tick it was reported
-        const [ex, ey, eh] = series.values[k], [tx, ty, th] = rep.frames[sc.frameIndex(series.times[k])][1][r.slot];
-        err = `${(1000 * Math.hypot(ex - tx, ey - ty)).toFixed(1)}, ${(180 / Math.PI * Math.abs(wrap(eh - th))).toFixed(1)}`;
-      }
+    table("now", ["robot", "x, y (m)", "heading (deg)", "estimate error (mm, deg)", "task", "fouls (points)", "score so far"], scene.robots.map((r) => {
+      const e = sc.standings.errorNow(r.slot, t);  // the latest estimate against the truth at its tick
+      const err = e ? `${(1000 * e[0]).toFixed(1)}, ${(180 / Math.PI * e[1]).toFixed(1)}` : "none";
       const res = byslot.get(r.slot), done = res && res.task;
       let progress = task.kind;
       if (done && "reached_at" in done) progress = `${done.reached_at.filter((x) => x <= t).length} / ${done.total} reached`;
@@ -392,7 +497,8 @@
       const fouls = rep.fouls.filter((f) => f.r === r.slot && f.time <= t);
       const penalty = fouls.reduce((a, f) => a + (f.penalty || 0), 0);
       return [r.slot, [`${r.slot} ${sc.teams[r.slot] ?? ""}`, `${r.x.toFixed(3)}, ${r.y.toFixed(3)}`,
-        (180 / Math.PI * wrap(r.heading)).toFixed(1), err, progress, fouls.length ? `${fouls.length} (-${penalty.toFixed(1)})` : "0"]];
+        (180 / Math.PI * remainder(r.heading, TAU)).toFixed(1), err, progress, fouls.length ? `${fouls.length} (-${penalty.toFixed(1)})` : "0",
+        sc.standings.score(r.slot, t).toFixed(1)]];
     }));
   }
 
