@@ -290,6 +290,15 @@ def test_other_replays_open_by_picker_and_drop(replays, browser, tmp_path):
     page.wait_for_function("window.viewer.name === 'newer.replay'", timeout=WAIT_MS)
     assert page.evaluate("window.viewer.error") is None
 
+    # frames that lack a robot of the level: refused with a message, the replay shown before stays
+    short = [json.dumps({**r, "p": r["p"][:1]}) + "\n" if r.get("k") == "f" else json.dumps(r) + "\n"
+             for r in map(json.loads, lines[1:])]
+    (tmp_path / "short.replay").write_bytes(gzip.compress((lines[0] + "".join(short)).encode()))
+    page.set_input_files("#file", str(tmp_path / "short.replay"))
+    page.wait_for_function("window.viewer.error !== null", timeout=WAIT_MS)
+    assert page.evaluate("window.viewer.error").startswith("short.replay: a damaged replay")
+    assert page.evaluate("window.viewer.name") == "newer.replay"
+
     # drag and drop of the race again, under another name: it plays
     data = base64.b64encode(replays["race"].read_bytes()).decode()
     page.evaluate("""data => {

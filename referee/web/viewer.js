@@ -421,9 +421,16 @@
       return fail(`${name}: its level ${lv.name} (${lv.hash}) is not one this page knows; `
                   + `make a page for it with: laserarena render ${name} --html OUT.html`);
     }
+    let scenes;
+    try {
+      scenes = new Scenes(rep, geom);
+      scenes.at(0);
+    } catch (e) {  // records that do not fit the level (a robot missing from a frame, a field missing)
+      return fail(`${name}: a damaged replay (${e.message || e})`);
+    }
     viewer.error = null;
     $("message").textContent = "";
-    viewer.scenes = new Scenes(rep, geom);
+    viewer.scenes = scenes;
     viewer.painter = new Painter(geom, DATA.size);
     viewer.duration = viewer.scenes.duration;
     viewer.time = 0;
@@ -455,7 +462,7 @@
                        ...rep.faults.map((f) => ["fault", f.time, `${f.time.toFixed(2)} s: robot ${f.r} fault ${f.kind}: ${f.message}`])];
     for (const args of incidents.sort((a, b) => a[1] - b[1])) mark(...args);
     const h = rep.header;
-    $("title").textContent = `${viewer.name}: level ${viewer.scenes.geom.name}, seed ${h.seed}${h.ideal ? ", ideal sensors" : ""}, `
+    $("title").textContent = `${viewer.name}: level ${viewer.scenes.geom.name}, seed ${h.seed}${h.ideal ? ", ideal" : ""}, `
       + `${rep.fouls.length} foul(s), ${rep.faults.length} fault(s)`;
   }
 
