@@ -6,7 +6,7 @@
 PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || echo python3)
 VENV   := .venv
 PY     := $(VENV)/bin/python
-SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' 2>/dev/null)
+SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' -o -name '*.html' -o -name '*.js' 2>/dev/null)
 export SDL_VIDEODRIVER ?= dummy
 export SDL_AUDIODRIVER ?= dummy
 

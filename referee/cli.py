@@ -115,10 +115,19 @@ def cmd_render(args: argparse.Namespace) -> int:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT, e.g. 960x640") from None
-    n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
-               end=args.to, quiet=args.quiet)
-    if not args.quiet:
-        print(f"wrote {n} frames to {args.out}")
+    if not (args.html or args.out):
+        raise UserError("render: give --out (a folder, FILE.mp4 or FILE.html) and/or --html FILE.html")
+    html = args.html or (args.out if Path(args.out).suffix.lower() in (".html", ".htm") else None)
+    if html:
+        from referee.viewer import write_viewer
+        write_viewer(Path(args.replay), Path(html), size=(w, h))
+        if not args.quiet:
+            print(f"wrote {html}: open it in a web browser")
+    if args.out and args.out != html:
+        n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
+                   end=args.to, quiet=args.quiet)
+        if not args.quiet:
+            print(f"wrote {n} frames to {args.out}")
     return 0
 
 
@@ -212,9 +221,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
 
-    s = sub.add_parser("render", help="render a replay to PNG frames or an MP4, headless")
+    s = sub.add_parser("render", help="render a replay to PNG frames, an MP4 or a web page, headless")
     s.add_argument("replay")
-    s.add_argument("--out", required=True, help="a folder (PNG frames) or FILE.mp4")
+    s.add_argument("--out", help="a folder (PNG frames), FILE.mp4, or FILE.html (a page that plays it)")
+    s.add_argument("--html", metavar="OUT", help="write a self-contained web page that plays the replay")
     s.add_argument("--fps", type=int, default=30)
     s.add_argument("--size", default="960x640", help="WIDTHxHEIGHT in pixels")
     s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")

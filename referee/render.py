@@ -19,6 +19,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402
 
 from arena.draw import Painter, RobotView, Scene  # noqa: E402
+from arena.level import Level  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
 from referee.errors import UserError  # noqa: E402
 from referee.replay import Replay, load  # noqa: E402
@@ -36,10 +37,7 @@ class Scenes:
         h = rep.header
         self.level = parse_level(h["level"]["text"].encode(), h["level"]["name"])
         self.rate = h["record_rate"]
-        self.paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in self.level.robots)
-        if self.level.task.goal is not None:
-            g = self.level.task.goal
-            self.paths = tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in self.level.robots)
+        self.paths = paths(self.level)
         self.teams = [t["label"] for t in rep.header["teams"]]
         self.event_times: list[float] = []
         self.events: list[dict] = []
@@ -95,6 +93,14 @@ class Scenes:
         if result and t >= self.duration - 1e-9:
             return tuple(f"{r['slot']} {r['team']}   final score {r['score']['total']:.1f}" for r in result["robots"])
         return tuple(self.standings.line(slot, team, t) for slot, team in enumerate(self.teams))
+
+
+def paths(level: Level) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """Each slot's drawn path: from its start through its waypoints, or straight to the goal."""
+    if level.task.goal is not None:
+        g = level.task.goal
+        return tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in level.robots)
+    return tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in level.robots)
 
 
 def _latest(series: tuple[list, list] | None, t: float):
