@@ -6,11 +6,9 @@ hits, paths and waypoints, debug drawings, and a HUD. Works on any surface, head
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
 from arena.level import Level
 

@@ -18,7 +18,10 @@ from typing import Any, Callable
 
 import yaml
 
+import levels
+
 from arena import level_checks
+from arena.errors import LaserArenaError
 from arena.level import (
     Beacon, Beacons, ControllerLimits, DriveErrors, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules,
     Task,
@@ -79,7 +82,7 @@ BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
 DEFAULT_BEACON_RADIUS = 0.02  # m
 
 
-class LevelError(Exception):
+class LevelError(LaserArenaError):
     """A level file problem, printed as one line: `file:line: key: message`."""
 
     def __init__(self, source: str, line: int | None, key: str, message: str):
@@ -88,7 +91,7 @@ class LevelError(Exception):
 
     def __str__(self) -> str:
         where = f"{self.source}:{self.line}" if self.line else self.source
-        return f"{where}: {self.key}: {self.message}"
+        return f"{where}: {self.key}: {self.message}" if self.key else f"{where}: {self.message}"
 
 
 @dataclass
@@ -278,6 +281,18 @@ def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]
 
 
 # ---- the level ------------------------------------------------------------------------------
+
+def find_level(name: str) -> Level:
+    """Load a level by path, or by built-in name (`asabe`); `LevelError` if there is neither."""
+    p = Path(name)
+    if p.is_file():
+        return load_level(p)
+    if name in levels.names():
+        return load_level(levels.path(name), display=f"levels/{name}.yaml")
+    if p.suffix in (".yaml", ".yml") or p.parent != Path("."):
+        return load_level(p)  # reports the unreadable file
+    raise LevelError(name, None, "", "no such level file or built-in level (see `laserarena levels`)")
+
 
 def load_level(path: str | Path, display: str | None = None) -> Level:
     """Read, parse and validate a level file; raise `LevelError` on any problem."""

@@ -26,9 +26,9 @@ import yaml
 import levels
 from arena.level import Level
 from arena.loader import load_level, parse_level
-from referee.match import run_match
-from referee.replay import Replay, load
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.records.replay import Replay, load
+from referee.sandbox.teams import resolve
 
 IN = 0.0254  # m
 SIMI = "Simi 2000 (seed 003)"

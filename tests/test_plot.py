@@ -11,10 +11,10 @@ import levels
 from arena.draw import color
 from arena.loader import parse_level
 from conftest import run_cli
-from referee.match import run_match
-from referee.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
-from referee.replay import load
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
 
 CRASH = """\
 from robots.controllers.bac import Bac

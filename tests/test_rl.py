@@ -15,9 +15,9 @@ pytest.importorskip("pettingzoo", reason="the rl extra is not installed: pip ins
 
 import levels  # noqa: E402
 from arena.loader import load_level, parse_level  # noqa: E402
-from referee.agent_observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
-from referee.match import brief_for, run_match  # noqa: E402
-from referee.teams import resolve  # noqa: E402
+from referee.gym.observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
+from referee.match.loop import brief_for, run_match  # noqa: E402
+from referee.sandbox.teams import resolve  # noqa: E402
 from robots.api import Observation  # noqa: E402
 from robots.controllers.dead_reckoning import DeadReckoning  # noqa: E402
 
@@ -101,7 +101,7 @@ def test_bearings_in_the_observation_match_the_geometry():
 
 def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     from pettingzoo.test import parallel_api_test
-    from referee.parallel_env import LaserArenaParallelEnv
+    from referee.gym.parallel import LaserArenaParallelEnv
     env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))
     parallel_api_test(env, num_cycles=40)
     assert env.possible_agents == ["robot_0", "robot_1", "robot_2", "robot_3"]
@@ -126,8 +126,8 @@ def test_random_policy_example_runs():
 def test_env_replays_load_and_plot(tmp_path):
     """An episode's replay, even one left before its end, is a whole replay: it loads and plots."""
     from referee.gym import LaserArenaEnv
-    from referee.plot import error_figure
-    from referee.replay import load
+    from referee.media.plot import error_figure
+    from referee.records.replay import load
     path = tmp_path / "episode.replay"
     env = LaserArenaEnv(level="bac-line", replay=path, report_estimate=True)
     env.reset(seed=3)

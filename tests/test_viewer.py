@@ -1,4 +1,4 @@
-"""The browser replay viewer (referee/viewer.py, referee/web/) in a real headless Chromium:
+"""The browser replay viewer (referee/media/viewer.py, referee/web/) in a real headless Chromium:
 it plays and seeks, opens other replays, and draws the frame pygame draws (arena/draw.py).
 
 Chromium is Debian's (`apt-get install -y chromium`, /usr/bin/chromium) driven by playwright;
@@ -22,11 +22,11 @@ import levels
 from arena.draw import BEACON, Painter, color
 from arena.loader import parse_level
 from conftest import MINI_LEVEL, run_cli
-from referee.match import run_match
-from referee.render import Scenes
-from referee.replay import load
-from referee.teams import resolve
-from referee.viewer import write_viewer
+from referee.match.loop import run_match
+from referee.media.render import Scenes
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
+from referee.media.viewer import write_viewer
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
@@ -176,7 +176,7 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
         ex, ey, eh = est["e"]
         turn = abs((eh - th + math.pi) % (2 * math.pi) - math.pi)
         assert f"{1000 * math.hypot(ex - tx, ey - ty):.1f}, {math.degrees(turn):.1f}" in rows[1 + slot], rows
-    # and the HUD's line per robot says what referee/standings.py says (score so far, waypoints, error)
+    # and the HUD's line per robot says what referee/media/standings.py says (score so far, waypoints, error)
     hud = page.evaluate("window.viewer.scenes.at(window.viewer.time).hud")
     assert hud == list(Scenes(rep).at(2.5).hud)
     assert page.locator("#final tr").count() == 1 + len(frame)
@@ -235,7 +235,7 @@ def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key,
     web = _canvas(page)
     ref, painter, scenes = _pygame(replays[key], t)
     assert web.shape == ref.shape
-    for when in (t, scenes.duration):  # the HUD's text, as referee/render.py writes it (the final scores at the end)
+    for when in (t, scenes.duration):  # the HUD's text, as referee/media/render.py writes it (the final scores at the end)
         assert page.evaluate(f"window.viewer.scenes.at({when}).hud") == list(scenes.at(when).hud)
     diff = np.abs(web - ref)
     field, whole = diff[:, painter.hud_height:].mean(), diff.mean()

@@ -4,7 +4,7 @@
 "use strict";
 (() => {
   const DATA = JSON.parse(document.getElementById("laserarena-data").textContent);
-  const S = DATA.style;  // arena/draw.py's colours and sizes, referee/render.py's windows
+  const S = DATA.style;  // arena/draw.py's colours and sizes, referee/media/render.py's windows
   const $ = (id) => document.getElementById(id);
 
   // ---- Python's arithmetic, so pixels round as they do in arena/draw.py ----
@@ -67,7 +67,7 @@
 
   const frameAt = (rep, t) => Math.min(Math.max(pyRound(t * rep.header.record_rate), 0), rep.frames.length - 1);
 
-  // ---- estimate errors and standings (referee/error_series.py, referee/standings.py) ----
+  // ---- estimate errors and standings (referee/media/error_series.py, referee/media/standings.py) ----
   function truthAt(frames, times, slot, t) {  // the true pose at t, between frames linearly
     const i = bisectLeft(times, t - 1e-9);
     if (i >= frames.length) return null;
@@ -158,7 +158,7 @@
     }
   }
 
-  // ---- scenes: what to draw at time t (referee/render.py's Scenes) ----
+  // ---- scenes: what to draw at time t (referee/media/render.py's Scenes) ----
   class Scenes {
     constructor(rep, geom) {
       this.rep = rep;

@@ -1,6 +1,6 @@
 """A PettingZoo ParallelEnv: every robot of a level is an agent (`robot_0`, `robot_1`, ...).
 
-    from referee.parallel_env import LaserArenaParallelEnv
+    from referee.gym.parallel import LaserArenaParallelEnv
     env = LaserArenaParallelEnv(level="asabe-race")
 
 Each agent observes and acts as in the Gymnasium env (docs/rl.md); an agent that finishes
@@ -18,7 +18,7 @@ import numpy as np
 from pettingzoo import ParallelEnv
 
 from arena.level import Level
-from referee.agent_session import AgentSession, load
+from referee.gym.session import AgentSession, load
 
 
 class LaserArenaParallelEnv(ParallelEnv):
@@ -70,7 +70,7 @@ class LaserArenaParallelEnv(ParallelEnv):
 
     def render(self):
         if self.render_mode == "rgb_array":
-            from referee.agent_view import frame
+            from referee.gym.view import frame
             return frame(self.session, self.render_size)
         return None
 

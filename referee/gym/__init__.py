@@ -6,6 +6,11 @@
 Importing this module registers `LaserArena-v0` with Gymnasium (that is how `make`'s
 "module:EnvName" form finds it). Observations, actions and rewards: docs/rl.md. Needs the
 `rl` extra (`pip install 'laserarena[rl]'`).
+
+The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the match driven
+one control period at a time for agents (`session`), the fixed-size observation encoding
+(`observation`) and frames for `render()` (`view`). It may import the match core, the
+sandbox's team specs, `arena` and `robots.api`; nothing imports it but users.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ import gymnasium
 import numpy as np
 
 from arena.level import Level
-from referee.agent_session import AgentSession
+from referee.gym.session import AgentSession
 
 ENV_ID = "LaserArena-v0"
 
@@ -58,7 +63,7 @@ class LaserArenaEnv(gymnasium.Env):
 
     def render(self):
         if self.render_mode == "rgb_array":
-            from referee.agent_view import frame
+            from referee.gym.view import frame
             return frame(self.session, self.render_size)
         return None
 

@@ -12,7 +12,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
-from referee.replay import Replay
+from referee.records.replay import Replay
 
 
 def truth_at(frames: list, times: list[float], slot: int, t: float) -> tuple[float, float, float] | None:

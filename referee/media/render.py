@@ -8,22 +8,18 @@ ships its own ffmpeg), with a progress bar.
 from __future__ import annotations
 
 import bisect
-import os
 import sys
 from pathlib import Path
 
-os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless unless a display is asked for
-os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import pygame  # noqa: E402
+import pygame
 
-from arena.draw import Painter, RobotView, Scene  # noqa: E402
-from arena.level import Level  # noqa: E402
-from arena.loader import parse_level  # noqa: E402
-from referee.errors import UserError  # noqa: E402
-from referee.replay import Replay, load  # noqa: E402
-from referee.standings import Standings  # noqa: E402
+from arena.draw import Painter, RobotView, Scene
+from arena.level import Level
+from arena.loader import parse_level
+from referee.errors import UserError
+from referee.records.replay import Replay, load
+from referee.media.standings import Standings
 
 TRAIL = 8.0  # s of trail behind each robot
 BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams

@@ -95,8 +95,8 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
           speed: float = 1.0, max_frames: int | None = None) -> int:
     """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
     import pygame
-    from referee.render import Scenes
-    from referee.replay import MemoryRecorder, load
+    from referee.media.render import Scenes
+    from referee.records.replay import MemoryRecorder, load
 
     live = None
     path = Path(target)
@@ -106,9 +106,9 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
         except ValueError as e:
             raise UserError(str(e)) from None
     else:
-        from referee.cli import find_level
-        from referee.match import Match
-        from referee.teams import resolve
+        from arena.loader import find_level
+        from referee.match.loop import Match
+        from referee.sandbox.teams import resolve
         level = find_level(target)
         specs = list(teams or [])
         specs += [level.default_controller] * (len(level.robots) - len(specs))

@@ -16,10 +16,11 @@ import levels
 from arena import draw
 from arena.level import Level
 from arena.loader import LevelError, load_level, parse_level
-from referee import render, scoring
+from referee.media import render
+from referee.match import scoring
 from referee.errors import UserError
-from referee.replay import load
-from referee.tasks import TaskTracker
+from referee.records.replay import load
+from referee.match.tasks import TaskTracker
 
 WEB = Path(__file__).with_name("web")
 # a line of HUD-like text: the page sizes its font so that this line is as wide as pygame draws it
@@ -41,7 +42,7 @@ def level_geometry(level: Level) -> dict:
         "paths": [[list(p) for p in path] for path in render.paths(level)],
         "task": {"kind": level.task.kind, "radius": level.task.radius,
                  "goal": None if level.task.goal is None else [level.task.goal.x, level.task.goal.y]},
-        # what the HUD's standings need (referee/standings.py): each slot's start and targets
+        # what the HUD's standings need (referee/media/standings.py): each slot's start and targets
         "starts": [[r.start.x, r.start.y] for r in level.robots],
         "targets": [[list(p) for p in tracker.targets(r.slot)] for r in level.robots],
         "time_limit": level.time_limit, "control_period": level.control_period,
@@ -49,7 +50,7 @@ def level_geometry(level: Level) -> dict:
 
 
 def _style() -> dict:
-    """arena/draw.py's colours and sizes, referee/render.py's time windows and the scoring
+    """arena/draw.py's colours and sizes, referee/media/render.py's time windows and the scoring
     constants, so the page and the pygame frames are drawn from one definition."""
     return {"palette": draw.PALETTE, "background": draw.BACKGROUND, "field": draw.FIELD, "wall": draw.WALL,
             "obstacle": draw.OBSTACLE, "beacon": draw.BEACON, "hud_height": draw.HUD_HEIGHT,

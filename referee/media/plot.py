@@ -1,7 +1,7 @@
 """`laserarena plot REPLAY --out err.png`: each robot's localization error over the match.
 
 Per robot, two panels over time: the position error (mm) and the heading error (deg) of the
-estimate its controller reported, against the truth (referee/error_series.py). Ticks under
+estimate its controller reported, against the truth (referee/media/error_series.py). Ticks under
 each panel mark the fixes (the times an estimate was reported); red lines the fouls, purple
 lines the faults. Drawn with pygame-ce, headless. `error_figure()` gives the same figure,
 and its data, from Python.
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from arena.draw import color
-from referee.error_series import tracks
+from referee.media.error_series import tracks
 from referee.errors import UserError
-from referee.replay import load
+from referee.records.replay import load
 
 BACKGROUND, AXIS, GRID, TEXT = (255, 255, 255), (60, 60, 60), (225, 225, 225), (30, 30, 30)
 FOUL, FAULT, FIX = (220, 50, 40), (150, 60, 200), (120, 120, 120)

@@ -19,15 +19,15 @@ from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
-from referee.bot import Fault, InProcessBot
-from referee.privacy import make_undumpable
-from referee.process import ProcessBot
-from referee.estimates import EstimateStats
-from referee.replay import ReplayWriter
-from referee.rules import Rules
-from referee.scoring import score
-from referee.tasks import TaskTracker
-from referee.teams import Team
+from referee.sandbox.bot import Fault, InProcessBot
+from referee.sandbox.privacy import make_undumpable
+from referee.sandbox.process import ProcessBot
+from referee.match.estimates import EstimateStats
+from referee.records.replay import ReplayWriter
+from referee.match.rules import Rules
+from referee.match.scoring import score
+from referee.match.tasks import TaskTracker
+from referee.sandbox.teams import Team
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 2

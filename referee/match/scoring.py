@@ -10,9 +10,9 @@ total = task + time + localization - penalties, where
 
 from __future__ import annotations
 
-from referee.estimates import EstimateStats
-from referee.rules import Foul
-from referee.tasks import TaskTracker
+from referee.match.estimates import EstimateStats
+from referee.match.rules import Foul
+from referee.match.tasks import TaskTracker
 
 TASK_POINTS, TIME_POINTS, LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS = 100.0, 20.0, 25.0, 100.0
 RMS_SCALE = 0.010  # m: an RMS error of 10 mm halves the localization points

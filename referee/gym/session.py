@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from arena.level import Level
-from referee.agent_observation import ObservationEncoder
-from referee.match import Match, brief_for
-from referee.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
-from referee.teams import Team, resolve
+from referee.gym.observation import ObservationEncoder
+from referee.match.loop import Match, brief_for
+from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
+from referee.sandbox.teams import Team, resolve
 from robots.api import Command
 from robots.controllers.idle import Idle
 
@@ -41,7 +41,7 @@ def load(level: str | Path | Level) -> Level:
     """A level by built-in name, file path, or already loaded."""
     if isinstance(level, Level):
         return level
-    from referee.cli import find_level
+    from arena.loader import find_level
     return find_level(str(level))
 
 
