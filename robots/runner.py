@@ -17,7 +17,6 @@ import sys
 import traceback
 
 from robots import protocol
-from robots.api import Command
 from robots.loading import LoadError, load_class
 
 
@@ -107,8 +106,9 @@ def main(argv: list[str] | None = None) -> int:
             ok, cmd = _guarded(out, "step", lambda: controller.step(obs))
             if not ok:
                 return 1
-            if not isinstance(cmd, Command):  # the same words as a referee-side check
-                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": protocol.command_problem(cmd)})
+            problem = protocol.command_problem(cmd)  # the same words as the referee-side check
+            if problem:
+                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": problem})
                 return 1
             protocol.write(out, {"type": "command", "tick": obs.tick, "command": protocol.to_plain(cmd)})
         else:
