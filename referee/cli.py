@@ -21,6 +21,7 @@ from referee.errors import UserError
 from referee.match import NO_LIMITS, run_match
 from referee.starter_kit import create
 from referee.summary import table
+from referee.terminal import safe
 from referee.teams import resolve
 
 
@@ -84,15 +85,24 @@ def cmd_grade(args: argparse.Namespace) -> int:
     teams = []
     for spec in args.team:
         team = resolve(spec)  # a bad spec fails here, in one line, before any match
-        teams.append(team.spec)
+        teams.append((team.spec, g.code_hash(team)))
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
     db = Path(args.db)
     if not db.resolve().parent.is_dir():
         raise UserError(f"{db}: the folder does not exist")
-    jobs = g.make_jobs(found, teams, args.seeds)
+    given = args.secret
+    if args.secret_file:
+        try:
+            given = Path(args.secret_file).read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError) as e:
+            raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
+        if not given:
+            raise UserError(f"{args.secret_file}: the secret file is empty")
+    journal = g.Journal(db)
+    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(given), __version__)
     start = time.perf_counter()
-    journal = g.grade(jobs, db, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    g.grade(jobs, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
     rows = g.leaderboard(journal, jobs)
     text = g.write_leaderboard(rows, Path(args.out))
     if not args.quiet:
@@ -189,6 +199,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
+    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own, made on first "
+                   "use); every match's noise derives from it (docs/integrity.md)")
+    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE (keeps it off the "
+                   "command line, which other processes can read)")
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
@@ -239,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except (LevelError, UserError) as e:
-        print(f"laserarena: {e}", file=sys.stderr)
+        print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("laserarena: interrupted", file=sys.stderr)

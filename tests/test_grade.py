@@ -13,7 +13,8 @@ import pytest
 from referee.grade import interval
 from conftest import run_cli
 
-ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet"]
+ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet",
+        "--secret", "a shared secret"]  # one secret: journals compared across runs draw the same noise
 
 
 def journal(db):
