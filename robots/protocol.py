@@ -187,14 +187,24 @@ def read(stream: BinaryIO) -> dict | None:
     return parse(data)
 
 
+def _one_line(text: str, limit: int = 300) -> str:
+    """An error text safe for a log line or a terminal: control characters escaped, cut short.
+    (The referee's `referee.terminal.safe` does the same; this side may not import it.)"""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text[:limit])
+
+
+def _invalid(e: msgspec.ValidationError, what: str) -> ProtocolError:
+    return ProtocolError(_one_line(f"{what}: {e}".replace("`$", "`" + what)))
+
+
 def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
     """Typed decoding where any failure at all is a ProtocolError naming `what` and the field."""
     try:
         return decoder.decode(data)
     except msgspec.ValidationError as e:
-        raise ProtocolError(f"{what}: {e}".replace("`$.", "`" + what + ".")) from None
+        raise _invalid(e, what) from None
     except msgspec.DecodeError as e:
-        raise ProtocolError(f"{what}: not JSON ({e})") from None
+        raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
     except Exception as e:  # noqa: BLE001 - a team's bytes must raise nothing else
@@ -219,7 +229,9 @@ def _payload(d: Any, cls: type, what: str) -> Any:
     try:
         return msgspec.convert(d, cls)
     except msgspec.ValidationError as e:
-        raise ProtocolError(f"{what}: {e}".replace("`$.", "`" + what + ".")) from None
+        raise _invalid(e, what) from None
+    except RecursionError:
+        raise ProtocolError(f"{what}: nested too deeply") from None
     except Exception as e:  # noqa: BLE001
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
 
