@@ -113,7 +113,14 @@ def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
         raise UserError(f"{safe(job.team)}: the team's code changed while grading; run grade again")
     teams = [team] + [resolve(level.default_controller)] * (len(level.robots) - 1)
     replay = Path(replay_dir) / job.replay_name()
-    result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
+    global _playing
+    _playing = True
+    try:
+        result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
+    except _Stopped:  # the match has stopped its controllers on the way out; leave now, not
+        os._exit(143)  # back into the pool's loop (which would wait for work for ever)
+    finally:
+        _playing = False
     return job, dumps(result), time.perf_counter() - start
 
 
@@ -266,6 +273,17 @@ def _interrupt(signum: int, frame) -> None:  # noqa: ANN001
 
 
 PR_SET_PDEATHSIG = 1
+_playing = False  # a pool worker is inside a match
+
+
+class _Stopped(BaseException):
+    """A pool worker was told to stop (SIGTERM) in the middle of a match."""
+
+
+def _worker_stop(signum: int, frame) -> None:  # noqa: ANN001
+    if _playing:
+        raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
+    os._exit(143)
 
 
 def _worker_init(parent: int) -> None:
@@ -273,12 +291,12 @@ def _worker_init(parent: int) -> None:
     The kernel sends SIGTERM when the parent goes; SIGTERM ends the match cleanly (its
     controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    signal.signal(signal.SIGTERM, _worker_stop)
     libc = ctypes.CDLL(None, use_errno=True)
     if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
         raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
     if os.getppid() != parent:  # the parent died before the line above: follow it now
-        sys.exit(143)
+        os._exit(143)
 
 
 def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[Job, str, float]]:

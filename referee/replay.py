@@ -55,7 +55,7 @@ class _Header(msgspec.Struct):
     format: str
     version: int
     level: _LevelRef
-    seed: Annotated[int, msgspec.Meta(ge=-(1 << 63), lt=1 << 64)]
+    seed: Annotated[int, msgspec.Meta(ge=-(1 << 63), le=(1 << 63) - 1)]
     ideal: bool
     record_rate: Annotated[int, msgspec.Meta(gt=0, le=100_000)]
     control_period: Annotated[float, msgspec.Meta(gt=0, le=1e6)]
