@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from referee.teams import Team
 from robots.api import Brief, Command, Observation
-from robots.protocol import command_problem
+from robots.protocol import ProtocolError, command_from, command_problem, to_plain
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,10 @@ class InProcessBot:
         problem = command_problem(cmd)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)
-        return cmd
+        try:  # the very checks and conversions of the wire (numpy scalars become floats, caps apply)
+            return command_from(to_plain(cmd))
+        except ProtocolError as e:
+            return Fault(obs.tick, obs.time, "bad_command", str(e))
 
     def close(self) -> None:
         """Nothing to end: the controller lived in this process."""

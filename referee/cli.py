@@ -115,7 +115,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
 def cmd_verify(args: argparse.Namespace) -> int:
     from referee.verify import verify
     ok, message = verify(Path(args.replay), args.team)
-    print(f"{args.replay}: {message}")
+    print(safe(f"{args.replay}: {message}", 1000))
     return 0 if ok else 1
 
 

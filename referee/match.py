@@ -183,6 +183,10 @@ class Match:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
             return self._run()
+        except BaseException:
+            if hasattr(self.writer, "discard"):
+                self.writer.discard()  # an interrupted match leaves no half-written replay
+            raise
         finally:
             for bot in self.bots:
                 bot.close()

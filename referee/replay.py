@@ -126,6 +126,15 @@ class ReplayWriter:
         else:
             self._write({"k": record_kind, **fields})
 
+    def discard(self) -> None:
+        """Drop the unfinished replay (the match did not end): no `.part` file is left behind."""
+        try:
+            self.file.close()
+            self.raw.close()
+        except (OSError, ValueError):
+            pass
+        Path(self.partial).unlink(missing_ok=True)
+
     def close(self, result: dict) -> None:
         self._write({"k": "result", "result": result})
         self.file.close()  # closes the gzip stream and the file beneath

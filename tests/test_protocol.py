@@ -1,6 +1,7 @@
 """The controller protocol cannot be crashed: whatever bytes a team writes, the referee sees a
 `ProtocolError` (a typed fault for that slot) and the match goes on for everyone else."""
 
+import gzip
 import io
 import json
 import math
@@ -196,11 +197,11 @@ def race(seconds: int = 8):
     return parse_level(text.encode(), "race.yaml")
 
 
-def hostile(shared_dir, body: str, name: str = "hostile.py", isolate: bool = True) -> dict:
+def hostile(shared_dir, body: str, name: str = "hostile.py", isolate: bool = True, replay=None) -> dict:
     path = shared_dir / name
     path.write_text(textwrap.dedent(body))
     teams = [resolve(str(path))] + [resolve("ref:dead-reckoning")] * 3
-    return run_match(race(), teams, seed=2, isolate=isolate)
+    return run_match(race(), teams, seed=2, isolate=isolate, replay=replay)
 
 
 STOPS_AT_4 = """
@@ -246,16 +247,23 @@ def test_a_returned_overflowing_command_is_a_bad_command(shared_dir, isolate):
     assert "Command.left" in contained(result, "bad_command", shared_dir)
 
 
-def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir):
+@pytest.mark.parametrize("isolate", [True, False])
+def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
     body = """
         import numpy as np
-        from robots.api import Command, Controller
+        from robots.api import Command, Controller, Drawing
         class Team(Controller):
             def step(self, obs):
-                return Command(WRAP(0.0625), WRAP(0.125), estimate=tuple(ARRAY([1.0, 0.5, 0.25])))
+                return Command(WRAP(0.0625), WRAP(0.125), estimate=ESTIMATE,
+                               debug=(Drawing("line", ((WRAP(1.0), WRAP(0.5)), (0.0, 0.0))),))
     """
-    numpy = hostile(shared_dir, body.replace("WRAP", "np.float32").replace("ARRAY", "np.array"), "np_team.py")
-    plain = hostile(shared_dir, body.replace("WRAP", "float").replace("ARRAY", "list"), "plain_team.py")
+    numpy = hostile(shared_dir, body.replace("WRAP", "np.float32").replace(
+        "ESTIMATE", "tuple(np.array([1.0, 0.5, 0.25], np.float32))"), "np_team.py", isolate, shared_dir / "n.replay")
+    plain = hostile(shared_dir, body.replace("WRAP", "float").replace("ESTIMATE", "(1.0, 0.5, 0.25)"),
+                    "plain_team.py", isolate, shared_dir / "p.replay")
+    records = [gzip.open(shared_dir / f"{n}.replay").read().splitlines()[1:-1] for n in "np"]  # no header, result
+    assert records[0] == records[1]  # every frame, estimate and drawing recorded alike
     assert not numpy["robots"][0]["faults"]
     assert numpy["robots"][0]["final_pose"] == plain["robots"][0]["final_pose"]
     assert numpy["robots"][0]["localization"] == plain["robots"][0]["localization"]
+    assert numpy["robots"][0]["localization"]["fraction"] == 1.0
