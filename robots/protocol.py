@@ -224,7 +224,7 @@ def parse(data: bytes) -> dict:
 
 def _payload(d: Any, cls: type, what: str) -> Any:
     """A payload from raw JSON (as `parse` leaves it) or from plain data, decoded as `cls`."""
-    if isinstance(d, (msgspec.Raw, bytes)):
+    if type(d) is msgspec.Raw or isinstance(d, bytes):
         return _decode(_DECODERS[cls], d, what)
     try:
         return msgspec.convert(d, cls)
@@ -290,13 +290,17 @@ def command_from(d: Any) -> Command:
     """A Command from raw JSON or plain data: wheel speeds and estimate finite and within
     `LIMIT` (else ProtocolError naming the field); debug drawings beyond the caps dropped."""
     c = _payload(d, _Command, "command")
-    return Command(left=c.left, right=c.right, estimate=c.estimate, debug=tuple(
+    if not c.debug:  # the common case, on the per-tick path
+        return Command(c.left, c.right, c.estimate)
+    return Command(c.left, c.right, c.estimate, tuple(
         Drawing(g.kind, tuple(g.points[:MAX_POINTS]), g.radius, g.text[:MAX_TEXT], g.color)
         for g in c.debug[:MAX_DRAWINGS]))
 
 
 def _bad_real(v: object) -> bool:
     """True unless `v` is a real number (numpy scalars too) that is finite and within LIMIT."""
+    if type(v) is float:  # the common case first; NaN fails the comparison
+        return not -LIMIT <= v <= LIMIT
     if isinstance(v, bool) or not isinstance(v, numbers.Real):
         return True
     try:
@@ -318,7 +322,7 @@ def command_problem(cmd: object) -> str | None:
             return f"Command.{name} must be a finite number within +-{LIMIT:g}, got {_show(v)}"
     est = cmd.estimate
     if est is not None and not (isinstance(est, (tuple, list)) and len(est) == 3
-                                and not any(map(_bad_real, est))):
+                                and not (_bad_real(est[0]) or _bad_real(est[1]) or _bad_real(est[2]))):
         return f"Command.estimate must be None or three finite numbers within +-{LIMIT:g}, got {_show(est)}"
     if not isinstance(cmd.debug, (tuple, list)):
         return f"Command.debug must be a tuple of Drawing, got {_show(cmd.debug)}"
