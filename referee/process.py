@@ -29,7 +29,7 @@ from robots import protocol
 from robots.api import Brief, Command, Observation
 from robots.loading import is_file_spec
 
-FAULT_KINDS = {"exception", "memory", "bad_command"}  # what a controller may report of itself
+FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
 
 

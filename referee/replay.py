@@ -11,7 +11,6 @@ drawings, `foul`, `fault`; the last line is the result. `load()` reads one back.
 from __future__ import annotations
 
 import gzip
-import hashlib
 import io
 import json
 import os
@@ -28,17 +27,9 @@ BEHAVIOUR = 3  # bump when a change alters simulation results (the golden-replay
 
 
 def controller_hash(spec: str) -> str:
-    """sha256 of a controller's source file (files and modules), or of the spec itself."""
-    from robots.loading import is_file_spec
-    path = Path(spec.partition(".py")[0] + ".py") if is_file_spec(spec) else None
-    if path is None:
-        import importlib.util
-        from robots.controllers import REFERENCE
-        module = (REFERENCE.get(spec[4:], "") if spec.startswith("ref:") else spec).partition(":")[0]
-        found = importlib.util.find_spec(module) if module else None
-        path = Path(found.origin) if found and found.origin else None
-    data = path.read_bytes() if path and path.is_file() else spec.encode()
-    return "sha256:" + hashlib.sha256(data).hexdigest()
+    """sha256 of a controller's code, found without running it (`referee.teams.Team.code_hash`)."""
+    from referee.teams import code_hash
+    return code_hash(spec)
 
 
 class ReplayWriter:

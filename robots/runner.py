@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         cls = load_class(args.spec)
     except LoadError as e:
-        protocol.write(out, {"type": "fault", "kind": "exception", "message": str(e)})
+        protocol.write(out, {"type": "fault", "kind": "load", "message": str(e)})
         return 1
     controller = None
     while True:
