@@ -63,6 +63,7 @@ class ProcessBot:
         self.loaded = False  # the controller process has loaded the team's code
         self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
         self.info: int | None = None  # bwrap's info descriptor (sandbox.init_pid)
+        self.in_sandbox = False
 
     def _spawn(self) -> None:
         reason = sandbox.unavailable() if self.sandboxed else None
@@ -88,7 +89,7 @@ class ProcessBot:
         uid = slot_uid(self.slot) if os.geteuid() == 0 else None
         launch = sandbox.launch([sandbox.PYTHON, "-s", "-m", "robots.runner", entry, *limits],
                                 self.team.files, env, uid)
-        self.info = launch.info
+        self.info, self.in_sandbox = launch.info, True
         try:
             self.proc = subprocess.Popen(
                 launch.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
@@ -162,14 +163,14 @@ class ProcessBot:
             message = " ".join(message.split()) or f"in {where}"
         elif what == "crash" and not self.loaded:
             self.proc.wait()
-            code = self.proc.returncode
+            code = self._status()
             kind = "load"
             message = (f"team {self.team.label}: " +
                        (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}") +
                        " while its code was loading")
         elif what == "crash":
             self.proc.wait()
-            code = self.proc.returncode
+            code = self._status()
             if code == -signal.SIGXFSZ:
                 kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
             else:
@@ -185,6 +186,12 @@ class ProcessBot:
             kind, message = "protocol", f"in {where}: malformed message"
         self.close()
         return Fault(tick, t, kind, message)
+
+    def _status(self) -> int:
+        """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
+        passes a signal on as 128 + its number."""
+        code = self.proc.returncode
+        return -(code - 128) if self.in_sandbox and 128 < code < 128 + signal.NSIG else code
 
     def _entry_seen(self) -> str:
         """The entry as the controller process was given it."""

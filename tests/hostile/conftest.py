@@ -6,7 +6,7 @@ import tempfile
 
 import pytest
 
-from hostile_kit import assert_nothing_left, sandbox_missing, tmp_entries
+from hostile.hostile_kit import assert_nothing_left, sandbox_missing, tmp_entries
 
 
 @pytest.fixture(autouse=True)

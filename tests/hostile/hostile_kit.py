@@ -2,6 +2,8 @@
 checks that an attack was contained (the others unharmed, a typed fault, nothing left behind)."""
 
 import os
+import subprocess
+import sys
 import textwrap
 import time
 from pathlib import Path
@@ -85,6 +87,12 @@ def wait_until_gone(referee: int | None = None, timeout: float = 10.0) -> list[i
     while (left := sandboxed_processes(referee)) and time.monotonic() < deadline:
         time.sleep(0.05)
     return left
+
+
+def laserarena(*args: str, **popen) -> subprocess.CompletedProcess:
+    """Run the command line as a user would (`python -m referee ARGS`), bounded in time."""
+    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True,
+                          timeout=300, **popen)
 
 
 def tmp_entries() -> set[str]:

@@ -1,6 +1,6 @@
 """A controller that signals or traces every process it can name reaches only its own sandbox."""
 
-from hostile_kit import assert_contained, hostile_match
+from hostile.hostile_kit import assert_contained, hostile_match
 
 
 def test_kill_minus_one_kills_nobody_else(tmp_path):
