@@ -6,6 +6,7 @@ Bad input (a level file, a team spec, a path) prints one line to stderr and exit
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 import numpy as np
@@ -68,6 +69,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
                        isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
                        logs=Path(args.logs) if args.logs else None)
+    given = result["robots"][:len(args.team or [])]
+    unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
+    if given and len(unloadable) == len(given):  # nothing the user asked for could run
+        raise UserError("; ".join(unloadable))
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -85,7 +90,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     teams = []
     for spec in args.team:
         team = resolve(spec)  # a bad spec fails here, in one line, before any match
-        teams.append((team.spec, g.code_hash(team)))
+        teams.append((team.spec, team.code_hash))
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
     db = Path(args.db)
@@ -248,8 +253,14 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _terminate(signum: int, frame: object) -> None:
+    """SIGTERM ends a run as Ctrl-C does: every controller sandbox is closed on the way out."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         return args.func(args)
     except (LevelError, UserError) as e:

@@ -88,15 +88,6 @@ def noise_key(secret: str, level_hash: str, seed: int) -> str:
     return hmac.new(secret.encode(), f"laserarena-noise:{level_hash}:{seed}".encode(), hashlib.sha256).hexdigest()
 
 
-def code_hash(team) -> str:  # noqa: ANN001 - a referee.teams.Team
-    """The sha256 of a team's code (its `code_hash`, else its spec's source file)."""
-    known = getattr(team, "code_hash", "")
-    if known:
-        return known
-    from referee.replay import controller_hash
-    return controller_hash(team.spec)
-
-
 def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     """Run one job (in a worker); return it with its canonical result JSON and wall time."""
     from arena.loader import load_level
@@ -109,7 +100,7 @@ def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     if level.hash != job.level_hash:
         raise UserError(f"{job.level_path}: the level changed while grading; run grade again")
     team = resolve(job.team)
-    if code_hash(team) != job.code_hash:
+    if team.code_hash != job.code_hash:
         raise UserError(f"{safe(job.team)}: the team's code changed while grading; run grade again")
     teams = [team] + [resolve(level.default_controller)] * (len(level.robots) - 1)
     replay = Path(replay_dir) / job.replay_name()
@@ -257,19 +248,13 @@ def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | 
         results = (play(j, str(replay_dir)) for j in todo)
     else:
         results = _on_pool(todo, str(replay_dir), workers)
-    previous = signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM ends a run as Ctrl-C does
-    try:
+    try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for job, result, wall in results:
             journal.record(job, result, str(replay_dir / job.replay_name()), wall)
             progress.tick(f"{job.level} {job.team} seed {job.seed}")
     finally:
         results.close()  # a pool's workers end here, even on an interrupt
-        signal.signal(signal.SIGTERM, previous)
     return journal
-
-
-def _interrupt(signum: int, frame) -> None:  # noqa: ANN001
-    raise KeyboardInterrupt
 
 
 PR_SET_PDEATHSIG = 1

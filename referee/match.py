@@ -122,7 +122,7 @@ class Match:
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None) if isolate
+        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate
                      else InProcessBot(t) for i, t in enumerate(teams)]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]

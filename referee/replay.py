@@ -15,7 +15,6 @@ the header has a fixed, typed schema (its level text is parsed as safely as a le
 from __future__ import annotations
 
 import gzip
-import hashlib
 import io
 import json
 import os
@@ -72,17 +71,9 @@ class _Frame(msgspec.Struct):
 
 
 def controller_hash(spec: str) -> str:
-    """sha256 of a controller's source file (files and modules), or of the spec itself."""
-    from robots.loading import is_file_spec
-    path = Path(spec.partition(".py")[0] + ".py") if is_file_spec(spec) else None
-    if path is None:
-        import importlib.util
-        from robots.controllers import REFERENCE
-        module = (REFERENCE.get(spec[4:], "") if spec.startswith("ref:") else spec).partition(":")[0]
-        found = importlib.util.find_spec(module) if module else None
-        path = Path(found.origin) if found and found.origin else None
-    data = path.read_bytes() if path and path.is_file() else spec.encode()
-    return "sha256:" + hashlib.sha256(data).hexdigest()
+    """sha256 of a controller's code, found without running it (`referee.teams.Team.code_hash`)."""
+    from referee.teams import code_hash
+    return code_hash(spec)
 
 
 class ReplayWriter:

@@ -4,7 +4,7 @@ Frames are a 4-byte big-endian length and a UTF-8 JSON object of at most `MAX_FR
 Every message carries `"v": 1` and a `type`:
 
 referee -> controller: `setup` {brief}, `step` {obs}, `stop`
-controller -> referee: `ready`, `command` {tick, command}, `fault` {kind, message}
+controller -> referee: `loaded`, `ready`, `command` {tick, command}, `fault` {kind, message}
 
 Decoding is typed (msgspec): every message has a fixed schema, every number must be finite
 and within `LIMIT`, every list and text has a length bound, and unknown fields are refused.
@@ -134,6 +134,10 @@ class _Stop(_Message, tag="stop"):
     pass
 
 
+class _Loaded(_Message, tag="loaded"):
+    pass
+
+
 class _Ready(_Message, tag="ready"):
     pass
 
@@ -148,7 +152,7 @@ class _Fault(_Message, tag="fault"):
     message: Annotated[str, msgspec.Meta(max_length=4096)]
 
 
-_MESSAGE = msgspec.json.Decoder(Union[_Setup, _Step, _Stop, _Ready, _CommandMsg, _Fault])
+_MESSAGE = msgspec.json.Decoder(Union[_Setup, _Step, _Stop, _Loaded, _Ready, _CommandMsg, _Fault])
 _DECODERS = {t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)}
 _ENCODER = msgspec.json.Encoder()
 

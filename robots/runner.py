@@ -3,7 +3,8 @@
 Started by the referee as a fresh interpreter. It sets its own resource limits before any
 team code loads, keeps the protocol on private copies of stdin and stdout, and sends
 everything the team prints to stderr (the team's log). Then it loads the team's class and
-answers the referee's messages until `stop` or end of input. A team exception is reported
+says `loaded` (a process that ends before that failed to load: a `load` fault), and answers
+the referee's messages until `stop` or end of input. A team exception is reported
 as a `fault` message (the traceback goes to the team's log) and the process ends.
 """
 
@@ -88,8 +89,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         cls = load_class(args.spec)
     except LoadError as e:
-        protocol.write(out, {"type": "fault", "kind": "exception", "message": str(e)})
+        protocol.write(out, {"type": "fault", "kind": "load", "message": str(e)})
         return 1
+    except BaseException as e:  # anything else the team's module does while it loads
+        _fault(out, "load", "loading", e)
+        return 1
+    protocol.write(out, {"type": "loaded"})  # from here on an exit is the controller's, not its loading's
     controller = None
     while True:
         msg = protocol.read(inp)
