@@ -231,7 +231,8 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
     # the journal's secret is the one the run used: a new journal given it grades the same
     again = tmp_path / "again"
     again.mkdir()
-    assert run_grade(again, "--team", "ref:bac", "--seeds", "1", "--secret", secret).returncode == 0
+    (again / "secret").write_text(secret + "\n")
+    assert run_grade(again, "--team", "ref:bac", "--seeds", "1", "--secret-file", str(again / "secret")).returncode == 0
     assert (again / "lb.csv").read_text() == (tmp_path / "lb.csv").read_text()
 
 
