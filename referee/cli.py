@@ -186,7 +186,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--ideal", action="store_true",
                    help="ideal sensors: no noise, no missed or false pulses, no quantization")
     s.add_argument("--in-process", action="store_true",
-                   help="run the controllers inside this process (for a debugger); same results within budget")
+                   help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
+                        "runs with the referee's rights (never for grading); same results within budget")
     s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
     s.add_argument("--no-limits", action="store_true",
                    help="no time or memory limits for the controllers (debugging)")

@@ -189,9 +189,11 @@ class ProcessBot:
 
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
-        passes a signal on as 128 + its number."""
+        passes a signal on as 128 + its number, and the runner ends so on an output flood."""
         code = self.proc.returncode
-        return -(code - 128) if self.in_sandbox and 128 < code < 128 + signal.NSIG else code
+        if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
+            return -(code - 128)
+        return code
 
     def _entry_seen(self) -> str:
         """The entry as the controller process was given it."""

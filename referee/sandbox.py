@@ -87,7 +87,7 @@ def unavailable() -> str | None:
 def _namespaces() -> list[str]:
     user = [] if os.geteuid() == 0 else ["--unshare-user", "--disable-userns"]
     return ["bwrap", *user, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts",
-            "--unshare-cgroup-try", "--die-with-parent", "--new-session"]
+            "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--as-pid-1"]
 
 
 def _hidden() -> list[str]:
@@ -146,7 +146,7 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
         "--proc", "/proc", "--dev", "/dev",
         "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/tmp",
         "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/dev/shm",
-        "--chdir", "/tmp", "--clearenv"]
+        "--remount-ro", "/", "--chdir", "/tmp", "--clearenv"]  # only /tmp and /dev/shm stay writable
     for key, value in sorted(env.items()):
         args += ["--setenv", key, value]
     args.append("--")

@@ -79,7 +79,9 @@ def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
     found, path = None, None
     parts = name.split(".")
     for i in range(len(parts)):
-        found = importlib.machinery.PathFinder.find_spec(".".join(parts[:i + 1]), path)
+        prefix = ".".join(parts[:i + 1])
+        loaded = sys.modules.get(prefix)  # already imported (our own `robots`): where it really is
+        found = getattr(loaded, "__spec__", None) or importlib.machinery.PathFinder.find_spec(prefix, path)
         if found is None:
             return None
         path = found.submodule_search_locations

@@ -73,6 +73,10 @@ def _guarded(out, where: str, call) -> tuple[bool, object]:
     return False, None
 
 
+def _flooded(signum: int, frame: object) -> None:
+    os._exit(128 + signal.SIGXFSZ)  # the shell's (and bwrap's) word for "killed by SIGXFSZ"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="robots.runner")
     ap.add_argument("spec")
@@ -83,7 +87,9 @@ def main(argv: list[str] | None = None) -> int:
         resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
     if args.log_cap:  # writing past it raises SIGXFSZ: the referee reports an output flood
         resource.setrlimit(resource.RLIMIT_FSIZE, (args.log_cap, args.log_cap))
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # CPython ignores it by default
+        # CPython ignores it by default, and a PID namespace's init (this process, in a sandbox)
+        # ignores it at its default action: end as if killed by it
+        signal.signal(signal.SIGXFSZ, _flooded)
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
     try:

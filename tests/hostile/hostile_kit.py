@@ -62,7 +62,7 @@ def assert_contained(result: dict, kind: str = "exception", words: str = "contai
 
 
 def sandboxed_processes(referee: int | None = None) -> list[int]:
-    """Host pids of controller processes still alive for the referee process `referee` (default
+    """Host pids of controller processes still running for the referee process `referee` (default
     this one): as root, those running as one of its slot uids; as an ordinary user, ours in a PID
     namespace other than ours."""
     uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
@@ -74,11 +74,22 @@ def sandboxed_processes(referee: int | None = None) -> list[int]:
         try:
             status = Path(entry.path, "status").read_text()
             uid = int(status.split("\nUid:")[1].split()[0])
+            if status.split("\nState:")[1].split()[0] == "Z":
+                continue  # dead; left for an init that does not reap (a container's) to collect
             if me == 0 and uid in uids or me != 0 and uid == me and os.readlink(f"{entry.path}/ns/pid") != ours:
                 found.append(int(entry.name))
         except (OSError, IndexError, ValueError):
             continue  # ended while we looked
     return found
+
+
+def _describe(pid: int) -> str:
+    try:
+        status = dict(line.split(":\t", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines() if ":\t" in line)
+        return (f"{pid} ({status.get('State', '?')}, parent {status.get('PPid', '?')}): "
+                + Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()[:200])
+    except OSError:
+        return f"{pid}: gone"
 
 
 def wait_until_gone(referee: int | None = None, timeout: float = 10.0) -> list[int]:
@@ -101,7 +112,8 @@ def tmp_entries() -> set[str]:
 
 def assert_nothing_left(before: set[str], referee: int | None = None) -> None:
     """No controller process alive, and nothing a controller owns added to /tmp."""
-    assert sandboxed_processes(referee) == []
+    left = sandboxed_processes(referee)
+    assert left == [], [_describe(pid) for pid in left]
     uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
     added = []
     for name in tmp_entries() - before:

@@ -64,10 +64,11 @@ class Daemon(Controller):
     referee = subprocess.Popen([sys.executable, "-m", "referee", "run", "asabe-race", "--team", daemon, "--quiet"],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.monotonic() + 60
-        while len(sandboxed_processes(referee.pid)) < 5 and time.monotonic() < deadline:
-            time.sleep(0.02)  # four runners and the daemon
-        assert len(sandboxed_processes(referee.pid)) >= 5, "the match never got going"
+        deadline, seen = time.monotonic() + 60, []
+        while seen[-2:] != [True, True] and time.monotonic() < deadline:  # twice: not a passing fork
+            seen.append(len(sandboxed_processes(referee.pid)) >= 5)  # four runners and the daemon
+            time.sleep(0.1)
+        assert seen[-2:] == [True, True], "the match never got going"
         referee.send_signal(sig)
         referee.wait(timeout=60)
         assert wait_until_gone(referee.pid) == []

@@ -33,7 +33,7 @@ def test_module_code_never_runs_in_the_referee(tmp_path):
 found = []
 for attempt in (lambda: open(referee.scoring.__file__, "a").write("# pwned"),   # the installed code
                 lambda: os.listdir(os.path.dirname(os.path.dirname(referee.scoring.__file__)) + "/levels")[0],
-                lambda: open("/proc/1/environ", "rb").read(1),                   # the sandbox's init
+                lambda: open("/proc/1/environ", "rb").read(1) if os.getpid() != 1 else 1 / 0,  # an init not itself
                 lambda: open(f"/proc/{os.getppid()}/mem", "rb").read(1)):
     try:
         found.append(attempt())
