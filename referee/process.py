@@ -57,6 +57,7 @@ class ProcessBot:
         self.sandboxed = sandboxed
         self.proc: subprocess.Popen | None = None
         self.buf = b""
+        self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
         self.bank = limits.overage_bank
         self.skips = 0  # consecutive skipped ticks
         self.pending: int | None = None  # tick of an observation still unanswered
@@ -136,12 +137,14 @@ class ProcessBot:
             if len(self.buf) >= 4:
                 (size,) = struct.unpack(">I", self.buf[:4])
                 if size > protocol.MAX_FRAME:
+                    self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
                     return "protocol"
                 if len(self.buf) >= 4 + size:
                     frame, self.buf = self.buf[4:4 + size], self.buf[4 + size:]
                     try:
                         return protocol.parse(frame)
-                    except protocol.ProtocolError:
+                    except protocol.ProtocolError as e:
+                        self.problem = str(e)
                         return "protocol"
             left = deadline - time.monotonic()
             if left <= 0:
@@ -183,7 +186,7 @@ class ProcessBot:
                        else f"in {where}: overage bank exhausted" if where == "step"
                        else f"in {where}: no answer within {self.limits.setup_time:g} s")
         else:
-            kind, message = "protocol", f"in {where}: malformed message"
+            kind, message = "protocol", f"in {where}: {self.problem or 'malformed message'}"
         self.close()
         return Fault(tick, t, kind, message)
 
