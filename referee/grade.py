@@ -120,6 +120,8 @@ def _private_file(path: Path) -> None:
     try:
         os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
     except FileExistsError:
+        if not path.is_file():
+            raise UserError(f"{path}: not a journal file") from None
         os.chmod(path, 0o600)
 
 

@@ -198,6 +198,10 @@ def test_a_corrupt_journal_is_one_line(tmp_path):
         c.execute("CREATE TABLE matches (level TEXT, level_hash TEXT, team TEXT, seed INTEGER)")
     proc = run_grade(old, "--team", "ref:bac", "--seeds", "1")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "new --db" in proc.stderr
+    (tmp_path / "folder.sqlite").mkdir(mode=0o755)
+    proc = run_cli("grade", "bac-line", "--team", "ref:bac", "--db", str(tmp_path / "folder.sqlite"))
+    assert proc.returncode == 2 and "not a journal file" in proc.stderr
+    assert (tmp_path / "folder.sqlite").stat().st_mode & 0o777 == 0o755  # left as it was
 
 
 def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
