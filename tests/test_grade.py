@@ -253,3 +253,14 @@ def test_team_names_reach_the_terminal_escaped(shared_dir, tmp_path):
     assert len(proc.stdout.splitlines()) == 3  # the markdown header, its rule, one team
     proc = run_cli("run", "bac-line", "--team", str(shared_dir / "no\x1b[2Jsuch.py"))
     assert proc.returncode == 2 and "\x1b" not in proc.stderr and proc.stderr.count("\n") == 1
+
+
+def test_one_grading_run_per_journal(tmp_path):
+    import fcntl
+    db = tmp_path / "r.sqlite"
+    db.touch(mode=0o600)
+    with open(db, "rb") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)  # as a running grade holds it
+        proc = run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1")
+    assert proc.returncode == 2 and "another grading run" in proc.stderr and proc.stderr.count("\n") == 1
+    assert run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1").returncode == 0  # free again
