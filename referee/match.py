@@ -116,9 +116,9 @@ class Match:
         self.teams = teams
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
+        tree = RandomTree(self.seed, noise_key)  # noise_key: the grader's secret (docs/integrity.md)
         self.world = World(level)
-        self.rng = RandomTree(self.seed, noise_key)  # noise_key: the grader's secret (docs/integrity.md)
-        self.sensing = Sensing(self.world, self.rng, ideal)
+        self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
