@@ -135,6 +135,13 @@ def test_frames_over_the_limit_are_refused_before_reading_them():
         protocol.read(io.BytesIO(huge))
     with pytest.raises(protocol.ProtocolError, match="truncated"):
         protocol.read(io.BytesIO(frame(b"{}")[:-1]))
+    with pytest.raises(protocol.ProtocolError, match="over the"):
+        protocol.parse(b" " * (protocol.MAX_FRAME + 1))
+    drawings = b",".join([b'{"kind":"point","points":[[0,0]]}'] * 100_000)  # 3.3 MB, under the frame limit
+    msg = protocol.parse(b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":['
+                         + drawings + b"]}}")
+    with pytest.raises(protocol.ProtocolError, match="command.debug"):
+        protocol.command_from(msg["command"])
 
 
 def test_numpy_scalars_are_numbers_on_the_wire():
