@@ -105,8 +105,8 @@ def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     teams = [team] + [resolve(level.default_controller)] * (len(level.robots) - 1)
     replay = Path(replay_dir) / job.replay_name()
     global _playing
-    _playing = True
     try:
+        _playing = True
         result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
     except _Stopped:  # the match has stopped its controllers on the way out; leave now, not
         os._exit(143)  # back into the pool's loop (which would wait for work for ever)
