@@ -49,7 +49,7 @@ class InProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         try:  # the one place a team's code is imported into the referee
-            cls = load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
+            cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
             return Fault(0, 0.0, "load", str(e))
         try:

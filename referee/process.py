@@ -53,6 +53,8 @@ class ProcessBot:
 
     def __init__(self, team: Team, limits: ControllerLimits = ControllerLimits(), log: Path | None = None,
                  slot: int = 0, sandboxed: bool = True):
+        if not team.entry:
+            raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
         self.sandboxed = sandboxed
         self.proc: subprocess.Popen | None = None

@@ -15,6 +15,7 @@ import sys
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
+from typing import Callable
 
 from referee.errors import UserError
 from robots.controllers import REFERENCE
@@ -33,13 +34,15 @@ class Team:
     (files absolute), what a replay header records; `code_hash`: "sha256:<hex>" over the code
     that runs (see `code_hash`); `files`: (path inside the slot's code folder, source file) for
     each file shipped into the controller's sandbox; `entry`: the spec the controller process
-    loads, with file paths relative to that folder."""
+    loads, with file paths relative to that folder. `factory` makes a controller from Python
+    objects instead, for in-process matches of a library user (never from a spec)."""
 
     label: str
     spec: str
     code_hash: str
     files: tuple[tuple[str, Path], ...] = ()
     entry: str = ""
+    factory: Callable[[], object] | None = None
 
 
 def _file_hash(path: Path) -> str:

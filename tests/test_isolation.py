@@ -1,6 +1,9 @@
 """Controllers in their own processes: same results as in-process; hostile code is contained."""
 
 import dataclasses
+import os
+import subprocess
+import sys
 import textwrap
 
 import pytest
@@ -261,3 +264,20 @@ def test_output_flood_is_capped_and_reported(tmp_path):
     assert "about to fail" in log1 and "ZeroDivisionError" in log1 and "Traceback" in log1
     assert result["robots"][1]["faults"][0]["message"] == "in step: ZeroDivisionError: division by zero"
     assert not result["robots"][2]["faults"] and not result["robots"][3]["faults"]
+
+
+def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
+    # bwrap out of reach (as on macOS or in a locked-down container): the match still runs
+    env = {**os.environ, "PATH": str(tmp_path)}
+    plain = run_cli_env(env, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "plain.json"), "--quiet")
+    assert plain.returncode == 0, plain.stderr
+    assert plain.stderr.startswith("laserarena: warning: no kernel sandbox (bubblewrap (bwrap) is not installed)")
+    assert plain.stderr.count("\n") == 1
+    boxed = run_cli_env(os.environ, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "boxed.json"), "--quiet")
+    assert boxed.returncode == 0 and boxed.stderr == ""
+    assert (tmp_path / "plain.json").read_bytes() == (tmp_path / "boxed.json").read_bytes()
+
+
+def run_cli_env(env, *args):
+    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True, env=env,
+                          timeout=300)

@@ -87,3 +87,27 @@ def test_one_broken_team_among_good_ones_is_just_its_fault(tmp_path):
     assert [f["kind"] for f in result["robots"][1]["faults"]] == ["load"]
     assert_others_unharmed(result, bad=1)
     assert "LASERARENA_PWNED" not in sys.modules
+
+
+def test_a_package_team_is_shipped_whole_and_never_imported_here(tmp_path, monkeypatch):
+    package = tmp_path / "evilpkg"
+    (package / "sub").mkdir(parents=True)
+    (package / "__init__.py").write_text(SUBVERT)  # would run on any import of evilpkg.team
+    (package / "sub" / "__init__.py").write_text("")
+    (package / "sub" / "helper.py").write_text("SPEED = 0.05\n")
+    (package / "team.py").write_text(
+        "from robots.api import Command, Controller\nfrom evilpkg.sub.helper import SPEED\n\n"
+        "class Team(Controller):\n    def step(self, obs):\n        return Command(SPEED, SPEED, estimate=(0.3, 0.25, 0.0))\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    team = resolve("evilpkg.team:Team")
+    assert "evilpkg" not in sys.modules and not hasattr(builtins, "LASERARENA_PWNED")
+    shipped = sorted(rel for rel, _ in team.files)
+    assert shipped == ["evilpkg/__init__.py", "evilpkg/sub/__init__.py", "evilpkg/sub/helper.py", "evilpkg/team.py"]
+    h = hashlib.sha256()  # the documented recipe: path, size and bytes of each file in path order
+    for rel in shipped:
+        data = (tmp_path / rel).read_bytes()
+        h.update(f"{rel}\0{len(data)}\0".encode() + data)
+    assert team.code_hash == "sha256:" + h.hexdigest()
+    result = run_match(short_race(3), [team] + [resolve(HONEST)] * 3, seed=2)
+    assert all(not r["faults"] for r in result["robots"])  # it loaded and ran, in its sandbox
+    assert "evilpkg" not in sys.modules and not hasattr(builtins, "LASERARENA_PWNED")
