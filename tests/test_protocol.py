@@ -81,9 +81,17 @@ def mutations(rng: random.Random, base: bytes) -> bytes:
     return bytes(b)
 
 
+def a_setup_message() -> dict:
+    from arena.loader import load_level
+    from referee.match import brief_for
+    return {"type": "setup", "brief": protocol.to_plain(brief_for(load_level(levels.path("asabe-race")), 1))}
+
+
 def test_a_seeded_fuzzer_gets_nothing_but_protocol_errors():
     rng = random.Random(20261123)
-    bases = [json.dumps({"v": 1, **m}).encode() for m in VALID]
+    bases = [json.dumps({"v": 1, **m}).encode() for m in [*VALID, a_setup_message()]]
+    for base in bases:
+        decode_everything(base)  # undamaged, each one decodes
     for _ in range(3000):
         only_protocol_errors(mutations(rng, rng.choice(bases)))
     for _ in range(300):  # noise
