@@ -17,7 +17,9 @@ from pathlib import Path
 
 import levels
 from arena.loader import load_level
+from referee import __version__
 from referee.contest import grade as g
+from referee.sandbox.teams import resolve
 
 
 def cpu() -> float:
@@ -28,10 +30,13 @@ def cpu() -> float:
 def run(matches: int, workers: int) -> tuple[float, float]:
     """Wall and CPU seconds to grade `matches` seeds of asabe."""
     path = levels.path("asabe")
-    jobs = g.make_jobs([(load_level(path), path)], ["ref:bac"], matches)
+    team = resolve("ref:bac")
     with tempfile.TemporaryDirectory() as d:
+        journal = g.Journal(Path(d) / "bench.sqlite")
+        jobs = g.make_jobs([(load_level(path), path)], [(team.spec, team.code_hash)], matches,
+                           journal.secret(None), __version__)
         c0, w0 = cpu(), time.perf_counter()
-        g.grade(jobs, Path(d) / "bench.sqlite", workers=workers, quiet=True)
+        g.grade(jobs, journal, workers=workers, quiet=True)
         return time.perf_counter() - w0, cpu() - c0
 
 

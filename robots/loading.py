@@ -58,7 +58,7 @@ def _from_module(target: str, spec: str) -> type[Controller]:
     module_name, _, cls = target.partition(":")
     try:
         module = importlib.import_module(module_name)
-    except Exception as e:  # the team's import failed: report it in one line
+    except (Exception, SystemExit) as e:  # the team's import failed (or exited): report it in one line
         raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}") from None
     return _pick(module, cls, spec)
 
@@ -75,7 +75,7 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
     sys.modules[name] = module
     try:
         module_spec.loader.exec_module(module)
-    except Exception as e:
+    except (Exception, SystemExit) as e:  # a SystemExit at import must not end the loader
         del sys.modules[name]
         raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}") from None
     return _pick(module, cls, spec)

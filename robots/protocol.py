@@ -1,39 +1,176 @@
 """The message protocol between the referee and a controller process (version 1).
 
-Frames are a 4-byte big-endian length and a UTF-8 JSON object. Every message carries
-`"v": 1` and a `type`:
+Frames are a 4-byte big-endian length and a UTF-8 JSON object of at most `MAX_FRAME` bytes.
+Every message carries `"v": 1` and a `type`:
 
 referee -> controller: `setup` {brief}, `step` {obs}, `stop`
-controller -> referee: `ready`, `command` {tick, command}, `fault` {kind, message}
+controller -> referee: `loaded`, `ready`, `command` {tick, command}, `fault` {kind, message}
 
-Both sides decode into the API's dataclasses and reject anything malformed with
-`ProtocolError`, so neither side ever acts on an unchecked message. docs/protocol.md
-describes each message.
+Decoding is typed (msgspec): every message has a fixed schema, every number must be finite
+and within `LIMIT`, every list and text has a length bound, and unknown fields are refused.
+So the decoded shape is bounded whatever bytes arrive, and a team's bytes can raise nothing
+but `ProtocolError`, whose message names the field. `parse` checks the envelope and leaves
+the payload (brief, obs, command) raw; `brief_from`, `observation_from` and `command_from`
+decode it into the API's dataclasses. docs/protocol.md describes each message.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import json
 import math
+import numbers
 import struct
-from typing import Any, BinaryIO
+from typing import Annotated, Any, BinaryIO, Literal, Union
+
+import msgspec
 
 from robots.api import (
     BeaconInfo, Brief, Command, Drawing, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo,
 )
 
 PROTOCOL_VERSION = 1
-MAX_FRAME = 1 << 24  # 16 MiB: no honest message comes near this
+MAX_FRAME = 1 << 22  # 4 MiB: the largest honest message (a brief) is far below
+LIMIT = 1e6  # no number in a message may exceed this in size (m, s, rad, m/s)
+MAX_DRAWINGS, MAX_POINTS, MAX_TEXT = 256, 64, 80  # debug drawings beyond these are dropped
+
+# ---- the schema -----------------------------------------------------------------------------
+
+Real = Annotated[float, msgspec.Meta(ge=-LIMIT, le=LIMIT)]
+Count = Annotated[int, msgspec.Meta(ge=0, le=1 << 40)]
+Byte = Annotated[int, msgspec.Meta(ge=0, le=255)]
+Name = Annotated[str, msgspec.Meta(max_length=256)]
+Point = tuple[Real, Real]
+
+
+def _many(item: Any, n: int) -> Any:
+    return Annotated[list[item], msgspec.Meta(max_length=n)]
+
+
+class _Data(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
+    """A payload record: a fixed set of fields, nothing else."""
+
+
+class _Beacon(_Data):
+    id: Name
+    x: Real
+    y: Real
+
+
+class _Laser(_Data):
+    angular_velocity: Real
+    index: bool
+
+
+class _Robot(_Data):
+    model: Name
+    length: Real
+    width: Real
+    track: Real
+    max_wheel_speed: Real
+    max_wheel_accel: Real
+
+
+class _Task(_Data):
+    kind: Name
+    radius: Real
+    path: _many(Point, 1 << 16) = []
+    goal: Point | None = None
+
+
+class _Brief(_Data):
+    slot: Count
+    field: tuple[Real, Real, Real, Real]
+    beacon_kind: Name
+    beacons: _many(_Beacon, 4096)
+    laser: _Laser
+    robot: _Robot
+    task: _Task
+    control_period: Real
+    time_limit: Real
+    start: tuple[Real, Real, Real] | None = None
+
+
+class _Event(_Data):
+    time: Real
+    kind: Name
+    beacon: Name | None = None
+    angle: Real | None = None
+    samples: _many(Byte, 1 << 16) = []
+
+
+class _Observation(_Data):
+    tick: Count
+    time: Real
+    events: _many(_Event, 1 << 16) = []
+
+
+class _Drawing(_Data):
+    kind: Name
+    points: _many(Point, 4096) = []
+    radius: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
+    text: Annotated[str, msgspec.Meta(max_length=4096)] = ""
+    color: tuple[Byte, Byte, Byte] = (255, 0, 255)
+
+
+class _Command(_Data):
+    left: Real
+    right: Real
+    estimate: tuple[Real, Real, Real] | None = None
+    debug: _many(_Drawing, 4096) = []
+
+
+class _Message(msgspec.Struct, tag_field="type", forbid_unknown_fields=True):
+    v: Literal[1]
+
+
+class _Setup(_Message, tag="setup"):
+    brief: msgspec.Raw
+
+
+class _Step(_Message, tag="step"):
+    obs: msgspec.Raw
+
+
+class _Stop(_Message, tag="stop"):
+    pass
+
+
+class _Loaded(_Message, tag="loaded"):
+    pass
+
+
+class _Ready(_Message, tag="ready"):
+    pass
+
+
+class _CommandMsg(_Message, tag="command"):
+    tick: Count
+    command: msgspec.Raw
+
+
+class _Fault(_Message, tag="fault"):
+    kind: Name
+    message: Annotated[str, msgspec.Meta(max_length=4096)]
+
+
+_MESSAGE = msgspec.json.Decoder(Union[_Setup, _Step, _Stop, _Loaded, _Ready, _CommandMsg, _Fault])
+_DECODERS = {t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)}
+_ENCODER = msgspec.json.Encoder()
 
 
 class ProtocolError(Exception):
-    """A malformed frame or message."""
+    """A malformed frame or message; the text names the field at fault."""
 
+
+# ---- frames ---------------------------------------------------------------------------------
 
 def write(stream: BinaryIO, msg: dict) -> None:
-    """Send one message."""
-    data = json.dumps({"v": PROTOCOL_VERSION, **msg}, separators=(",", ":")).encode()
+    """Send one message (plain data: dicts, lists, tuples, text, numbers; see `to_plain`)."""
+    try:
+        data = _ENCODER.encode({"v": PROTOCOL_VERSION, **msg})
+    except (TypeError, ValueError, OverflowError) as e:
+        raise ProtocolError(f"cannot encode a {msg.get('type')!r} message: {e}") from None
+    if len(data) > MAX_FRAME:
+        raise ProtocolError(f"a {msg.get('type')!r} message of {len(data)} bytes is over the {MAX_FRAME} limit")
     stream.write(struct.pack(">I", len(data)) + data)
     stream.flush()
 
@@ -54,152 +191,164 @@ def read(stream: BinaryIO) -> dict | None:
     return parse(data)
 
 
-def parse(data: bytes) -> dict:
-    """Decode one frame's JSON and check its version and type field."""
+def _one_line(text: str, limit: int = 300) -> str:
+    """An error text safe for a log line or a terminal: control characters escaped, cut short.
+    (The referee's `referee.terminal.safe` does the same; this side may not import it.)"""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text[:limit])
+
+
+def _invalid(e: msgspec.ValidationError, what: str) -> ProtocolError:
+    return ProtocolError(_one_line(f"{what}: {e}".replace("`$", "`" + what)))
+
+
+def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
+    """Typed decoding where any failure at all is a ProtocolError naming `what` and the field."""
     try:
-        msg = json.loads(data)
-    except ValueError as e:
-        raise ProtocolError(f"not JSON: {e}") from None
-    if not isinstance(msg, dict) or msg.get("v") != PROTOCOL_VERSION or not isinstance(msg.get("type"), str):
-        raise ProtocolError(f"not a version {PROTOCOL_VERSION} message")
-    return msg
+        return decoder.decode(data)
+    except msgspec.ValidationError as e:
+        raise _invalid(e, what) from None
+    except msgspec.DecodeError as e:
+        raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
+    except RecursionError:
+        raise ProtocolError(f"{what}: nested too deeply") from None
+    except Exception as e:  # noqa: BLE001 - a team's bytes must raise nothing else
+        raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
+
+
+def parse(data: bytes) -> dict:
+    """Decode one frame's envelope: a dict with `v`, `type` and that type's fields, checked.
+    A payload (`brief`, `obs`, `command`) stays raw for its own `*_from` function."""
+    if len(data) > MAX_FRAME:
+        raise ProtocolError(f"frame of {len(data)} bytes is over the {MAX_FRAME} limit")
+    msg = _decode(_MESSAGE, data, "message")
+    out = {"v": msg.v, "type": msg.__struct_config__.tag}
+    out.update((f, getattr(msg, f)) for f in msg.__struct_fields__ if f != "v")
+    return out
+
+
+def _payload(d: Any, cls: type, what: str) -> Any:
+    """A payload from raw JSON (as `parse` leaves it) or from plain data, decoded as `cls`."""
+    if type(d) is msgspec.Raw or isinstance(d, bytes):
+        return _decode(_DECODERS[cls], d, what)
+    try:
+        return msgspec.convert(d, cls)
+    except msgspec.ValidationError as e:
+        raise _invalid(e, what) from None
+    except RecursionError:
+        raise ProtocolError(f"{what}: nested too deeply") from None
+    except Exception as e:  # noqa: BLE001
+        raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
+
+
+# ---- plain data out -------------------------------------------------------------------------
+
+def _real(v: Any) -> Any:
+    """A number as a Python float (numpy scalars included); anything else unchanged, for the
+    other side to reject by name."""
+    return float(v) if isinstance(v, numbers.Real) and not isinstance(v, bool) else v
 
 
 def to_plain(obj: Any) -> Any:
-    """A dataclass as plain JSON-able data (the per-step messages without `asdict`'s deep copy)."""
+    """A Brief, Observation or Command as plain JSON-able data. Numbers of any real type
+    (numpy scalars, what a numpy-based team computes) become floats here, on the sending side."""
     if isinstance(obj, Observation):
         return {"tick": obj.tick, "time": obj.time, "events": [
             {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
             for e in obj.events]}
     if isinstance(obj, Command):
-        return {"left": obj.left, "right": obj.right, "estimate": obj.estimate,
-                "debug": [dataclasses.asdict(d) for d in obj.debug]}
-    return dataclasses.asdict(obj)
+        est = obj.estimate
+        return {"left": _real(obj.left), "right": _real(obj.right),
+                "estimate": tuple(map(_real, est)) if isinstance(est, (tuple, list)) else est,
+                "debug": [{"kind": g.kind, "points": [tuple(map(_real, p)) for p in g.points],
+                           "radius": _real(g.radius), "text": g.text,
+                           "color": tuple(int(c) if isinstance(c, numbers.Integral) else c for c in g.color)}
+                          for g in obj.debug]}
+    if isinstance(obj, Brief):
+        return msgspec.to_builtins(obj)
+    raise TypeError(f"to_plain: not a protocol payload: {type(obj).__name__}")
 
 
-# ---- decoding with validation ----------------------------------------------------------
-
-def _num(v: Any, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ProtocolError(f"{what} must be a number, got {type(v).__name__}")
-    return float(v)
-
-
-def _opt_num(v: Any, what: str) -> float | None:
-    return None if v is None else _num(v, what)
-
-
-def _str(v: Any, what: str) -> str:
-    if not isinstance(v, str):
-        raise ProtocolError(f"{what} must be text, got {type(v).__name__}")
-    return v
-
-
-def _opt_str(v: Any, what: str) -> str | None:
-    return None if v is None else _str(v, what)
-
-
-def _list(v: Any, what: str) -> list:
-    if not isinstance(v, list):
-        raise ProtocolError(f"{what} must be a list, got {type(v).__name__}")
-    return v
-
-
-def _dict(v: Any, what: str) -> dict:
-    if not isinstance(v, dict):
-        raise ProtocolError(f"{what} must be an object, got {type(v).__name__}")
-    return v
-
-
-def _nums(v: Any, what: str, n: int | None = None) -> tuple[float, ...]:
-    items = _list(v, what)
-    if n is not None and len(items) != n:
-        raise ProtocolError(f"{what} must have {n} numbers, got {len(items)}")
-    return tuple(_num(x, what) for x in items)
-
-
-def _fields(d: Any, cls: type, what: str) -> dict:
-    d = _dict(d, what)
-    names = {f.name for f in dataclasses.fields(cls)}
-    extra = set(d) - names
-    if extra:
-        raise ProtocolError(f"{what}: unknown field {sorted(extra)[0]!r}")
-    return d
-
+# ---- checked payloads in --------------------------------------------------------------------
 
 def brief_from(d: Any) -> Brief:
-    """A Brief from plain data, checked."""
-    d = _fields(d, Brief, "brief")
-    try:
-        laser = _fields(d["laser"], LaserInfo, "brief.laser")
-        robot = _fields(d["robot"], RobotInfo, "brief.robot")
-        task = _fields(d["task"], TaskInfo, "brief.task")
-        return Brief(
-            slot=int(_num(d["slot"], "brief.slot")),
-            field=_nums(d["field"], "brief.field", 4),
-            beacon_kind=_str(d["beacon_kind"], "brief.beacon_kind"),
-            beacons=tuple(BeaconInfo(_str(b["id"], "beacon id"), _num(b["x"], "beacon x"), _num(b["y"], "beacon y"))
-                          for b in (_fields(b, BeaconInfo, "brief.beacons[]")
-                                    for b in _list(d["beacons"], "brief.beacons"))),
-            laser=LaserInfo(_num(laser["angular_velocity"], "laser.angular_velocity"), bool(laser["index"])),
-            robot=RobotInfo(_str(robot["model"], "robot.model"), *(
-                _num(robot[k], f"robot.{k}") for k in
-                ("length", "width", "track", "max_wheel_speed", "max_wheel_accel"))),
-            task=TaskInfo(_str(task["kind"], "task.kind"), _num(task["radius"], "task.radius"),
-                          tuple(_nums(p, "task.path[]", 2) for p in _list(task["path"], "task.path")),
-                          None if task["goal"] is None else _nums(task["goal"], "task.goal", 2)),
-            control_period=_num(d["control_period"], "brief.control_period"),
-            time_limit=_num(d["time_limit"], "brief.time_limit"),
-            start=None if d.get("start") is None else _nums(d["start"], "brief.start", 3),
-        )
-    except KeyError as e:
-        raise ProtocolError(f"brief: missing field {e.args[0]!r}") from None
+    """A Brief from raw JSON or plain data, checked."""
+    b = _payload(d, _Brief, "brief")
+    return Brief(
+        slot=b.slot, field=b.field, beacon_kind=b.beacon_kind,
+        beacons=tuple(BeaconInfo(x.id, x.x, x.y) for x in b.beacons),
+        laser=LaserInfo(b.laser.angular_velocity, b.laser.index),
+        robot=RobotInfo(b.robot.model, b.robot.length, b.robot.width, b.robot.track,
+                        b.robot.max_wheel_speed, b.robot.max_wheel_accel),
+        task=TaskInfo(b.task.kind, b.task.radius, tuple(b.task.path), b.task.goal),
+        control_period=b.control_period, time_limit=b.time_limit, start=b.start)
 
 
 def observation_from(d: Any) -> Observation:
-    """An Observation from plain data, checked."""
-    d = _fields(d, Observation, "obs")
-    events = []
-    for e in _list(d.get("events", []), "obs.events"):
-        e = _fields(e, SensorEvent, "obs.events[]")
-        events.append(SensorEvent(
-            time=_num(e.get("time"), "event.time"), kind=_str(e.get("kind"), "event.kind"),
-            beacon=_opt_str(e.get("beacon"), "event.beacon"), angle=_opt_num(e.get("angle"), "event.angle"),
-            samples=tuple(int(_num(s, "event.samples[]")) for s in _list(e.get("samples", []), "event.samples"))))
-    return Observation(tick=int(_num(d.get("tick"), "obs.tick")), time=_num(d.get("time"), "obs.time"),
-                       events=tuple(events))
+    """An Observation from raw JSON or plain data, checked."""
+    o = _payload(d, _Observation, "obs")
+    return Observation(tick=o.tick, time=o.time, events=tuple(
+        SensorEvent(e.time, e.kind, e.beacon, e.angle, tuple(e.samples)) for e in o.events))
+
+
+def command_from(d: Any) -> Command:
+    """A Command from raw JSON or plain data: wheel speeds and estimate finite and within
+    `LIMIT` (else ProtocolError naming the field); debug drawings beyond the caps dropped."""
+    c = _payload(d, _Command, "command")
+    if not c.debug:  # the common case, on the per-tick path
+        return Command(c.left, c.right, c.estimate)
+    return Command(c.left, c.right, c.estimate, tuple(
+        Drawing(g.kind, tuple(g.points[:MAX_POINTS]), g.radius, g.text[:MAX_TEXT], g.color)
+        for g in c.debug[:MAX_DRAWINGS]))
+
+
+def _bad_real(v: object) -> bool:
+    """True unless `v` is a real number (numpy scalars too) that is finite and within LIMIT."""
+    if type(v) is float:  # the common case first; NaN fails the comparison
+        return not -LIMIT <= v <= LIMIT
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        return True
+    try:
+        f = float(v)
+    except (OverflowError, ValueError, TypeError):
+        return True
+    return not (math.isfinite(f) and abs(f) <= LIMIT)
 
 
 def command_problem(cmd: object) -> str | None:
-    """Why `cmd` is not a usable Command (wrong type, non-finite numbers), or None if it is.
-    The referee applies this to every command, however it arrived."""
+    """Why `cmd` is not a usable Command (wrong type, numbers not finite or out of range,
+    malformed drawings), or None if it is. The same judgement on either side of the
+    protocol, and for a controller in the referee's own process; it never raises."""
     if not isinstance(cmd, Command):
         return f"step() returned {type(cmd).__name__}, not Command"
     for name in ("left", "right"):
         v = getattr(cmd, name)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            return f"Command.{name} must be a finite number, got {v!r}"
+        if _bad_real(v):
+            return f"Command.{name} must be a finite number within +-{LIMIT:g}, got {_show(v)}"
     est = cmd.estimate
-    if est is not None:
-        if not (isinstance(est, tuple) and len(est) == 3 and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in est)):
-            return f"Command.estimate must be None or three finite numbers, got {est!r}"
+    if est is not None and not (isinstance(est, (tuple, list)) and len(est) == 3
+                                and not (_bad_real(est[0]) or _bad_real(est[1]) or _bad_real(est[2]))):
+        return f"Command.estimate must be None or three finite numbers within +-{LIMIT:g}, got {_show(est)}"
+    if not isinstance(cmd.debug, (tuple, list)):
+        return f"Command.debug must be a tuple of Drawing, got {_show(cmd.debug)}"
+    for i, g in enumerate(cmd.debug):
+        if not isinstance(g, Drawing):
+            return f"Command.debug[{i}] must be a Drawing, got {_show(g)}"
+        if not (isinstance(g.kind, str) and isinstance(g.text, str) and not _bad_real(g.radius)
+                and isinstance(g.points, (tuple, list))
+                and all(isinstance(p, (tuple, list)) and len(p) == 2 and not any(map(_bad_real, p))
+                        for p in g.points)
+                and isinstance(g.color, (tuple, list)) and len(g.color) == 3
+                and all(isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c <= 255
+                        for c in g.color)):
+            return (f"Command.debug[{i}] must have text kind and text, finite points (x, y), "
+                    f"a finite radius and an RGB color of 0..255")
     return None
 
 
-def command_from(d: Any) -> Command:
-    """A Command from plain data. Its wheel speeds and estimate are passed through as sent,
-    for `command_problem` to judge exactly as it judges an in-process command; debug
-    drawings are checked and capped here."""
-    d = _fields(d, Command, "command")
-    est = d.get("estimate")
-    debug = []
-    for g in _list(d.get("debug", []), "command.debug")[:256]:
-        g = _fields(g, Drawing, "command.debug[]")
-        debug.append(Drawing(
-            kind=_str(g.get("kind"), "drawing.kind"),
-            points=tuple(_nums(p, "drawing.points[]", 2) for p in _list(g.get("points", []), "drawing.points")[:64]),
-            radius=_num(g.get("radius", 0.0), "drawing.radius"), text=_str(g.get("text", ""), "drawing.text")[:80],
-            color=tuple(int(_num(c, "drawing.color")) for c in _nums(g.get("color", [255, 0, 255]), "drawing.color", 3))))
-    return Command(left=d.get("left"), right=d.get("right"),
-                   estimate=tuple(est) if isinstance(est, list) else est, debug=tuple(debug))
+def _show(v: object) -> str:
+    """A short, safe rendering of a team's value for a fault message."""
+    try:
+        text = repr(v)
+    except Exception:  # noqa: BLE001 - a team's __repr__ may raise
+        text = f"<{type(v).__name__}>"
+    return text[:60] + ("..." if len(text) > 60 else "")

@@ -3,7 +3,8 @@
 Started by the referee as a fresh interpreter. It sets its own resource limits before any
 team code loads, keeps the protocol on private copies of stdin and stdout, and sends
 everything the team prints to stderr (the team's log). Then it loads the team's class and
-answers the referee's messages until `stop` or end of input. A team exception is reported
+says `loaded` (a process that ends before that failed to load: a `load` fault), and answers
+the referee's messages until `stop` or end of input. A team exception is reported
 as a `fault` message (the traceback goes to the team's log) and the process ends.
 """
 
@@ -17,7 +18,6 @@ import sys
 import traceback
 
 from robots import protocol
-from robots.api import Command
 from robots.loading import LoadError, load_class
 
 
@@ -73,6 +73,10 @@ def _guarded(out, where: str, call) -> tuple[bool, object]:
     return False, None
 
 
+def _flooded(signum: int, frame: object) -> None:
+    os._exit(128 + signal.SIGXFSZ)  # the shell's (and bwrap's) word for "killed by SIGXFSZ"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="robots.runner")
     ap.add_argument("spec")
@@ -83,14 +87,20 @@ def main(argv: list[str] | None = None) -> int:
         resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
     if args.log_cap:  # writing past it raises SIGXFSZ: the referee reports an output flood
         resource.setrlimit(resource.RLIMIT_FSIZE, (args.log_cap, args.log_cap))
-        signal.signal(signal.SIGXFSZ, signal.SIG_DFL)  # CPython ignores it by default
+        # CPython ignores it by default, and a PID namespace's init (this process, in a sandbox)
+        # ignores it at its default action: end as if killed by it
+        signal.signal(signal.SIGXFSZ, _flooded)
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
     try:
         cls = load_class(args.spec)
     except LoadError as e:
-        protocol.write(out, {"type": "fault", "kind": "exception", "message": str(e)})
+        protocol.write(out, {"type": "fault", "kind": "load", "message": str(e)})
         return 1
+    except BaseException as e:  # anything else the team's module does while it loads
+        _fault(out, "load", "loading", e)
+        return 1
+    protocol.write(out, {"type": "loaded"})  # from here on an exit is the controller's, not its loading's
     controller = None
     while True:
         msg = protocol.read(inp)
@@ -107,8 +117,9 @@ def main(argv: list[str] | None = None) -> int:
             ok, cmd = _guarded(out, "step", lambda: controller.step(obs))
             if not ok:
                 return 1
-            if not isinstance(cmd, Command):  # the same words as a referee-side check
-                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": protocol.command_problem(cmd)})
+            problem = protocol.command_problem(cmd)  # the same words as the referee-side check
+            if problem:
+                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": problem})
                 return 1
             protocol.write(out, {"type": "command", "tick": obs.tick, "command": protocol.to_plain(cmd)})
         else:

@@ -1,5 +1,6 @@
 """The match loop: faults stop one robot and not the match; estimates are scored against truth."""
 
+import hashlib
 import textwrap
 
 import pytest
@@ -8,6 +9,7 @@ from arena.loader import parse_level
 from referee.errors import UserError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
+from robots.loading import load_class
 from conftest import MINI_LEVEL
 
 TWO = MINI_LEVEL.replace("""robots:
@@ -128,7 +130,7 @@ def test_observations_arrive_every_control_period(tmp_path):
     """)
     team = resolve(t)
     run_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
-    seen = __import__(team.factory.__module__).SEEN
+    seen = __import__(load_class(team.spec).__module__).SEEN
     brief, ticks = seen[0], seen[1:]
     assert brief.start == (0.5, 0.5, 0.0) and brief.control_period == 0.05
     assert [b.id for b in brief.beacons] == ["O", "A", "B"]
@@ -146,7 +148,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
     """)
     team = resolve(t)
     run_match(level(MINI_LEVEL.replace("start_known: true", "start_known: false")), [team], isolate=False)
-    brief = __import__(team.factory.__module__).BRIEFS[0]
+    brief = __import__(load_class(team.spec).__module__).BRIEFS[0]
     assert brief.start is None
     text = repr(brief)
     assert "0.5, 0.5" not in text  # the true start pose appears nowhere in what the team gets
@@ -165,23 +167,37 @@ def test_waypoint_task_ends_match_when_done():
 
 
 def test_team_specs(tmp_path):
+    """Resolving finds and hashes a team's code without running it; loading is the controller's."""
     two = team_file(tmp_path, """
         class One(Controller):
             def step(self, obs): return Command(0, 0)
         class Two(Controller):
             def step(self, obs): return Command(0, 0)
     """)
-    with pytest.raises(UserError, match="found 2 Controller classes: One, Two"):
-        resolve(two)
-    assert resolve(two + ":Two").factory.__name__ == "Two"
-    assert resolve(two + ":Two").label == "team.py:Two"  # no machine-dependent path
-    with pytest.raises(UserError, match="Three is not a Controller"):
-        resolve(two + ":Three")
-    broken = team_file(tmp_path, "import no_such_module_here\n", "broken.py")
-    with pytest.raises(UserError, match="broken.py failed to load: ModuleNotFoundError"):
-        resolve(broken)
+    team = resolve(two + ":Two")
+    assert team.label == "team.py:Two"  # no machine-dependent path
+    assert team.code_hash == "sha256:" + hashlib.sha256(open(two, "rb").read()).hexdigest()
+    assert team.files == (("team.py", (tmp_path / "team.py").resolve()),) and team.entry == "team.py:Two"
+    assert load_class(team.spec).__name__ == "Two"
     with pytest.raises(UserError, match="no such file"):
         resolve(str(tmp_path / "missing.py"))
-    assert resolve("robots.controllers.idle:Idle").factory.__name__ == "Idle"
-    with pytest.raises(UserError, match="cannot import"):
+    with pytest.raises(UserError, match="cannot find module 'no.such.module'"):
         resolve("no.such.module:X")
+    idle = resolve("robots.controllers.idle:Idle")
+    assert idle.files == () and idle.entry == "robots.controllers.idle:Idle"  # robots is in every sandbox
+
+
+def test_loading_problems_are_load_faults_of_their_slot(tmp_path):
+    two = team_file(tmp_path, """
+        class One(Controller):
+            def step(self, obs): return Command(0, 0)
+        class Two(Controller):
+            def step(self, obs): return Command(0, 0)
+    """)
+    broken = team_file(tmp_path, "import no_such_module_here\n", "broken.py")
+    for isolate in (True, False):
+        for spec, words in ((two, "found 2 Controller classes: One, Two"), (two + ":Three", "Three is not a Controller"),
+                            (broken, "broken.py failed to load: ModuleNotFoundError")):
+            result = run_match(level(), [resolve(spec)], isolate=isolate)
+            (fault,) = result["robots"][0]["faults"]
+            assert fault["kind"] == "load" and words in fault["message"], (isolate, fault)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 import numpy as np
@@ -24,6 +25,7 @@ from referee.match.loop import NO_LIMITS, run_match
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
 from referee.sandbox.teams import resolve
+from referee.terminal import safe
 
 
 def cmd_levels(args: argparse.Namespace) -> int:
@@ -57,6 +59,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
                        isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
                        logs=Path(args.logs) if args.logs else None)
+    given = result["robots"][:len(args.team or [])]
+    unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
+    if given and len(unloadable) == len(given):  # nothing the user asked for could run
+        raise UserError("; ".join(unloadable))
     if args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
@@ -74,15 +80,24 @@ def cmd_grade(args: argparse.Namespace) -> int:
     teams = []
     for spec in args.team:
         team = resolve(spec)  # a bad spec fails here, in one line, before any match
-        teams.append(team.spec)
+        teams.append((team.spec, team.code_hash))
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
     db = Path(args.db)
     if not db.resolve().parent.is_dir():
         raise UserError(f"{db}: the folder does not exist")
-    jobs = g.make_jobs(found, teams, args.seeds)
+    given = args.secret
+    if args.secret_file:
+        try:
+            given = Path(args.secret_file).read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError) as e:
+            raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
+        if not given:
+            raise UserError(f"{args.secret_file}: the secret file is empty")
+    journal = g.Journal(db)
+    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(given), __version__)
     start = time.perf_counter()
-    journal = g.grade(jobs, db, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    g.grade(jobs, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
     rows = g.leaderboard(journal, jobs)
     text = g.write_leaderboard(rows, Path(args.out))
     if not args.quiet:
@@ -95,7 +110,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
 def cmd_verify(args: argparse.Namespace) -> int:
     from referee.match.verify import verify
     ok, message = verify(Path(args.replay), args.team)
-    print(f"{args.replay}: {message}")
+    print(safe(f"{args.replay}: {message}", 1000))
     return 0 if ok else 1
 
 
@@ -189,7 +204,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--ideal", action="store_true",
                    help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors")
     s.add_argument("--in-process", action="store_true",
-                   help="run the controllers inside this process (for a debugger); same results within budget")
+                   help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
+                        "runs with the referee's rights (never for grading); same results within budget")
     s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
     s.add_argument("--no-limits", action="store_true",
                    help="no time or memory limits for the controllers (debugging)")
@@ -207,6 +223,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
+    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own, made on first "
+                   "use); every match's noise derives from it (docs/integrity.md)")
+    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE (keeps it off the "
+                   "command line, which other processes can read)")
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
@@ -259,14 +279,20 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _terminate(signum: int, frame: object) -> None:
+    """SIGTERM ends a run as Ctrl-C does: every controller sandbox is closed on the way out."""
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
     args = parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         return args.func(args)
     except LaserArenaError as e:
-        print(f"laserarena: {e}", file=sys.stderr)
+        print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return e.exit_code
     except KeyboardInterrupt:
         print("laserarena: interrupted", file=sys.stderr)

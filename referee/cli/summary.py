@@ -1,6 +1,8 @@
-"""The score table printed after a match."""
+"""The score table printed after a match (team names and texts made safe for a terminal)."""
 
 from __future__ import annotations
+
+from referee.terminal import safe
 
 
 def _mm(v: float | None) -> str:
@@ -24,16 +26,16 @@ def _progress(task: dict) -> str:
 
 def table(result: dict) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error."""
-    head = (f"{result['level']['name']}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
+    head = (f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
             f"({result['end_reason'].replace('_', ' ')})")
     cols = ("slot", "team", "score", "task", "pos rms mm", "pos max mm", "hdg rms deg", "hdg max deg",
             "est %", "fouls", "faults")
     rows = [cols]
     for r in result["robots"]:
         loc = r["localization"]
-        faults = ", ".join(f"{f['kind']}@{f['time']:.2f}s" for f in r["faults"]) or "-"
+        faults = ", ".join(f"{safe(f['kind'], 20)}@{f['time']:.2f}s" for f in r["faults"]) or "-"
         fouls = f"{len(r['fouls'])} (-{r['score']['penalties']:.1f})" if r["fouls"] else "-"
-        rows.append((str(r["slot"]), r["team"], f"{r['score']['total']:.1f}", _progress(r["task"]),
+        rows.append((str(r["slot"]), safe(r["team"], 60), f"{r['score']['total']:.1f}", _progress(r["task"]),
                      _mm(loc["position_rms"]), _mm(loc["position_max"]), _deg(loc["heading_rms"]),
                      _deg(loc["heading_max"]), f"{100 * loc['fraction']:.0f}", fouls, faults))
     widths = [max(len(row[i]) for row in rows) for i in range(len(cols))]

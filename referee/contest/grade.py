@@ -2,17 +2,27 @@
 
 Every match is a job (level, team, seed); the team drives slot 0 and any other slot gets the
 level's default controller. A finished match is committed to the SQLite journal at once, so
-a killed run resumes where it stopped: jobs already in the journal are not run again. The
-result of a job depends only on the job, never on the number of workers or their order.
-Wall time goes to the journal, never into the result.
+a killed run resumes where it stopped. A journal row is keyed by everything its result
+depends on: the team's code hash, the level file's hash, the seed, the software version and
+the noise mode (ideal or not, and which secret) -- so an edited team or level is run again
+and an old row never mixes in. Every random stream of a graded match derives from a secret
+kept in the journal (or given with --secret), never from anything a controller can read
+(docs/integrity.md). Wall time goes to the journal, never into the result.
 """
 
 from __future__ import annotations
 
 import csv
+import ctypes
+import fcntl
+import hashlib
+import hmac
 import io
 import json
 import math
+import os
+import secrets
+import signal
 import sqlite3
 import sys
 import time
@@ -20,32 +30,62 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Iterator
 
 from referee.errors import UserError
+from referee.terminal import safe
 
+SCHEMA_VERSION = 2
 SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS matches (
-    level TEXT NOT NULL, level_hash TEXT NOT NULL, team TEXT NOT NULL, seed INTEGER NOT NULL,
+    level TEXT NOT NULL, level_hash TEXT NOT NULL, team TEXT NOT NULL, code_hash TEXT NOT NULL,
+    seed INTEGER NOT NULL, software TEXT NOT NULL, ideal INTEGER NOT NULL, secret_id TEXT NOT NULL,
     result TEXT NOT NULL, replay TEXT NOT NULL, wall_seconds REAL NOT NULL, graded_at REAL NOT NULL,
-    PRIMARY KEY (level_hash, team, seed)
-)
+    PRIMARY KEY (level_hash, team, code_hash, seed, software, ideal, secret_id)
+);
 """
+KEY = "level_hash, team, code_hash, seed, software, ideal, secret_id"
 
 
 @dataclass(frozen=True)
 class Job:
-    """One match to grade; `level_path` is the level file, `team` the spec as given."""
+    """One match to grade. `level_path` is the level file, `team` the spec as given and
+    `code_hash` the sha256 of its code when the run began; `noise_key` the match's secret
+    noise key (derived from the run's secret, the level and the seed: every team meets the
+    same noise on the same level and seed)."""
 
     level: str
     level_path: str
     level_hash: str
     team: str
+    code_hash: str
     seed: int
+    software: str
+    secret_id: str
+    noise_key: str
+    ideal: bool = False
+
+    def key(self) -> tuple:
+        """The journal key: everything the result depends on."""
+        return (self.level_hash, self.team, self.code_hash, self.seed, self.software, int(self.ideal),
+                self.secret_id)
 
     def replay_name(self) -> str:
-        safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in self.team)
-        return f"{self.level}__{safe}__seed{self.seed}.replay"
+        """A readable, unique file name: two teams whose names clean up alike still differ."""
+        clean = "".join(c if c.isalnum() or c in "-_." else "_" for c in self.team)[-60:]
+        tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
+        return f"{self.level}__{clean}__seed{self.seed}__{tag}.replay"
+
+
+def secret_id(secret: str) -> str:
+    """A public name for a secret (sha256-based): it tells runs apart, reveals nothing."""
+    return hashlib.sha256(b"laserarena-secret-id:" + secret.encode()).hexdigest()[:16]
+
+
+def noise_key(secret: str, level_hash: str, seed: int) -> str:
+    """The per-match noise key: HMAC-SHA256 of the level and seed under the run's secret."""
+    return hmac.new(secret.encode(), f"laserarena-noise:{level_hash}:{seed}".encode(), hashlib.sha256).hexdigest()
 
 
 def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
@@ -57,36 +97,100 @@ def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
 
     start = time.perf_counter()
     level = load_level(job.level_path, display=job.level)
-    teams = [resolve(job.team)] + [resolve(level.default_controller)] * (len(level.robots) - 1)
+    if level.hash != job.level_hash:
+        raise UserError(f"{job.level_path}: the level changed while grading; run grade again")
+    team = resolve(job.team)
+    if team.code_hash != job.code_hash:
+        raise UserError(f"{safe(job.team)}: the team's code changed while grading; run grade again")
+    teams = [team] + [resolve(level.default_controller)] * (len(level.robots) - 1)
     replay = Path(replay_dir) / job.replay_name()
-    result = run_match(level, teams, seed=job.seed, replay=replay)
+    global _playing
+    try:
+        _playing = True
+        result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
+    except _Stopped:  # the match has stopped its controllers on the way out; leave now, not
+        os._exit(143)  # back into the pool's loop (which would wait for work for ever)
+    finally:
+        _playing = False
     return job, dumps(result), time.perf_counter() - start
 
 
+def _private_file(path: Path) -> None:
+    """Create `path` (0600) unless it exists; tighten it to 0600 if it does."""
+    try:
+        os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+    except FileExistsError:
+        if not path.is_file():
+            raise UserError(f"{path}: not a journal file") from None
+        os.chmod(path, 0o600)
+
+
 class Journal:
-    """The SQLite journal of finished matches."""
+    """The SQLite journal of finished matches (0600), held by one grading run at a time."""
 
     def __init__(self, path: Path):
-        self.db = sqlite3.connect(path)
-        self.db.execute("PRAGMA journal_mode=WAL")
-        self.db.execute(SCHEMA)
-        self.db.commit()
+        self.path = path
+        try:
+            _private_file(path)
+            self.lock = open(path, "rb")
+        except OSError as e:
+            raise UserError(f"{path}: cannot open the journal: {e.strerror or e}") from None
+        try:
+            fcntl.flock(self.lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise UserError(f"{path}: another grading run is using this journal") from None
+        try:
+            self.db = sqlite3.connect(path)
+            version = self.db.execute("PRAGMA user_version").fetchone()[0]
+            tables = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            if version != SCHEMA_VERSION and tables:
+                raise UserError(f"{path}: a journal of another LaserArena version (schema {version}, "
+                                f"this is {SCHEMA_VERSION}); grade into a new --db")
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.executescript(SCHEMA)
+            self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+            self.db.commit()
+        except sqlite3.DatabaseError as e:
+            raise UserError(f"{path}: not a readable LaserArena journal ({e})") from None
 
-    def done(self) -> set[tuple[str, str, int]]:
-        return {tuple(r) for r in self.db.execute("SELECT level_hash, team, seed FROM matches")}
+    def _query(self, sql: str, args: tuple = ()) -> list:
+        try:
+            return self.db.execute(sql, args).fetchall()
+        except sqlite3.DatabaseError as e:
+            raise UserError(f"{self.path}: a damaged journal ({e})") from None
+
+    def secret(self, given: str | None) -> str:
+        """The run's noise secret: `given`, else the journal's own (made on first use with
+        `secrets`, kept in the journal so a resumed run draws the same noise)."""
+        if given:
+            return given
+        row = self._query("SELECT value FROM meta WHERE key='secret'")
+        if row:
+            return row[0][0]
+        made = secrets.token_hex(32)
+        self.db.execute("INSERT INTO meta VALUES ('secret', ?)", (made,))
+        self.db.commit()
+        return made
+
+    def done(self) -> set[tuple]:
+        return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
 
     def record(self, job: Job, result: str, replay: str, wall: float) -> None:
-        self.db.execute("INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                        (job.level, job.level_hash, job.team, job.seed, result, replay, wall, time.time()))
+        self.db.execute("INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                        (job.level, job.level_hash, job.team, job.code_hash, job.seed, job.software,
+                         int(job.ideal), job.secret_id, result, replay, wall, time.time()))
         self.db.commit()  # at once: a killed run loses nothing that finished
 
     def results(self, jobs: Iterable[Job]) -> list[tuple[Job, dict]]:
         out = []
+        where = " AND ".join(f"{k.strip()}=?" for k in KEY.split(","))
         for job in jobs:
-            row = self.db.execute("SELECT result FROM matches WHERE level_hash=? AND team=? AND seed=?",
-                                  (job.level_hash, job.team, job.seed)).fetchone()
+            row = self._query(f"SELECT result FROM matches WHERE {where}", job.key())
             if row:
-                out.append((job, json.loads(row[0])))
+                try:
+                    out.append((job, json.loads(row[0][0])))
+                except ValueError:
+                    raise UserError(f"{self.path}: a damaged result for {safe(job.team)} seed {job.seed}") from None
         return out
 
 
@@ -110,24 +214,33 @@ class Progress:
         filled = round(width * self.done / self.total) if self.total else width
         bar = "#" * filled + "." * (width - filled)
         end = "\n" if self.done == self.total or not sys.stderr.isatty() else ""
-        print(f"\r[{bar}] {self.done}/{self.total} matches  {rate * 60:.1f}/min  ETA {left:4.0f} s  {label[:40]:<40}",
-              end=end, file=sys.stderr, flush=True)
+        print(f"\r[{bar}] {self.done}/{self.total} matches  {rate * 60:.1f}/min  ETA {left:4.0f} s  "
+              f"{safe(label, 40):<40}", end=end, file=sys.stderr, flush=True)
 
 
-def make_jobs(levels: list, teams: list[str], seeds: int) -> list[Job]:
-    """Every (level, team, seed), in a fixed order."""
-    return [Job(lv.name, str(path), lv.hash, team, seed)
-            for lv, path in levels for team in teams for seed in range(1, seeds + 1)]
+def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: str, software: str) -> list[Job]:
+    """Every (level, team, seed), in a fixed order; `teams` holds (spec, code hash) pairs."""
+    sid = secret_id(secret)
+    return [Job(lv.name, str(path), lv.hash, spec, code, seed, software, sid, noise_key(secret, lv.hash, seed))
+            for lv, path in levels for spec, code in teams for seed in range(1, seeds + 1)]
 
 
-def grade(jobs: list[Job], db: Path, workers: int = 1, scheduler: str | None = None,
+def _replay_folder(db: Path) -> Path:
+    """The journal's replay folder (0700), cleared of replays a killed run left unfinished."""
+    folder = db.resolve().parent / "replays"
+    folder.mkdir(mode=0o700, exist_ok=True)
+    os.chmod(folder, 0o700)
+    for part in folder.glob(".laserarena-*.part"):  # we hold the journal's lock: no run writes these
+        part.unlink(missing_ok=True)
+    return folder
+
+
+def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | None = None,
           quiet: bool = False) -> Journal:
-    """Run every job not yet in the journal at `db`; replays go to `db`'s folder/replays."""
-    journal = Journal(db)
-    replay_dir = db.resolve().parent / "replays"
-    replay_dir.mkdir(exist_ok=True)
+    """Run every job not yet in `journal`; replays go to the journal's folder/replays."""
+    replay_dir = _replay_folder(journal.path)
     done = journal.done()
-    todo = [j for j in jobs if (j.level_hash, j.team, j.seed) not in done]
+    todo = [j for j in jobs if j.key() not in done]
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     if not todo:
         return journal
@@ -137,21 +250,60 @@ def grade(jobs: list[Job], db: Path, workers: int = 1, scheduler: str | None = N
         results = (play(j, str(replay_dir)) for j in todo)
     else:
         results = _on_pool(todo, str(replay_dir), workers)
-    for job, result, wall in results:
-        journal.record(job, result, str(replay_dir / job.replay_name()), wall)
-        progress.tick(f"{job.level} {job.team} seed {job.seed}")
+    try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
+        for job, result, wall in results:
+            journal.record(job, result, str(replay_dir / job.replay_name()), wall)
+            progress.tick(f"{job.level} {job.team} seed {job.seed}")
+    finally:
+        results.close()  # a pool's workers end here, even on an interrupt
     return journal
 
 
-def _on_pool(todo: list[Job], replay_dir: str, workers: int):
+PR_SET_PDEATHSIG = 1
+_playing = False  # a pool worker is inside a match
+
+
+class _Stopped(BaseException):
+    """A pool worker was told to stop (SIGTERM) in the middle of a match."""
+
+
+def _worker_stop(signum: int, frame) -> None:  # noqa: ANN001
+    if _playing:
+        raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
+    os._exit(143)
+
+
+def _worker_init(parent: int) -> None:
+    """In each pool worker: die with the grading process, however it ends (even SIGKILL).
+    The kernel sends SIGTERM when the parent goes; SIGTERM ends the match cleanly (its
+    controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_stop)
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
+        raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+    if os.getppid() != parent:  # the parent died before the line above: follow it now
+        os._exit(143)
+
+
+def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[Job, str, float]]:
     # spawn, never fork: a forked worker would inherit the parent's state
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
+                               initializer=_worker_init, initargs=(os.getpid(),))
+    try:
         futures = [pool.submit(play, j, replay_dir) for j in todo]
         for f in as_completed(futures):
             yield f.result()
+    except BaseException:
+        # stop now, not after the running matches: end the workers (each stops its match)
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
 
 
-def _on_dask(todo: list[Job], replay_dir: str, scheduler: str):
+def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Iterator[tuple[Job, str, float]]:
     try:
         from dask.distributed import Client, as_completed as dask_completed
     except ImportError:
@@ -214,7 +366,8 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
           "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         rms = "-" if r["position_rms_mm"] is None else f"{r['position_rms_mm']:.1f}"
-        md.append(f"| {r['level']} | {r['team']} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
+        team = safe(r["team"]).replace("|", "\\|")
+        md.append(f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
                   f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |")
     text = "\n".join(md) + "\n"
     out.with_suffix(".md").write_text(text)

@@ -108,20 +108,21 @@ class Match:
 
     def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
                  replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-                 limits: ControllerLimits | None = None, logs: Path | None = None, recorder=None):
+                 limits: ControllerLimits | None = None, logs: Path | None = None, recorder=None,
+                 noise_key: str | None = None):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
         self.teams = teams
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
-        tree = RandomTree(self.seed)
+        tree = RandomTree(self.seed, noise_key)  # noise_key: the grader's secret (docs/integrity.md)
         self.world = World(level, None if ideal else tree)
         self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None) if isolate
+        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate
                      else InProcessBot(t) for i, t in enumerate(teams)]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
@@ -134,7 +135,7 @@ class Match:
         self.writer = recorder  # anything with ReplayWriter's frame / record / close
         if replay is not None:
             self.writer = ReplayWriter(replay, level, level.text, self.seed, ideal,
-                                       [(t.label, t.spec) for t in teams], __version__)
+                                       [(t.label, t.spec) for t in teams], __version__, noise_key)
         if self.writer is not None:
             self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
         self.end_reason = "time_limit"
@@ -199,6 +200,10 @@ class Match:
                 self._control_tick()
                 self.advance()
             return self.end()
+        except BaseException:
+            if hasattr(self.writer, "discard"):
+                self.writer.discard()  # an interrupted match leaves no half-written replay
+            raise
         finally:
             self.close()
 
@@ -284,10 +289,13 @@ class Match:
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-              limits: ControllerLimits | None = None, logs: Path | None = None) -> dict:
+              limits: ControllerLimits | None = None, logs: Path | None = None,
+              noise_key: str | None = None) -> dict:
     """Run one match and return its result. `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
     their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
-    `logs` is a folder for each controller's output (`slotN.log`), tracebacks included."""
-    return Match(level, teams, seed, replay, ideal, isolate, limits, logs).run()
+    `logs` is a folder for each controller's output (`slotN.log`), tracebacks included;
+    `noise_key` (hex) mixes a secret into every random stream, so the public seed alone cannot
+    reproduce the noise."""
+    return Match(level, teams, seed, replay, ideal, isolate, limits, logs, noise_key=noise_key).run()
 

@@ -34,7 +34,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
         teams.append(resolve(spec))
     with tempfile.TemporaryDirectory() as d:
         again = Path(d) / "again.replay"
-        run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"])
+        run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
         a, b = gzip.open(path).read().splitlines(), gzip.open(again).read().splitlines()
     if a == b:
         return True, f"identical: {len(a)} records, {rep.duration:.1f} s, result and every frame reproduced"

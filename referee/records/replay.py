@@ -6,19 +6,25 @@ timestamp fixed at 0, so the same match gives the same bytes). The first line is
 hashes); then records in the order they were known, each with a kind `k`:
 `f` frame (true poses), `e` sensor event with its beam line, `est` estimate, `dbg` debug
 drawings, `foul`, `fault`; the last line is the result. `load()` reads one back.
+
+Replays are organizer files (0600): a graded one holds the match's noise key. Reading is
+bounded: a record is at most `MAX_RECORD` bytes, nested JSON cannot exhaust the stack, and
+the header has a fixed, typed schema (its level text is parsed as safely as a level file).
 """
 
 from __future__ import annotations
 
 import gzip
-import hashlib
 import io
 import json
 import os
 import tempfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO
+from typing import IO, Annotated, Iterator
+
+import msgspec
 
 from arena.level import Level
 from referee.errors import ReplayError
@@ -26,20 +32,49 @@ from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
 BEHAVIOUR = 5  # bump when a change alters simulation results (the golden-replay test says so)
+MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
+
+_Text = Annotated[str, msgspec.Meta(max_length=4096)]
+
+
+class _LevelRef(msgspec.Struct):
+    name: _Text
+    text: Annotated[str, msgspec.Meta(max_length=MAX_RECORD)]
+    hash: _Text = ""
+
+
+class _TeamRef(msgspec.Struct):
+    label: _Text
+    spec: _Text
+    hash: _Text = ""
+
+
+class _Header(msgspec.Struct):
+    """The header's schema: what a reader may rely on (other fields are allowed and ignored)."""
+
+    format: str
+    version: int
+    level: _LevelRef
+    seed: Annotated[int, msgspec.Meta(ge=-(1 << 63), le=(1 << 63) - 1)]
+    ideal: bool
+    record_rate: Annotated[int, msgspec.Meta(gt=0, le=100_000)]
+    control_period: Annotated[float, msgspec.Meta(gt=0, le=1e6)]
+    teams: Annotated[list[_TeamRef], msgspec.Meta(min_length=1, max_length=64)]
+    software: _Text = ""
+    behaviour: int = 0
+    noise_key: Annotated[str, msgspec.Meta(pattern="^[0-9a-f]{64}$")] | None = None
+
+
+class _Frame(msgspec.Struct):
+    k: str
+    t: Annotated[float, msgspec.Meta(ge=0, le=1e7)]
+    p: Annotated[list[tuple[float, float, float]], msgspec.Meta(max_length=64)]
 
 
 def controller_hash(spec: str) -> str:
-    """sha256 of a controller's source file (files and modules), or of the spec itself."""
-    from robots.loading import is_file_spec
-    path = Path(spec.partition(".py")[0] + ".py") if is_file_spec(spec) else None
-    if path is None:
-        import importlib.util
-        from robots.controllers import REFERENCE
-        module = (REFERENCE.get(spec[4:], "") if spec.startswith("ref:") else spec).partition(":")[0]
-        found = importlib.util.find_spec(module) if module else None
-        path = Path(found.origin) if found and found.origin else None
-    data = path.read_bytes() if path and path.is_file() else spec.encode()
-    return "sha256:" + hashlib.sha256(data).hexdigest()
+    """sha256 of a controller's code, found without running it (`referee.sandbox.teams.Team.code_hash`)."""
+    from referee.sandbox.teams import code_hash
+    return code_hash(spec)
 
 
 class ReplayWriter:
@@ -47,7 +82,7 @@ class ReplayWriter:
     moved into place only when the match has ended, so no controller can read it meanwhile."""
 
     def __init__(self, path: str | Path, level: Level, level_text: str, seed: int, ideal: bool,
-                 teams: list[tuple[str, str]], software: str):
+                 teams: list[tuple[str, str]], software: str, noise_key: str | None = None):
         self.path = Path(path)
         fd, self.partial = tempfile.mkstemp(dir=self.path.resolve().parent, prefix=".laserarena-", suffix=".part")
         raw = os.fdopen(fd, "wb")
@@ -58,7 +93,8 @@ class ReplayWriter:
                      "level": {"name": level.name, "hash": level.hash, "text": level_text},
                      "seed": seed, "ideal": ideal, "record_rate": level.record_rate,
                      "control_period": level.control_period,
-                     "teams": [{"label": label, "spec": spec, "hash": controller_hash(spec)} for label, spec in teams]})
+                     "teams": [{"label": label, "spec": spec, "hash": controller_hash(spec)} for label, spec in teams],
+                     **({"noise_key": noise_key} if noise_key else {})})
 
     def _write(self, obj: dict) -> None:
         self.file.write(dumps(obj, indent=None) + "\n")
@@ -82,12 +118,20 @@ class ReplayWriter:
         else:
             self._write({"k": record_kind, **fields})
 
+    def discard(self) -> None:
+        """Drop the unfinished replay (the match did not end): no `.part` file is left behind."""
+        try:
+            self.file.close()
+            self.raw.close()
+        except (OSError, ValueError):
+            pass
+        Path(self.partial).unlink(missing_ok=True)
+
     def close(self, result: dict) -> None:
         self._write({"k": "result", "result": result})
         self.file.close()  # closes the gzip stream and the file beneath
         self.raw.close()
-        os.chmod(self.partial, 0o644)
-        os.replace(self.partial, self.path)
+        os.replace(self.partial, self.path)  # still 0600 (mkstemp): an organizer file
 
 
 class MemoryRecorder:
@@ -129,37 +173,71 @@ class Replay:
         return self.frames[-1][0] if self.frames else 0.0
 
 
-def records(path: str | Path):
-    """Stream a replay's records (dicts), header first."""
-    with gzip.open(path, "rt", encoding="utf-8") as f:
-        for line in f:
-            yield json.loads(line)
+def records(path: str | Path) -> Iterator[dict]:
+    """Stream a replay's records (dicts), header first; ReplayError (a ValueError, one line) on a record
+    that is too long, not JSON, nested too deeply or not an object."""
+    with gzip.open(path, "rb") as f:
+        n = 0
+        while True:
+            try:
+                line = f.readline(MAX_RECORD + 1)
+            except (OSError, EOFError, zlib.error) as e:
+                raise ReplayError(f"{path}: a truncated or damaged replay ({e})") from None
+            if not line:
+                return
+            n += 1
+            if len(line) > MAX_RECORD:
+                raise ReplayError(f"{path}: record {n} is over {MAX_RECORD} bytes")
+            try:
+                rec = msgspec.json.decode(line)
+            except msgspec.DecodeError as e:
+                raise ReplayError(f"{path}: record {n} is not JSON ({e})") from None
+            except RecursionError:
+                raise ReplayError(f"{path}: record {n} is nested too deeply") from None
+            if not isinstance(rec, dict):
+                raise ReplayError(f"{path}: record {n} is not an object")
+            yield rec
 
 
-def load(path: str | Path) -> Replay:
-    """Read a whole replay (ValueError if it is not one)."""
-    it = records(path)
-    try:
-        header = next(it)
-    except (OSError, EOFError, StopIteration, json.JSONDecodeError) as e:
-        raise ReplayError(f"{path}: not a LaserArena replay ({e})") from None
+def check_header(header: dict, path: str | Path) -> None:
+    """Raise ReplayError (one line) unless `header` is a replay header this version reads."""
     if header.get("format") != FORMAT:
         raise ReplayError(f"{path}: not a LaserArena replay")
     if header.get("version") != VERSION:
-        raise ReplayError(f"{path}: replay format version {header.get('version')}, this is {VERSION}")
-    rep = Replay(header)
-    lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
+        raise ReplayError(f"{path}: replay format version {str(header.get('version'))[:20]}, this is {VERSION}")
     try:
-        for rec in it:
-            k = rec.get("k")
-            if k == "f":
-                rep.frames.append((rec["t"], rec["p"]))
-            elif k == "result":
-                rep.result = rec["result"]
-            elif k in lists:
-                lists[k].append(rec)
-    except (OSError, EOFError, json.JSONDecodeError) as e:
-        raise ReplayError(f"{path}: a truncated or damaged replay ({e})") from None
+        msgspec.convert(header, _Header)
+    except msgspec.ValidationError as e:
+        raise ReplayError(f"{path}: a damaged replay header ({e})") from None
+
+
+def load(path: str | Path) -> Replay:
+    """Read a whole replay (ReplayError, one line, if it is not one or is damaged)."""
+    it = records(path)
+    try:
+        header = next(it)
+    except StopIteration:
+        raise ReplayError(f"{path}: not a LaserArena replay (empty)") from None
+    except ValueError as e:
+        raise ReplayError(f"{path}: not a LaserArena replay ({str(e).removeprefix(f'{path}: ')})") from None
+    check_header(header, path)
+    rep = Replay(header)
+    slots = len(header["teams"])
+    lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
+    for rec in it:
+        k = rec.get("k")
+        if k == "f":
+            try:
+                frame = msgspec.convert(rec, _Frame)
+            except msgspec.ValidationError as e:
+                raise ReplayError(f"{path}: a damaged frame record ({e})") from None
+            if len(frame.p) != slots:
+                raise ReplayError(f"{path}: a frame with {len(frame.p)} robots, the header has {slots}")
+            rep.frames.append((frame.t, rec["p"]))
+        elif k == "result":
+            rep.result = rec.get("result")
+        elif k in lists:
+            lists[k].append(rec)
     if not rep.frames:
         raise ReplayError(f"{path}: a replay without frames")
     return rep

@@ -1,7 +1,8 @@
 """The narrow call site between the match and a team's controller.
 
-`InProcessBot` runs the controller inside the referee's process; the isolation issue puts
-the same interface around a separate process. Any exception or malformed command becomes
+`InProcessBot` runs the controller inside the referee's process (`--in-process`, for a
+debugger: the team's code runs with the referee's rights, never for grading); `ProcessBot`
+(referee/process.py) puts the same interface around a sandboxed process. Any exception or malformed command becomes
 a typed `Fault`, and the bot stops answering: the match goes on without it.
 """
 
@@ -11,7 +12,8 @@ from dataclasses import dataclass
 
 from referee.sandbox.teams import Team
 from robots.api import Brief, Command, Observation
-from robots.protocol import command_problem
+from robots.loading import LoadError, is_file_spec, load_class
+from robots.protocol import ProtocolError, command_from, command_problem, to_plain
 
 
 @dataclass(frozen=True)
@@ -21,7 +23,7 @@ class Fault:
 
     tick: int
     time: float
-    kind: str  # exception | bad_command | memory | crash | timeout | output_flood | protocol | skipped_tick
+    kind: str  # load | exception | bad_command | memory | crash | timeout | output_flood | protocol | skipped_tick
     message: str
     fatal: bool = True
 
@@ -46,8 +48,12 @@ class InProcessBot:
         """Nothing to start: the controller lives in this process."""
 
     def setup(self, brief: Brief) -> Fault | None:
+        try:  # the one place a team's code is imported into the referee
+            cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
+        except LoadError as e:
+            return Fault(0, 0.0, "load", str(e))
         try:
-            self.controller = self.team.factory()
+            self.controller = cls()
             self.controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
             return Fault(0, 0.0, "exception", f"in setup: {one_line(e)}")
@@ -61,7 +67,10 @@ class InProcessBot:
         problem = command_problem(cmd)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)
-        return cmd
+        try:  # the very checks and conversions of the wire (numpy scalars become floats, caps apply)
+            return command_from(to_plain(cmd))
+        except ProtocolError as e:
+            return Fault(obs.tick, obs.time, "bad_command", str(e))
 
     def close(self) -> None:
         """Nothing to end: the controller lived in this process."""

@@ -1,4 +1,5 @@
-"""Keeping the truth from controllers: a non-dumpable referee and unprivileged controllers.
+"""Keeping the truth from controllers: a non-dumpable referee and unprivileged controllers
+(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox.py).
 
 See docs/security.md for the threat model.
 """
@@ -50,11 +51,21 @@ def check_readable_by_others(*paths: str) -> None:
                                 f"{part} is closed to other users; install laserarena where they can read it")
 
 
-def share_team_file(spec: str, folder: Path) -> str:
-    """Copy a team's file into `folder` (readable by the controller's user); the spec for the copy."""
-    path, _, rest = spec.partition(".py")
-    source = Path(path + ".py")
-    target = folder / source.name
-    shutil.copyfile(source, target)
-    os.chmod(target, 0o644)
-    return str(target) + rest
+def share_team_files(files: tuple[tuple[str, Path], ...], folder: Path) -> None:
+    """Copy a team's files into `folder`, readable by the controller's user (no kernel sandbox)."""
+    for rel, source in files:
+        target = folder / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.parent.chmod(0o755)
+        shutil.copyfile(source, target)
+        os.chmod(target, 0o644)
+
+
+SLOT_UIDS = range(1_800_000_000, 1_800_000_000 + (1 << 20))  # no account uses these: one per controller
+
+
+def slot_uid(slot: int, referee: int | None = None) -> int:
+    """The host uid controller `slot` of the referee process `referee` (default: this one) runs
+    as when the referee is root: a uid of its own, so no two live controllers share one."""
+    pid = os.getpid() if referee is None else referee
+    return SLOT_UIDS.start + (pid % (len(SLOT_UIDS) // 64)) * 64 + slot % 64

@@ -1,15 +1,17 @@
-"""A controller in its own process: a fresh interpreter running `robots.runner`.
+"""A controller in its own process: a fresh interpreter running `robots.runner`, in a sandbox.
 
-The process is spawned (exec'd, never a fork of the referee, so it holds no world state),
-in its own session, with a minimal environment and an empty working folder; when the referee
-is root it runs as `nobody`, with the team's file copied where that user can read it. It
-imports only `robots` and the team's code. The referee talks to it over its stdin/stdout with the
-messages of `robots.protocol` and waits for each answer no longer than the step's time
-allowance; whatever goes wrong becomes a typed `Fault`.
+The process is spawned (exec'd, never a fork of the referee, so it holds no world state) inside
+a kernel sandbox of its own (referee/sandbox/kernel.py: PID, mount, network, IPC namespaces, its own
+uid or user namespace, the team's code copied in read-only). Where no sandbox can be made it
+degrades, with a one-line warning, to a plain process in its own session, run as `nobody` when
+the referee is root. It imports only `robots` and the team's code. The referee talks to it over
+its stdin/stdout with the messages of `robots.protocol` and waits for each answer no longer
+than the step's time allowance; whatever goes wrong becomes a typed `Fault`.
 """
 
 from __future__ import annotations
 
+import functools
 import os
 import select
 import signal
@@ -22,56 +24,105 @@ from pathlib import Path
 
 import robots
 from arena.level import ControllerLimits
+from referee.sandbox import kernel
 from referee.sandbox.bot import Fault
-from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_file
+from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_files, slot_uid
 from referee.sandbox.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
 from robots.loading import is_file_spec
 
-FAULT_KINDS = {"exception", "memory", "bad_command"}  # what a controller may report of itself
+FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
+RUNNER_ENV = {"PYTHONHASHSEED": "0", "PYTHONDONTWRITEBYTECODE": "1", "PYTHONSAFEPATH": "1",
+              "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+UNENFORCED = ("controllers share one uid and see each other's processes, the file system "
+              "their user can read, and the network")
+
+
+@functools.cache
+def _warn_unsandboxed(reason: str) -> None:
+    """Say once per process what is not enforced without a kernel sandbox."""
+    print(f"laserarena: warning: no kernel sandbox ({reason}); not enforced: {UNENFORCED}", file=sys.stderr)
 
 
 class ProcessBot:
-    """A controller running in a separate process, with the InProcessBot interface."""
+    """A controller running in a separate process, with the InProcessBot interface.
+    `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
+    sandbox (for the benchmark that measures what it costs)."""
 
-    def __init__(self, team: Team, limits: ControllerLimits = ControllerLimits(), log: Path | None = None):
-        if not team.spec:
-            raise ValueError(f"team {team.label} has no spec a controller process can load")
-        self.team, self.limits, self.log = team, limits, log
+    def __init__(self, team: Team, limits: ControllerLimits = ControllerLimits(), log: Path | None = None,
+                 slot: int = 0, sandboxed: bool = True):
+        if not team.entry:
+            raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
+        self.team, self.limits, self.log, self.slot = team, limits, log, slot
+        self.sandboxed = sandboxed
         self.proc: subprocess.Popen | None = None
         self.buf = b""
+        self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
         self.bank = limits.overage_bank
         self.skips = 0  # consecutive skipped ticks
         self.pending: int | None = None  # tick of an observation still unanswered
-        self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
+        self.loaded = False  # the controller process has loaded the team's code
+        self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
+        self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
+        self.in_sandbox = False
 
     def _spawn(self) -> None:
-        spec, user = self.team.spec, drop_to()
-        as_user: dict = {}
+        reason = kernel.unavailable() if self.sandboxed else None
+        if reason:
+            _warn_unsandboxed(reason)
+        # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
+        stderr = open(self.log, "wb") if self.log else tempfile.TemporaryFile()
+        limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
+        try:
+            if self.sandboxed and not reason:
+                self._spawn_sandboxed(limits, stderr)
+            else:
+                self._spawn_plain(limits, stderr)
+        finally:
+            stderr.close()
+
+    def _spawn_sandboxed(self, limits: list[str], stderr) -> None:
+        entry = self.team.entry
+        if is_file_spec(entry):
+            entry = f"{kernel.TEAM_DIR}/{entry}"
+        env = dict(RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8",
+                   PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}")
+        uid = slot_uid(self.slot) if os.geteuid() == 0 else None
+        launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits],
+                                self.team.files, env, uid)
+        self.info, self.in_sandbox = launch.info, True
+        try:
+            self.proc = subprocess.Popen(
+                launch.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
+                env={"PATH": os.environ.get("PATH", "/usr/bin:/bin")}, start_new_session=True,
+                close_fds=True, pass_fds=launch.pass_fds)
+        finally:
+            for fd in launch.pass_fds:
+                os.close(fd)
+
+    def _spawn_plain(self, limits: list[str], stderr) -> None:
+        user, as_user = drop_to(), {}
+        self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
+        share_team_files(self.team.files, Path(self.folder.name))
+        entry = self.team.entry
+        if is_file_spec(entry):
+            entry = str(Path(self.folder.name) / entry)
         if user is not None:  # the referee is root: the controller runs as nobody
             check_readable_by_others(sys.executable, ROBOTS_HOME)
             os.chmod(self.folder.name, 0o755)
-            if is_file_spec(spec):
-                spec = share_team_file(spec, Path(self.folder.name))
             as_user = dict(user=user.pw_uid, group=user.pw_gid, extra_groups=[])
         env = {k: v for k, v in os.environ.items() if k in ("PATH", "LANG", "LC_ALL", "TZ")}
-        # the child imports the very `robots` package this referee uses, installed or not,
-        # and whatever else the referee was pointed at, so module specs load the same way
-        path = os.pathsep.join([ROBOTS_HOME] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
-        env.update(PYTHONPATH=path, PYTHONHASHSEED="0", PYTHONDONTWRITEBYTECODE="1", OPENBLAS_NUM_THREADS="1",
-                   OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-        log = self.log or Path(self.folder.name) / "team.log"  # kept only with --logs
-        stderr = open(log, "wb")
-        try:
-            self.proc = subprocess.Popen(
-                [sys.executable, "-m", "robots.runner", spec, "--memory", str(int(self.limits.memory)),
-                 "--log-cap", str(int(self.limits.log_bytes))],
-                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
-                env=env, start_new_session=True, close_fds=True, **as_user)
-        finally:
-            stderr.close()
+        # the child imports the very `robots` package this referee uses, installed or not, and
+        # finds a module team in the copy of its package
+        path = os.pathsep.join([self.folder.name, ROBOTS_HOME] +
+                               [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
+        env.update(RUNNER_ENV, PYTHONPATH=path)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-s", "-m", "robots.runner", entry, *limits],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
+            env=env, start_new_session=True, close_fds=True, **as_user)
 
     def _send(self, msg: dict) -> bool:
         try:
@@ -88,12 +139,14 @@ class ProcessBot:
             if len(self.buf) >= 4:
                 (size,) = struct.unpack(">I", self.buf[:4])
                 if size > protocol.MAX_FRAME:
+                    self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
                     return "protocol"
                 if len(self.buf) >= 4 + size:
                     frame, self.buf = self.buf[4:4 + size], self.buf[4 + size:]
                     try:
                         return protocol.parse(frame)
-                    except protocol.ProtocolError:
+                    except protocol.ProtocolError as e:
+                        self.problem = str(e)
                         return "protocol"
             left = deadline - time.monotonic()
             if left <= 0:
@@ -110,10 +163,19 @@ class ProcessBot:
         if isinstance(what, dict):
             kind = what.get("kind") if what.get("kind") in FAULT_KINDS else "protocol"
             message = str(what.get("message", ""))[:500]
+            if kind == "load":  # named as the team was given, not as the sandbox sees it
+                message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
+        elif what == "crash" and not self.loaded:
+            self.proc.wait()
+            code = self._status()
+            kind = "load"
+            message = (f"team {self.team.label}: " +
+                       (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}") +
+                       " while its code was loading")
         elif what == "crash":
             self.proc.wait()
-            code = self.proc.returncode
+            code = self._status()
             if code == -signal.SIGXFSZ:
                 kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
             else:
@@ -126,9 +188,24 @@ class ProcessBot:
                        else f"in {where}: overage bank exhausted" if where == "step"
                        else f"in {where}: no answer within {self.limits.setup_time:g} s")
         else:
-            kind, message = "protocol", f"in {where}: malformed message"
+            kind, message = "protocol", f"in {where}: {self.problem or 'malformed message'}"
         self.close()
         return Fault(tick, t, kind, message)
+
+    def _status(self) -> int:
+        """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
+        passes a signal on as 128 + its number, and the runner ends so on an output flood."""
+        code = self.proc.returncode
+        if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
+            return -(code - 128)
+        return code
+
+    def _entry_seen(self) -> str:
+        """The entry as the controller process was given it."""
+        if not is_file_spec(self.team.entry):
+            return self.team.entry
+        home = Path(self.folder.name) if self.folder else Path(kernel.TEAM_DIR)
+        return f"{home}/{self.team.entry}"
 
     def launch(self) -> None:
         """Start the process (all bots are launched before any is set up: start-ups overlap)."""
@@ -139,8 +216,12 @@ class ProcessBot:
         self.launch()
         if not self._send({"type": "setup", "brief": protocol.to_plain(brief)}):
             return self._fault(0, 0.0, "crash", "setup")
+        deadline = time.monotonic() + self.limits.setup_time
         reply = self._receive(self.limits.setup_time)
-        if isinstance(reply, dict) and reply["type"] == "ready":
+        if isinstance(reply, dict) and reply["type"] == "loaded":
+            self.loaded = True
+            reply = self._receive(deadline - time.monotonic())
+        if isinstance(reply, dict) and reply["type"] == "ready" and self.loaded:
             return None
         return self._fault(0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault"
                            else "protocol", "setup")
@@ -202,7 +283,8 @@ class ProcessBot:
         return self._fault(obs.tick, obs.time, reply, "step")
 
     def close(self) -> None:
-        """End the process and everything it started."""
+        """End the process and everything it started: in a sandbox, its init is killed, which
+        kills every process of its PID namespace; bwrap returns once they are all gone."""
         if self.proc is None:
             return
         if self.proc.poll() is None:
@@ -211,6 +293,17 @@ class ProcessBot:
                 self.proc.wait(timeout=0.5)
             except subprocess.TimeoutExpired:
                 pass
+        if self.info is not None:
+            init, self.info = kernel.init_pid(self.info), None
+            if init is not None and self.proc.poll() is None:
+                try:
+                    os.kill(init, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError):
+                    pass
+                try:
+                    self.proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    pass
         try:
             os.killpg(self.proc.pid, signal.SIGKILL)  # its whole session, children included
         except (ProcessLookupError, PermissionError):
@@ -221,4 +314,5 @@ class ProcessBot:
                 stream.close()
             except OSError:
                 pass
-        self.folder.cleanup()
+        if self.folder is not None:
+            self.folder.cleanup()

@@ -1,39 +1,147 @@
-"""Resolve a team spec from the command line into a `Team` the match can run.
+"""Resolve a team spec from the command line into a `Team` the match can run, WITHOUT running it.
 
 A spec is `ref:NAME` (a reference controller), `path/team.py` or `path/team.py:Class`
-(a file), or `package.module:Class` (anything importable). It is loaded once here, so a bad
-spec is a one-line error before the match starts.
+(a file), `package.module:Class` (anything on the path) or NAME (an installed controller's
+entry point). Resolving finds the files only: nothing of the team's is imported or executed in
+the referee. The controller's own (sandboxed) process loads the code; a failure to load comes
+back from there as a `load` fault for that slot. Only `--in-process` imports a team here.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.machinery
+import sys
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 from typing import Callable
 
 from referee.errors import UserError
-from robots.api import Controller
-from robots.loading import LoadError, is_file_spec, load_class
+from robots.controllers import REFERENCE
+from robots.loading import ENTRY_POINT_GROUP, is_file_spec
+
+MAX_FILES = 2000  # what a team may ship: a package larger than this is refused in one line
+MAX_BYTES = 64 << 20
+BUILT_IN = "robots"  # present in every controller process: nothing of it is shipped
 
 
 @dataclass(frozen=True)
 class Team:
-    """A resolved team: a machine-independent `label`, a way to make its controller here
-    (`factory`), and the `spec` a controller process loads it from (files made absolute)."""
+    """A resolved team.
+
+    `label`: machine-independent name for tables and replays; `spec`: the spec as resolved
+    (files absolute), what a replay header records; `code_hash`: "sha256:<hex>" over the code
+    that runs (see `code_hash`); `files`: (path inside the slot's code folder, source file) for
+    each file shipped into the controller's sandbox; `entry`: the spec the controller process
+    loads, with file paths relative to that folder. `factory` makes a controller from Python
+    objects instead, for in-process matches of a library user (never from a spec)."""
 
     label: str
-    factory: Callable[[], Controller]
-    spec: str = ""
+    spec: str
+    code_hash: str
+    files: tuple[tuple[str, Path], ...] = ()
+    entry: str = ""
+    factory: Callable[[], object] | None = None
+
+
+def _file_hash(path: Path) -> str:
+    return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _tree_hash(files: tuple[tuple[str, Path], ...]) -> str:
+    """sha256 over every shipped file, in path order: its relative path, size and bytes."""
+    h = hashlib.sha256()
+    for rel, path in sorted(files):
+        data = path.read_bytes()
+        h.update(f"{rel}\0{len(data)}\0".encode())
+        h.update(data)
+    return "sha256:" + h.hexdigest()
+
+
+def _package_files(root: Path, spec: str) -> tuple[tuple[str, Path], ...]:
+    """Every file of a package directory (bytecode caches left out), paths relative to its parent."""
+    files, size = [], 0
+    for path in sorted(root.rglob("*")):
+        rel = path.relative_to(root.parent)
+        if "__pycache__" in rel.parts or path.suffix == ".pyc":
+            continue
+        if path.is_symlink():
+            raise UserError(f"team {spec}: {path} is a symbolic link; a team ships plain files only")
+        if path.is_file():
+            files.append((rel.as_posix(), path))
+            size += path.stat().st_size
+        if len(files) > MAX_FILES or size > MAX_BYTES:
+            raise UserError(f"team {spec}: the package {root} is over {MAX_FILES} files or {MAX_BYTES >> 20} MiB")
+    return tuple(files)
+
+
+def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
+    """Where module `name` lives, found on sys.path without importing it or its parents
+    (importlib.util.find_spec would run a package's __init__ for a dotted name)."""
+    found, path = None, None
+    parts = name.split(".")
+    for i in range(len(parts)):
+        prefix = ".".join(parts[:i + 1])
+        loaded = sys.modules.get(prefix)  # already imported (our own `robots`): where it really is
+        found = getattr(loaded, "__spec__", None) or importlib.machinery.PathFinder.find_spec(prefix, path)
+        if found is None:
+            return None
+        path = found.submodule_search_locations
+        if path is None and i < len(parts) - 1:
+            return None  # a plain module has no submodules
+    return found
+
+
+def _entry_point(name: str) -> str:
+    """`module:Class` of an installed package's controller, read from its metadata (not imported)."""
+    found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
+    if not found:
+        raise UserError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
+                        f"an installed controller (entry point group {ENTRY_POINT_GROUP})")
+    return found[0].value
+
+
+def _module_team(label: str, spec: str, target: str) -> Team:
+    """A team given as `module:Class`: its top-level package (or module file) is shipped."""
+    module = target.partition(":")[0]
+    found = find_module(module) if module else None
+    if found is None:
+        raise UserError(f"team {label}: cannot find module {module!r} on the path")
+    source = Path(found.origin) if found.origin and Path(found.origin).is_file() else None
+    top = module.split(".")[0]
+    if top == BUILT_IN:
+        return Team(label, spec, _file_hash(source) if source else "sha256:" + hashlib.sha256(spec.encode()).hexdigest(),
+                    (), target)
+    top_spec = find_module(top)
+    if top_spec.submodule_search_locations:  # a package: ship all of it
+        files = _package_files(Path(list(top_spec.submodule_search_locations)[0]), label)
+        return Team(label, spec, _tree_hash(files), files, target)
+    origin = Path(top_spec.origin)
+    return Team(label, spec, _file_hash(origin), ((origin.name, origin),), target)
 
 
 def resolve(spec: str) -> Team:
-    """Turn a team spec into a `Team`; raise `UserError` (one line) if it cannot be loaded."""
-    try:
-        cls = load_class(spec)
-    except LoadError as e:
-        raise UserError(str(e)) from None
+    """Turn a team spec into a `Team`; raise `UserError` (one line) if its code cannot be found.
+    Whether the code loads is learnt only in the controller's process."""
+    if spec.startswith("ref:"):
+        name = spec[4:]
+        if name not in REFERENCE:
+            raise UserError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
+        return _module_team(spec, spec, REFERENCE[name])
     if is_file_spec(spec):
         path, _, rest = spec.partition(".py")
-        absolute = str(Path(path + ".py").resolve()) + rest
-        return Team(Path(path + ".py").name + rest, cls, absolute)
-    return Team(spec, cls, spec)
+        source = Path(path + ".py")
+        if not source.is_file():
+            raise UserError(f"team {spec}: no such file {source}")
+        absolute = str(source.resolve()) + rest
+        return Team(source.name + rest, absolute, _file_hash(source), ((source.name, source.resolve()),),
+                    source.name + rest)
+    if ":" not in spec:
+        return _module_team(spec, spec, _entry_point(spec))
+    return _module_team(spec, spec, spec)
+
+
+def code_hash(spec: str) -> str:
+    """The `Team.code_hash` of a spec (for replays and verification), without running anything."""
+    return resolve(spec).code_hash

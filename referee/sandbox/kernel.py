@@ -1,0 +1,156 @@
+"""One kernel sandbox per controller: bubblewrap (`bwrap`) namespaces around `robots.runner`.
+
+Each slot gets its own PID namespace (its processes see and signal only each other, and all
+die with the namespace's init), mount namespace (a read-only view of the interpreter and of
+`robots`, its own code at /team, a private /tmp and /dev/shm in memory), network namespace
+(loopback only), IPC and UTS namespaces. As root the controller then runs as a uid of its
+own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
+The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
+to be readable by the controller's user and nothing is written to the host's disk.
+docs/security.md holds the threat model; docs/decisions/0006-bubblewrap-sandbox-per-slot.md
+why bubblewrap.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import re
+import select
+import shutil
+import subprocess
+import sys
+import sysconfig
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import robots
+
+TEAM_DIR = "/team"  # the slot's code, read-only
+LIB_DIR = "/laserarena"  # `robots`, the one package of ours a controller imports
+TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not disk
+ROBOTS_DIR = Path(robots.__file__).resolve().parent
+PYTHON = os.path.normpath(os.path.abspath(sys.executable))  # as the sandbox can reach it (no `..`)
+HIDDEN_PACKAGES = ("levels",)  # beside `robots` in site-packages: the level files stay out of sight
+SYSTEM_FILES = ("/etc/ld.so.cache", "/etc/ld.so.conf", "/etc/ld.so.conf.d", "/etc/localtime")
+
+
+@dataclass(frozen=True)
+class Launch:
+    """How to start one sandboxed controller: the command line and the descriptors it needs."""
+
+    argv: list[str]
+    pass_fds: tuple[int, ...]
+    info: int  # read end of bwrap's --info-fd: the sandbox init's pid, to end the sandbox by
+
+
+def init_pid(info: int, timeout: float = 1.0) -> int | None:
+    """The host pid of a sandbox's init (its PID namespace dies with it), read from bwrap's info
+    descriptor (which this closes); None if bwrap never got that far."""
+    data, deadline = b"", time.monotonic() + timeout
+    try:
+        while b"}" not in data and time.monotonic() < deadline:
+            if not select.select([info], [], [], max(0.0, deadline - time.monotonic()))[0]:
+                break
+            chunk = os.read(info, 4096)
+            if not chunk:
+                break
+            data += chunk
+    finally:
+        os.close(info)
+    found = re.search(rb'"child-pid"\s*:\s*(\d+)', data)
+    return int(found.group(1)) if found else None
+
+
+@functools.cache
+def unavailable() -> str | None:
+    """Why no sandbox can be made here (None when it can): probed once per process by starting
+    an empty one, so a kernel or container that forbids namespaces is found before a match."""
+    if sys.platform != "linux":
+        return f"no Linux namespaces on {sys.platform}"
+    bwrap = shutil.which("bwrap")
+    if bwrap is None:
+        return "bubblewrap (bwrap) is not installed"
+    if os.geteuid() == 0 and shutil.which("setpriv") is None:
+        return "setpriv (util-linux) is not installed"
+    try:
+        probe = subprocess.run(_namespaces() + ["--ro-bind", "/", "/", "--", "true"],
+                               capture_output=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return f"bwrap does not start: {e}"
+    if probe.returncode != 0:
+        return "bwrap cannot create namespaces here: " + " ".join(probe.stderr.decode(errors="replace").split())[:200]
+    return None
+
+
+def _namespaces() -> list[str]:
+    user = [] if os.geteuid() == 0 else ["--unshare-user", "--disable-userns"]
+    return ["bwrap", *user, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts",
+            "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--as-pid-1"]
+
+
+def _hidden() -> list[str]:
+    """Our packages a controller must not see (the level files), wherever they are installed."""
+    places = {ROBOTS_DIR.parent, Path(sysconfig.get_paths()["purelib"]), Path(sysconfig.get_paths()["platlib"])}
+    return sorted(str(p / name) for p in places for name in HIDDEN_PACKAGES if (p / name).is_dir())
+
+
+def _parents(paths: list[str]) -> list[str]:
+    """`--dir` for every folder above the mount points in `paths`: bwrap would create the missing
+    ones closed to all but root (0700), and the controller's uid must pass through them."""
+    folders = sorted({str(p) for path in paths for p in Path(path).parents if str(p) != "/"})
+    return [arg for folder in folders for arg in ("--dir", folder)]
+
+
+def _system_view() -> list[str]:
+    """The read-only part of the file system a Python controller needs: /usr, the interpreter's
+    installation and virtual environment, `robots`; the other packages beside it stay hidden."""
+    args = ["--ro-bind", "/usr", "/usr"]
+    for top in ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32"):
+        if os.path.islink(top):
+            args += ["--symlink", os.readlink(top), top]
+        elif os.path.isdir(top):
+            args += ["--ro-bind", top, top]
+    for f in SYSTEM_FILES:
+        args += ["--ro-bind-try", f, f]
+    prefixes = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, str(Path(PYTHON).parent.parent)}
+    for root in sorted(prefixes | {str(Path(p).resolve()) for p in prefixes}):  # a venv, a pyenv build
+        if root != "/usr" and not root.startswith("/usr/") and os.path.isdir(root):
+            args += ["--ro-bind", root, root]
+    args += [arg for folder in _hidden() for arg in ("--tmpfs", folder)]
+    args += ["--ro-bind", str(ROBOTS_DIR), f"{LIB_DIR}/robots"]
+    return _parents([args[i + 2] for i, a in enumerate(args) if a.startswith("--") and "bind" in a]) + args
+
+
+def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[int]]:
+    """The team's files as read-only in-memory copies under TEAM_DIR: (arguments, descriptors)."""
+    args, fds = _parents([f"{TEAM_DIR}/{rel}" for rel, _ in files]) + ["--dir", TEAM_DIR], []
+    for rel, source in files:
+        fd = os.memfd_create(f"team:{rel}", 0)
+        os.write(fd, source.read_bytes())
+        os.lseek(fd, 0, os.SEEK_SET)
+        fds.append(fd)
+        args += ["--perms", "0444", "--ro-bind-data", str(fd), f"{TEAM_DIR}/{rel}"]
+    return args, fds
+
+
+def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[str, str], uid: int | None) -> Launch:
+    """The bwrap command line running `command` in a new sandbox with `files` at TEAM_DIR.
+    `uid`: the host uid to run as (root referee), else None (a user namespace of the caller's).
+    The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
+    team, fds = _team_files(files)
+    info, info_w = os.pipe()
+    fds.append(info_w)
+    args = _namespaces() + ["--info-fd", str(info_w)] + _system_view() + team + [
+        "--proc", "/proc", "--dev", "/dev",
+        "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/tmp",
+        "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/dev/shm",
+        "--remount-ro", "/", "--chdir", "/tmp", "--clearenv"]  # only /tmp and /dev/shm stay writable
+    for key, value in sorted(env.items()):
+        args += ["--setenv", key, value]
+    args.append("--")
+    if uid is not None:  # root: leave every privilege behind before the interpreter starts
+        args += ["setpriv", f"--reuid={uid}", f"--regid={uid}", "--clear-groups", "--inh-caps=-all",
+                 "--bounding-set=-all", "--no-new-privs"]
+    return Launch(args + command, tuple(fds), info)

@@ -1,0 +1,1 @@
+"""Real hostile controllers, one per attack class, each contained by the sandbox."""

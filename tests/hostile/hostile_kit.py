@@ -1,0 +1,130 @@
+"""What the hostile-controller tests share: a short 4-robot match with one hostile slot, and the
+checks that an attack was contained (the others unharmed, a typed fault, nothing left behind)."""
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import yaml
+
+import levels
+from arena.level import ControllerLimits
+from arena.loader import parse_level
+from referee.match.loop import run_match
+from referee.sandbox.privacy import slot_uid
+from referee.sandbox.kernel import unavailable
+from referee.sandbox.teams import resolve
+
+FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
+HONEST = "ref:dead-reckoning"
+
+
+def short_race(seconds: float = 6.0):
+    """asabe-race cut to `seconds`: the level's data with its time limit replaced, parsed again."""
+    data = yaml.safe_load(levels.path("asabe-race").read_text())
+    data["time_limit"] = seconds
+    return parse_level(yaml.safe_dump(data, sort_keys=False).encode(), f"race{seconds:g}.yaml")
+
+
+def team_file(folder: Path, body: str, name: str = "hostile.py") -> str:
+    """Write a controller module (the API and os/sys imported) and return its spec."""
+    p = folder / name
+    p.write_text("from robots.api import *\nimport math, os, sys, signal, time\n\n" + textwrap.dedent(body))
+    return str(p)
+
+
+def hostile_match(folder: Path, body: str, seconds: float = 6.0, **kwargs) -> dict:
+    """Slot 0 runs the hostile controller, slots 1-3 an honest reference one."""
+    teams = [resolve(team_file(folder, body))] + [resolve(HONEST)] * 3
+    return run_match(short_race(seconds), teams, seed=2, limits=kwargs.pop("limits", FAST), **kwargs)
+
+
+def assert_others_unharmed(result: dict, bad: int = 0) -> None:
+    """Every other robot answered every tick, with no fault, to the end."""
+    for r in result["robots"]:
+        if r["slot"] != bad:
+            assert not r["faults"] and not r["stopped"], r["faults"]
+            assert r["localization"]["fraction"] == 1.0 and r["localization"]["ticks"] > 0
+
+
+def assert_contained(result: dict, kind: str = "exception", words: str = "contained") -> dict:
+    """The hostile slot stopped with one typed fault whose one-line message holds `words`."""
+    bad = result["robots"][0]
+    assert [f["kind"] for f in bad["faults"]] == [kind], bad["faults"]
+    message = bad["faults"][0]["message"]
+    assert words in message and "\n" not in message, message
+    assert bad["stopped"]
+    assert_others_unharmed(result)
+    return bad
+
+
+def sandboxed_processes(referee: int | None = None) -> list[int]:
+    """Host pids of controller processes still running for the referee process `referee` (default
+    this one): as root, those running as one of its slot uids; as an ordinary user, ours in a PID
+    namespace other than ours."""
+    uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
+    me, ours = os.geteuid(), os.readlink("/proc/self/ns/pid")
+    found = []
+    for entry in os.scandir("/proc"):
+        if not entry.name.isdigit():
+            continue
+        try:
+            status = Path(entry.path, "status").read_text()
+            uid = int(status.split("\nUid:")[1].split()[0])
+            if status.split("\nState:")[1].split()[0] == "Z":
+                continue  # dead; left for an init that does not reap (a container's) to collect
+            if me == 0 and uid in uids or me != 0 and uid == me and os.readlink(f"{entry.path}/ns/pid") != ours:
+                found.append(int(entry.name))
+        except (OSError, IndexError, ValueError):
+            continue  # ended while we looked
+    return found
+
+
+def _describe(pid: int) -> str:
+    try:
+        status = dict(line.split(":\t", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines() if ":\t" in line)
+        return (f"{pid} ({status.get('State', '?')}, parent {status.get('PPid', '?')}): "
+                + Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()[:200])
+    except OSError:
+        return f"{pid}: gone"
+
+
+def wait_until_gone(referee: int | None = None, timeout: float = 10.0) -> list[int]:
+    """Poll (bounded) until no controller process of `referee` is left; the ones still there."""
+    deadline = time.monotonic() + timeout
+    while (left := sandboxed_processes(referee)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return left
+
+
+def laserarena(*args: str, **popen) -> subprocess.CompletedProcess:
+    """Run the command line as a user would (`python -m referee ARGS`), bounded in time."""
+    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True,
+                          timeout=300, **popen)
+
+
+def tmp_entries() -> set[str]:
+    return set(os.listdir("/tmp"))
+
+
+def assert_nothing_left(before: set[str], referee: int | None = None) -> None:
+    """No controller process alive, and nothing a controller owns added to /tmp."""
+    left = sandboxed_processes(referee)
+    assert left == [], [_describe(pid) for pid in left]
+    uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
+    added = []
+    for name in tmp_entries() - before:
+        try:
+            if os.lstat(f"/tmp/{name}").st_uid in uids:
+                added.append(name)
+        except FileNotFoundError:
+            continue
+    assert added == [], added
+
+
+def sandbox_missing() -> str | None:
+    """Why these tests cannot hold here (they fail with it rather than pass without a sandbox)."""
+    return unavailable()

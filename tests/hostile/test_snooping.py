@@ -1,0 +1,100 @@
+"""A controller sees its own code, read-only, and a private /tmp: not the other teams' code, the
+replay or journal being written, the level files, the host's /tmp or /dev/shm, nor any network."""
+
+import os
+import socket
+import sqlite3
+import sys
+
+from hostile.hostile_kit import FAST, HONEST, assert_contained, short_race, team_file
+from referee.match.loop import run_match
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
+
+
+def test_reads_nothing_but_its_own_code(tmp_path, shared_dir):
+    journal = shared_dir / "results.sqlite"  # as a grader's journal: readable by anyone, on purpose
+    sqlite3.connect(journal).execute("CREATE TABLE secret (x)").connection.commit()
+    journal.chmod(0o644)
+    replay = shared_dir / "match.replay"
+    other = team_file(shared_dir, "class Other(Controller):\n    def step(self, obs): return Command(0, 0)\n",
+                      "other_team.py")
+    snoop = team_file(tmp_path, f"""
+TARGETS = [{str(other)!r}, "/team/other_team.py", {str(journal)!r}, {str(shared_dir)!r}, "/etc/passwd",
+           "/root", "/proc/1/root/etc/hostname"]
+class Snoop(Controller):
+    def step(self, obs):
+        found = []
+        for path in TARGETS:
+            try:
+                found.append((path, os.listdir(path) if os.path.isdir(path) else open(path, "rb").read(16)))
+            except OSError:
+                pass
+        if obs.tick == 5:
+            mine = open(__file__).read()
+            raise RuntimeError(("contained: only its own code" if not found and "class Snoop" in mine
+                                else f"LEAK: {{found}}"))
+        return Command(0.0, 0.0)
+""")
+    result = run_match(short_race(), [resolve(snoop), resolve(other), resolve(HONEST), resolve(HONEST)],
+                       seed=2, replay=replay, limits=FAST)
+    bad = result["robots"][0]
+    assert [f["message"] for f in bad["faults"]] == ["in step: RuntimeError: contained: only its own code"]
+    assert all(not r["faults"] for r in result["robots"][1:])
+    assert load(replay).header["format"] == "laserarena-replay"
+
+
+def test_writes_land_in_its_private_tmp_only(tmp_path, shared_dir):
+    result = run_match(short_race(), [resolve(team_file(tmp_path, f"""
+class Writer(Controller):
+    def step(self, obs):
+        if obs.tick < 3:
+            return Command(0.0, 0.0)
+        wrote = []
+        for path in ({str(shared_dir / "planted")!r}, "/tmp/planted", "/dev/shm/laserarena-planted", "/team/planted",
+                     "/planted", "/usr/planted", sys.prefix + "/planted"):
+            try:
+                with open(path, "w") as f:
+                    f.write("x")
+                wrote.append(path)
+            except OSError:
+                pass
+        raise RuntimeError(("contained: " if wrote == ["/tmp/planted", "/dev/shm/laserarena-planted"]
+                            else "LEAK: ") + repr(wrote))
+"""))] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+    assert_contained(result)
+    # what it wrote stayed in its sandbox, which is gone
+    assert not (shared_dir / "planted").exists() and not (tmp_path / "planted").exists()
+    assert not os.path.exists("/dev/shm/laserarena-planted") and not os.path.exists(sys.prefix + "/planted")
+
+
+def test_no_network_not_even_the_hosts_loopback(tmp_path):
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    server.setblocking(False)
+    port = server.getsockname()[1]
+    try:
+        result = run_match(short_race(), [resolve(team_file(tmp_path, f"""
+import socket
+class Caller(Controller):
+    def step(self, obs):
+        if obs.tick < 3:
+            return Command(0.0, 0.0)
+        reached = []
+        for address in (("127.0.0.1", {port}), ("1.1.1.1", 53), ("8.8.8.8", 443)):
+            try:
+                socket.create_connection(address, timeout=0.05).close()
+                reached.append(address)
+            except OSError:
+                pass
+        raise RuntimeError("contained: reached " + repr(reached))
+"""))] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+        assert_contained(result, words="contained: reached []")
+        try:
+            server.accept()
+            raise AssertionError("a controller connected to the host")
+        except BlockingIOError:
+            pass  # nobody knocked
+    finally:
+        server.close()

@@ -1,0 +1,284 @@
+"""The controller protocol cannot be crashed: whatever bytes a team writes, the referee sees a
+`ProtocolError` (a typed fault for that slot) and the match goes on for everyone else."""
+
+import gzip
+import io
+import json
+import math
+import random
+import struct
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import levels
+from arena.loader import parse_level
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
+from robots import protocol
+from robots.api import Command, Drawing
+
+
+def frame(body: bytes) -> bytes:
+    return struct.pack(">I", len(body)) + body
+
+
+VALID = [
+    {"type": "ready"}, {"type": "stop"},
+    {"type": "fault", "kind": "exception", "message": "in step: ValueError"},
+    {"type": "command", "tick": 7, "command": {"left": 0.1, "right": -0.2, "estimate": [1.0, 2.0, 3.0],
+                                               "debug": [{"kind": "line", "points": [[0, 0], [1, 1]],
+                                                          "radius": 0.0, "text": "hi", "color": [1, 2, 3]}]}},
+    {"type": "step", "obs": {"tick": 3, "time": 0.15, "events": [
+        {"time": 0.1, "kind": "hit", "beacon": "A", "angle": 1.5, "samples": []}]}},
+]
+
+
+def decode_everything(data: bytes) -> None:
+    """What the referee does with a controller's frame: the envelope, then its payload.
+    Anything decoded must be a clean, finite, bounded value."""
+    msg = protocol.parse(data)
+    if msg["type"] == "command":
+        cmd = protocol.command_from(msg["command"])
+        assert protocol.command_problem(cmd) is None
+        assert all(math.isfinite(v) and abs(v) <= protocol.LIMIT for v in (cmd.left, cmd.right))
+        assert len(cmd.debug) <= protocol.MAX_DRAWINGS
+    elif msg["type"] == "step":
+        protocol.observation_from(msg["obs"])
+    elif msg["type"] == "setup":
+        protocol.brief_from(msg["brief"])
+
+
+def only_protocol_errors(data: bytes) -> None:
+    try:
+        decode_everything(data)
+    except protocol.ProtocolError as e:
+        assert str(e) and "\n" not in str(e)
+
+
+def mutations(rng: random.Random, base: bytes) -> bytes:
+    """A valid frame, damaged: bytes flipped, cut, repeated, or a number made enormous."""
+    b = bytearray(base)
+    choice = rng.randrange(6)
+    if choice == 0 and b:
+        for _ in range(rng.randint(1, 8)):
+            b[rng.randrange(len(b))] = rng.randrange(256)
+    elif choice == 1:
+        b = b[:rng.randrange(len(b) + 1)]
+    elif choice == 2:
+        i = rng.randrange(len(b) + 1)
+        b = b[:i] + b[i:i + rng.randint(1, 20)] * rng.randint(2, 50) + b[i:]
+    elif choice == 3:
+        b = bytearray(base.replace(b"0.1", b"1" + b"0" * rng.randint(300, 5000)))
+    elif choice == 4:
+        b = bytearray(base.replace(b"0.1", rng.choice([b"1e400", b"-1e309", b"NaN", b"Infinity", b"true",
+                                                        b'"0.1"', b"null", b"[]", b"{}"])))
+    else:
+        depth = rng.randint(1000, 200_000)
+        b = bytearray(base.replace(b"0.1", b"[" * depth + b"]" * depth))
+    return bytes(b)
+
+
+def a_setup_message() -> dict:
+    from arena.loader import load_level
+    from referee.match.loop import brief_for
+    return {"type": "setup", "brief": protocol.to_plain(brief_for(load_level(levels.path("asabe-race")), 1))}
+
+
+def test_a_seeded_fuzzer_gets_nothing_but_protocol_errors():
+    rng = random.Random(20261123)
+    bases = [json.dumps({"v": 1, **m}).encode() for m in [*VALID, a_setup_message()]]
+    for base in bases:
+        decode_everything(base)  # undamaged, each one decodes
+    for _ in range(3000):
+        only_protocol_errors(mutations(rng, rng.choice(bases)))
+    for _ in range(300):  # noise
+        only_protocol_errors(bytes(rng.randrange(256) for _ in range(rng.randint(0, 200))))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=20),
+                    lambda kids: st.lists(kids, max_size=5) | st.dictionaries(st.text(max_size=8), kids, max_size=5),
+                    max_leaves=40))
+def test_any_json_value_as_a_command_is_decoded_or_refused_by_name(value):
+    try:
+        body = json.dumps({"v": 1, "type": "command", "tick": 1, "command": value}).encode()
+    except ValueError:
+        return
+    only_protocol_errors(body)
+    with pytest.raises(protocol.ProtocolError) if not isinstance(value, dict) else _maybe():
+        protocol.command_from(value)  # plain data (not bytes) takes the same checks
+
+
+class _maybe:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, e, tb):
+        return kind is protocol.ProtocolError
+
+
+def test_every_refusal_names_the_field():
+    def problem(command: bytes) -> str:
+        msg = protocol.parse(b'{"v":1,"type":"command","tick":1,"command":' + command + b"}")
+        with pytest.raises(protocol.ProtocolError) as e:
+            protocol.command_from(msg["command"])
+        return str(e.value)
+
+    assert "command.left" in problem(b'{"left":1' + b"0" * 400 + b',"right":0}')
+    assert "command.right" in problem(b'{"left":0,"right":1e400}')
+    assert "command.estimate" in problem(b'{"left":0,"right":0,"estimate":[1,2]}')
+    assert "command.debug[0].points[0][1]" in problem(b'{"left":0,"right":0,"debug":[{"kind":"x","points":[[0,1e9]]}]}')
+    assert "command.debug[0].color[2]" in problem(b'{"left":0,"right":0,"debug":[{"kind":"x","color":[0,0,256]}]}')
+    assert "unknown field" in problem(b'{"left":0,"right":0,"x":1}')
+    with pytest.raises(protocol.ProtocolError, match="nested too deeply"):
+        protocol.parse(b'{"v":1,"type":"command","tick":1,"command":' + b"[" * 100_000 + b"]" * 100_000 + b"}")
+
+
+def test_frames_over_the_limit_are_refused_before_reading_them():
+    huge = struct.pack(">I", protocol.MAX_FRAME + 1)
+    with pytest.raises(protocol.ProtocolError, match="over the"):
+        protocol.read(io.BytesIO(huge))
+    with pytest.raises(protocol.ProtocolError, match="truncated"):
+        protocol.read(io.BytesIO(frame(b"{}")[:-1]))
+    with pytest.raises(protocol.ProtocolError, match="over the"):
+        protocol.parse(b" " * (protocol.MAX_FRAME + 1))
+    drawings = b",".join([b'{"kind":"point","points":[[0,0]]}'] * 100_000)  # 3.3 MB, under the frame limit
+    msg = protocol.parse(b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":['
+                         + drawings + b"]}}")
+    with pytest.raises(protocol.ProtocolError, match="command.debug"):
+        protocol.command_from(msg["command"])
+
+
+def test_numpy_scalars_are_numbers_on_the_wire():
+    cmd = Command(np.float32(0.0625), np.float64(-0.125), tuple(np.array([1.5, 2.25, -0.5])),
+                  (Drawing("line", ((np.float32(1.0), np.int64(2)),), color=(np.int64(1), np.uint8(2), 3)),))
+    assert protocol.command_problem(cmd) is None
+    buf = io.BytesIO()
+    protocol.write(buf, {"type": "command", "tick": 1, "command": protocol.to_plain(cmd)})
+    back = protocol.command_from(protocol.read(io.BytesIO(buf.getvalue()))["command"])
+    assert back == Command(0.0625, -0.125, (1.5, 2.25, -0.5), (Drawing("line", ((1.0, 2.0),), color=(1, 2, 3)),))
+    assert all(type(v) is float for v in (back.left, back.right, *back.estimate))
+
+
+class Nasty:
+    def __repr__(self):
+        raise RuntimeError("no")
+
+    def __float__(self):
+        raise RuntimeError("no")
+
+
+@pytest.mark.parametrize("cmd", [
+    Command(10 ** 400, 0), Command(0, -(10 ** 5000)), Command(float("nan"), 0), Command(0, float("inf")),
+    Command(True, 0), Command("1", 0), Command(Nasty(), 0), Command(0, 0, (0, 0, 10 ** 400)),
+    Command(0, 0, "xyz"), Command(0, 0, None, "x"), Command(0, 0, None, (Drawing("x", ((0, 1e300),)),)),
+    Command(0, 0, None, (Drawing("x", (), color=(0, 0, 300)),)), Nasty(), None,
+])
+def test_command_problem_judges_without_raising(cmd):
+    assert protocol.command_problem(cmd)
+
+
+# ---- real hostile controllers against a real match ------------------------------------------
+
+RAW_WRITER = """
+import fcntl, os, stat, struct
+from robots.api import Command, Controller
+
+def protocol_fd():
+    # the runner keeps the protocol on a private pipe; a hostile team finds it anyway
+    for fd in range(3, 256):
+        try:
+            flags = fcntl.fcntl(fd, fcntl.F_GETFL)
+        except OSError:
+            continue
+        if flags & os.O_ACCMODE == os.O_WRONLY and stat.S_ISFIFO(os.fstat(fd).st_mode):
+            return fd
+    raise RuntimeError("no protocol pipe")
+
+class Raw(Controller):
+    def step(self, obs):
+        if obs.tick == 4:
+            body = PAYLOAD.replace(b"TICK", str(obs.tick).encode())
+            os.write(protocol_fd(), struct.pack(">I", len(body)) + body)
+        return Command(0.05, 0.05)
+"""
+
+
+def race(seconds: int = 8):
+    text = levels.path("asabe-race").read_text().replace("time_limit: 180", f"time_limit: {seconds}")
+    return parse_level(text.encode(), "race.yaml")
+
+
+def hostile(shared_dir, body: str, name: str = "hostile.py", isolate: bool = True, replay=None) -> dict:
+    path = shared_dir / name
+    path.write_text(textwrap.dedent(body))
+    teams = [resolve(str(path))] + [resolve("ref:dead-reckoning")] * 3
+    return run_match(race(), teams, seed=2, isolate=isolate, replay=replay)
+
+
+STOPS_AT_4 = """
+    from robots.api import Command, Controller
+    class Stops(Controller):
+        def step(self, obs):
+            return Command(0.05, 0.05) if obs.tick < 4 else Command(0.0, 0.0)
+"""
+
+
+def contained(result, kind: str, shared_dir) -> str:
+    """Slot 0 was stopped at tick 4 with one fault of `kind`; every other slot played exactly
+    the match it plays beside an honest team that stops at tick 4 itself."""
+    bad, *others = result["robots"]
+    assert [f["kind"] for f in bad["faults"]] == [kind], bad["faults"]
+    assert bad["stopped"] and bad["faults"][0]["tick"] == 4
+    honest = hostile(shared_dir, STOPS_AT_4, "stops.py")["robots"][1:]
+    assert others == honest
+    assert all(not r["faults"] and r["localization"]["fraction"] == 1.0 for r in others)
+    return bad["faults"][0]["message"]
+
+
+def test_an_overflowing_number_written_raw_is_a_bad_command(shared_dir):
+    body = RAW_WRITER.replace("PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":{"left":1'
+                                              + b"0" * 400 + b',"right":0}}'))
+    assert "command.left" in contained(hostile(shared_dir, body), "bad_command", shared_dir)
+
+
+def test_a_deeply_nested_frame_written_raw_is_a_protocol_fault(shared_dir):
+    body = RAW_WRITER.replace("PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":'
+                                              + b"[" * 200_000 + b"]" * 200_000 + b"}"))
+    assert "nested too deeply" in contained(hostile(shared_dir, body), "protocol", shared_dir)
+
+
+@pytest.mark.parametrize("isolate", [True, False])
+def test_a_returned_overflowing_command_is_a_bad_command(shared_dir, isolate):
+    result = hostile(shared_dir, """
+        from robots.api import Command, Controller
+        class Big(Controller):
+            def step(self, obs):
+                return Command(10 ** 400 if obs.tick == 4 else 0.05, 0.05)
+    """, isolate=isolate)
+    assert "Command.left" in contained(result, "bad_command", shared_dir)
+
+
+@pytest.mark.parametrize("isolate", [True, False])
+def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
+    body = """
+        import numpy as np
+        from robots.api import Command, Controller, Drawing
+        class Team(Controller):
+            def step(self, obs):
+                return Command(WRAP(0.0625), WRAP(0.125), estimate=ESTIMATE,
+                               debug=(Drawing("line", ((WRAP(1.0), WRAP(0.5)), (0.0, 0.0))),))
+    """
+    numpy = hostile(shared_dir, body.replace("WRAP", "np.float32").replace(
+        "ESTIMATE", "tuple(np.array([1.0, 0.5, 0.25], np.float32))"), "np_team.py", isolate, shared_dir / "n.replay")
+    plain = hostile(shared_dir, body.replace("WRAP", "float").replace("ESTIMATE", "(1.0, 0.5, 0.25)"),
+                    "plain_team.py", isolate, shared_dir / "p.replay")
+    records = [gzip.open(shared_dir / f"{n}.replay").read().splitlines()[1:-1] for n in "np"]  # no header, result
+    assert records[0] == records[1]  # every frame, estimate and drawing recorded alike
+    assert not numpy["robots"][0]["faults"]
+    assert numpy["robots"][0]["final_pose"] == plain["robots"][0]["final_pose"]
+    assert numpy["robots"][0]["localization"] == plain["robots"][0]["localization"]
+    assert numpy["robots"][0]["localization"]["fraction"] == 1.0
