@@ -7,7 +7,7 @@ die with the namespace's init), mount namespace (a read-only view of the interpr
 own (`referee.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
 to be readable by the controller's user and nothing is written to the host's disk.
-docs/security.md holds the threat model; docs/decisions/0006-bubblewrap-sandbox-per-slot.md
+docs/security.md holds the threat model; docs/decisions/s0009-bubblewrap-sandbox-per-slot.md
 why bubblewrap.
 """
 
