@@ -17,9 +17,9 @@ import levels
 from arena.loader import load_level
 from referee.match import brief_for
 from referee.process import ProcessBot
-from referee import sandbox
+from referee import kernel_sandbox as sandbox
 from referee.privacy import slot_uid
-from referee.sandbox import unavailable
+from referee.kernel_sandbox import unavailable
 from referee.teams import resolve
 
 

@@ -1,5 +1,5 @@
 """Keeping the truth from controllers: a non-dumpable referee and unprivileged controllers
-(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox.py).
+(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/kernel_sandbox.py).
 
 See docs/security.md for the threat model.
 """

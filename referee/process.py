@@ -1,7 +1,7 @@
 """A controller in its own process: a fresh interpreter running `robots.runner`, in a sandbox.
 
 The process is spawned (exec'd, never a fork of the referee, so it holds no world state) inside
-a kernel sandbox of its own (referee/sandbox.py: PID, mount, network, IPC namespaces, its own
+a kernel sandbox of its own (referee/kernel_sandbox.py: PID, mount, network, IPC namespaces, its own
 uid or user namespace, the team's code copied in read-only). Where no sandbox can be made it
 degrades, with a one-line warning, to a plain process in its own session, run as `nobody` when
 the referee is root. It imports only `robots` and the team's code. The referee talks to it over
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import robots
 from arena.level import ControllerLimits
-from referee import sandbox
+from referee import kernel_sandbox as sandbox
 from referee.bot import Fault
 from referee.privacy import check_readable_by_others, drop_to, share_team_files, slot_uid
 from referee.teams import Team

@@ -15,7 +15,7 @@ from arena.level import ControllerLimits
 from arena.loader import parse_level
 from referee.match import run_match
 from referee.privacy import slot_uid
-from referee.sandbox import unavailable
+from referee.kernel_sandbox import unavailable
 from referee.teams import resolve
 
 FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
