@@ -1,7 +1,7 @@
 """What isolating controllers costs: the per-step round trip, and a 4-robot match isolated
 vs in-process. Run: python benchmarks/isolation.py
 
-Target (issue 4): an isolated `asabe-race` match with the reference controllers takes under
+Target: an isolated `asabe-race` match with the reference controllers takes under
 2x the time of the same match in-process.
 """
 
@@ -11,7 +11,7 @@ import time
 
 import levels
 from arena.loader import load_level
-from referee.match.loop import brief_for, run_match
+from referee.match.loop import Match, brief_for
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
@@ -32,11 +32,14 @@ def round_trip(steps: int = 3000) -> float:
         bot.close()
 
 
-def match_time(isolate: bool) -> float:
+def match_time(isolate: bool, sandboxed: bool = True) -> float:
     level = load_level(levels.path("asabe-race"))
     teams = [resolve(level.default_controller)] * len(level.robots)
+    match = Match(level, teams, isolate=isolate)
+    if isolate and not sandboxed:  # the same processes without their kernel sandboxes
+        match.bots = [ProcessBot(t, level.limits, slot=i, sandboxed=False) for i, t in enumerate(teams)]
     start = time.perf_counter()
-    run_match(level, teams, isolate=isolate)
+    match.run()
     return time.perf_counter() - start
 
 
@@ -44,11 +47,14 @@ def main() -> None:
     rt = round_trip()
     inproc = min(match_time(False) for _ in range(2))
     iso = min(match_time(True) for _ in range(2))
+    plain = min(match_time(True, sandboxed=False) for _ in range(2))
     print("controller isolation (best of 2)")
     print(f"  step round trip          {rt * 1e6:8.0f} us")
     print(f"  asabe-race in-process    {inproc:8.2f} s")
     print(f"  asabe-race isolated      {iso:8.2f} s")
+    print(f"  isolated, no sandbox     {plain:8.2f} s")
     print(f"  isolated / in-process    {iso / inproc:8.2f} x   (target < 2 x)")
+    print(f"  sandbox / no sandbox     {iso / plain:8.2f} x")
 
 
 if __name__ == "__main__":

@@ -17,9 +17,8 @@ import levels
 from arena.loader import load_level
 from referee.match.loop import brief_for
 from referee.sandbox.process import ProcessBot
-from referee.sandbox import kernel as sandbox
+from referee.sandbox import kernel
 from referee.sandbox.privacy import slot_uid
-from referee.sandbox.kernel import unavailable
 from referee.sandbox.teams import resolve
 
 
@@ -38,7 +37,7 @@ def _bare(sandboxed: bool) -> float:
     """Seconds to run `true` in a sandbox like a controller's (or plainly): the setup cost alone."""
     command = ["true"]
     if sandboxed:
-        launch = sandbox.launch(command, (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if os.geteuid() == 0 else None)
+        launch = kernel.launch(command, (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if os.geteuid() == 0 else None)
         command = launch.argv
     begin = time.perf_counter()
     subprocess.run(command, pass_fds=launch.pass_fds if sandboxed else (), check=True)
@@ -55,7 +54,7 @@ def main() -> None:
     ap.add_argument("--starts", type=int, default=15, help="starts of each kind (default 15)")
     ap.add_argument("--team", default="ref:idle", help="the controller to start (default ref:idle)")
     args = ap.parse_args()
-    reason = unavailable()
+    reason = kernel.unavailable()
     if reason:
         raise SystemExit(f"no kernel sandbox here: {reason}")
     level = load_level(levels.path("asabe"))

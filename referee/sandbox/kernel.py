@@ -7,7 +7,7 @@ die with the namespace's init), mount namespace (a read-only view of the interpr
 own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
 to be readable by the controller's user and nothing is written to the host's disk.
-docs/security.md holds the threat model; docs/decisions/0006-bubblewrap-sandbox-per-slot.md
+docs/security.md holds the threat model; docs/decisions/s0009-bubblewrap-sandbox-per-slot.md
 why bubblewrap.
 """
 
@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import robots
+from referee.sandbox.privacy import slot_uid, switches_users
 
 TEAM_DIR = "/team"  # the slot's code, read-only
 LIB_DIR = "/laserarena"  # `robots`, the one package of ours a controller imports
@@ -65,27 +66,30 @@ def init_pid(info: int, timeout: float = 1.0) -> int | None:
 
 @functools.cache
 def unavailable() -> str | None:
-    """Why no sandbox can be made here (None when it can): probed once per process by starting
-    an empty one, so a kernel or container that forbids namespaces is found before a match."""
+    """Why no sandbox can be made here (None when it can): probed once per process by running
+    `true` in one, so a kernel or container that forbids namespaces is found before a match."""
     if sys.platform != "linux":
         return f"no Linux namespaces on {sys.platform}"
     bwrap = shutil.which("bwrap")
     if bwrap is None:
         return "bubblewrap (bwrap) is not installed"
-    if os.geteuid() == 0 and shutil.which("setpriv") is None:
+    if switches_users() and shutil.which("setpriv") is None:
         return "setpriv (util-linux) is not installed"
-    try:
-        probe = subprocess.run(_namespaces() + ["--ro-bind", "/", "/", "--", "true"],
-                               capture_output=True, timeout=10)
+    trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
+    try:  # a whole controller sandbox, bind mounts and privilege drop included, running `true`
+        probe = subprocess.run(trial.argv, pass_fds=trial.pass_fds, capture_output=True, timeout=10)
     except (OSError, subprocess.TimeoutExpired) as e:
         return f"bwrap does not start: {e}"
+    finally:
+        for fd in (*trial.pass_fds, trial.info):
+            os.close(fd)
     if probe.returncode != 0:
         return "bwrap cannot create namespaces here: " + " ".join(probe.stderr.decode(errors="replace").split())[:200]
     return None
 
 
-def _namespaces() -> list[str]:
-    user = [] if os.geteuid() == 0 else ["--unshare-user", "--disable-userns"]
+def _namespaces(own_user_namespace: bool) -> list[str]:
+    user = ["--unshare-user", "--disable-userns"] if own_user_namespace else []
     return ["bwrap", *user, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts",
             "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--as-pid-1"]
 
@@ -137,12 +141,13 @@ def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[in
 
 def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[str, str], uid: int | None) -> Launch:
     """The bwrap command line running `command` in a new sandbox with `files` at TEAM_DIR.
-    `uid`: the host uid to run as (root referee), else None (a user namespace of the caller's).
+    `uid`: the host uid to run as (a root referee that can switch users), else None (a user
+    namespace of its own, as the caller's user).
     The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
-    args = _namespaces() + ["--info-fd", str(info_w)] + _system_view() + team + [
+    args = _namespaces(uid is None) + ["--info-fd", str(info_w)] + _system_view() + team + [
         "--proc", "/proc", "--dev", "/dev",
         "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/tmp",
         "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/dev/shm",

@@ -1,5 +1,5 @@
 """Keeping the truth from controllers: a non-dumpable referee and unprivileged controllers
-(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox.py).
+(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox/kernel.py).
 
 See docs/security.md for the threat model.
 """
@@ -7,6 +7,7 @@ See docs/security.md for the threat model.
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import pwd
 import shutil
@@ -29,14 +30,38 @@ def make_undumpable() -> bool:
 
 
 def drop_to() -> pwd.struct_passwd | None:
-    """The user controllers run as: `nobody` when the referee is root, else None (same user)."""
+    """The user controllers run as without a kernel sandbox: `nobody` when the referee is root,
+    else None (same user). None too where root cannot become `nobody` (a container's user
+    namespace that maps root alone): `cannot_drop` then says so."""
     if os.geteuid() != 0:
         return None
     try:
-        return pwd.getpwnam(UNPRIVILEGED_USER)
+        user = pwd.getpwnam(UNPRIVILEGED_USER)
     except KeyError:
         raise UserError(f"the referee runs as root but there is no user {UNPRIVILEGED_USER!r} "
                         "to run controllers as") from None
+    return None if cannot_drop() else user
+
+
+def switches_users() -> bool:
+    """Whether controllers run as other users than the referee: root, able to become them."""
+    return os.geteuid() == 0 and not cannot_drop()
+
+
+@functools.cache
+def cannot_drop() -> bool:
+    """Whether this root process is unable to start a process as `nobody` (tried once)."""
+    user = pwd.getpwnam(UNPRIVILEGED_USER)
+    pid = os.fork()
+    if pid == 0:  # the child only tries, and ends at once
+        try:
+            os.setgroups([])
+            os.setgid(user.pw_gid)
+            os.setuid(user.pw_uid)
+        except OSError:
+            os._exit(1)
+        os._exit(0)
+    return os.waitpid(pid, 0)[1] != 0
 
 
 def check_readable_by_others(*paths: str) -> None:

@@ -26,7 +26,7 @@ import robots
 from arena.level import ControllerLimits
 from referee.sandbox import kernel
 from referee.sandbox.bot import Fault
-from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_files, slot_uid
+from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_files, slot_uid, switches_users
 from referee.sandbox.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
@@ -71,7 +71,8 @@ class ProcessBot:
     def _spawn(self) -> None:
         reason = kernel.unavailable() if self.sandboxed else None
         if reason:
-            _warn_unsandboxed(reason)
+            _warn_unsandboxed(reason + ("; controllers run as root: root cannot become nobody here"
+                                        if os.geteuid() == 0 and drop_to() is None else ""))
         # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
         stderr = open(self.log, "wb") if self.log else tempfile.TemporaryFile()
         limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
@@ -89,7 +90,7 @@ class ProcessBot:
             entry = f"{kernel.TEAM_DIR}/{entry}"
         env = dict(RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8",
                    PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}")
-        uid = slot_uid(self.slot) if os.geteuid() == 0 else None
+        uid = slot_uid(self.slot) if switches_users() else None
         launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits],
                                 self.team.files, env, uid)
         self.info, self.in_sandbox = launch.info, True
