@@ -1,0 +1,142 @@
+"""A robot's pose from labelled beacon hits and its own wheel commands, kept at every instant.
+
+The EKF of robots.toolkit.ekf predicts with the wheel speeds the controller commanded (the
+nominal ramped model of robots.toolkit.motion: the team cannot know its drive's true gains)
+and takes each hit at its own time, so the pose is exact at the control tick, not at the last
+fix. Outliers go at three levels:
+- two hits at one instant are Bac's merged pulse ("the measured duration of any pulse was
+  added to the next pulse duration"): both are dropped;
+- the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
+  merged pulse at another time, a pulse from a turning laser that the model does not follow);
+- when hits keep failing the gate (the robot was pushed, or slipped more than the filter
+  allows), the tracker restarts from a closed-form fix of the last revolution that passes
+  Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
+  130 ms time-out; its time must agree with the laser's period within its smallest pulse
+  duration ("The algorithm selected the smallest pulse duration ... as a difference
+  tolerance"); three of the four arrays are enough ("the system uses the remaining three
+  pulses"). A fix with four arrays must also be self-consistent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+from robots.api import Brief, SensorEvent
+from robots.toolkit.ekf import BearingEKF
+from robots.toolkit.motion import Wheels
+from robots.toolkit.solvers import least_squares
+from robots.toolkit.steering import wrap
+
+TIME_OUT = 0.130  # s: "the time-out limit, which was set to 130 ms"
+FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
+
+
+class HitTracker:
+    """The pose (x, y, heading) of one robot from its labelled hits and wheel commands.
+
+    `bearing_sigma` is one hit's bearing noise (rad), `gate` the EKF gate (standard
+    deviations), `lost_after` how many hits in a row may fail the gate before a restart;
+    `q_heading` (rad^2 per rad turned) and `q_drift` (rad^2 per m driven) say how far the
+    drive may stray from its commands in heading."""
+
+    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
+                 q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02):
+        self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
+        self.omega = brief.laser.angular_velocity
+        self.period = 2 * math.pi / abs(self.omega)
+        self.top = brief.robot.max_wheel_speed
+        self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
+        self.var, self.gate, self.lost_after = bearing_sigma ** 2, gate, lost_after
+        self.q = dict(q_xy=q_xy, q_heading=q_heading, q_drift=q_drift)
+        self.turn_rate = 0.0  # the robot's own turn rate (rad/s) over the last prediction
+        self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
+        self.rejected = 0  # hits in a row that failed the gate
+        self.restarts = 0
+        self.ekf: BearingEKF | None = None
+        if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
+            x, y, h = brief.start
+            self.ekf = self._filter(x, y, h, 0.0, var_xy=1e-6, var_heading=1e-4, var_sum=10.0)
+
+    @property
+    def pose(self) -> tuple[float, float, float] | None:
+        """The pose now (at the time of the last `feed`), or None before the first fix."""
+        return self.ekf.pose if self.ekf else None
+
+    def command(self, left: float, right: float) -> None:
+        """The wheel command just sent to the drive (m/s), effective now."""
+        self.wheels.command(left, right, self.top)
+
+    def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent], now: float) -> None:
+        """Take one control period's events (in time order) and carry the pose to `now`."""
+        hits = [e for e in events if e.kind == "hit" and e.beacon in self.beacons]
+        at = Counter(e.time for e in hits)
+        for e in hits:
+            if at[e.time] > 1:
+                continue  # a merged pulse: two arrays reported at one instant
+            self._advance(e.time)
+            self._hit(e.time, e.beacon)
+        self._advance(now)
+
+    def _filter(self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float,
+                var_sum: float) -> BearingEKF:
+        return BearingEKF(x, y, heading, phase, self.omega, var_xy=var_xy, var_heading=var_heading,
+                          var_sum=var_sum, var_rate=(0.005 * self.omega) ** 2, **self.q)
+
+    def _advance(self, time: float) -> None:
+        dt, v, w = self.wheels.advance(time)
+        if dt > 0:
+            self.turn_rate = w
+        if self.ekf:
+            self.ekf.predict(dt, v, w)
+
+    def _hit(self, time: float, beacon: str) -> None:
+        self.recent.append((time, beacon))
+        while self.recent[0][0] < time - 2 * TIME_OUT:
+            self.recent.pop(0)
+        if self.ekf is not None:
+            if self.ekf.hit(*self.beacons[beacon], self.var, self.gate):
+                self.rejected = 0
+                return
+            self.rejected += 1
+            if self.rejected < self.lost_after:
+                return
+        fix = self.revolution_fix()
+        if fix is None:
+            return
+        x, y, beam = fix
+        if self.ekf is None:  # nothing known of the heading yet: the motion will tell
+            self.ekf = self._filter(x, y, 0.0, beam, var_xy=1e-4, var_heading=10.0, var_sum=1e-4)
+        else:  # lost: keep the heading, but let the next metres of motion correct it
+            h = self.ekf.pose[2]
+            self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
+            self.restarts += 1
+        self.rejected = 0
+
+    def revolution_fix(self) -> tuple[float, float, float] | None:
+        """(x, y, beam world angle now) from the revolution that the newest hit closes, or None
+        if it fails Bac's checks."""
+        end, closing = self.recent[-1]
+        before = [k for k, (t, b) in enumerate(self.recent[:-1]) if b == closing]
+        if not before:
+            return None
+        begin = before[-1]
+        duration = end - self.recent[begin][0]
+        rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
+        if duration > TIME_OUT:
+            return None  # a pulse of the closing array itself went missing
+        hits = self.recent[begin + 1:]
+        times = [self.recent[begin][0]] + [t for t, _ in hits]
+        smallest = min(b - a for a, b in zip(times, times[1:]))
+        if abs(duration - 2 * math.pi / rate) > smallest or len({b for _, b in hits}) != len(hits) or len(hits) < 3:
+            return None
+        sign = math.copysign(1.0, self.omega + self.turn_rate)
+        points = [self.beacons[b] for _, b in hits]
+        bearings = [sign * rate * (t - end) for t, _ in hits]  # relative to the beam now
+        fix = least_squares(points, bearings, sigma=1e-3)
+        if not fix.ok:
+            return None
+        if len(hits) > 3 and max(abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a))
+                                 for (bx, by), a in zip(points, bearings)) > FIT_RESIDUAL:
+            return None
+        return fix.x, fix.y, fix.heading
