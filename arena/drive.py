@@ -1,19 +1,28 @@
-"""Differential drive the pymunk top-down way.
+"""Differential drive the pymunk top-down way, with a seeded model of a real drive's errors.
 
 Each robot is dragged by a kinematic control body through a pivot joint and a gear joint
 whose force limits stand in for wheel-ground friction (as in pymunk's tank example). The
-wheels ramp towards their commanded speeds at the model's acceleration limit; the control
-body then moves at the resulting forward speed and turn rate. Because the joints are
-force-limited, robots push each other and stall against walls instead of passing through.
+wheels ramp towards their speed targets at the acceleration limit; the control body then
+moves at the resulting forward speed and turn rate. Because the joints are force-limited,
+robots push each other and stall against walls instead of passing through.
+
+A real drive does not do what it is told (docs/drive.md): a command reaches the wheels after
+the link's latency, a servo ignores small commands and answers large ones non-linearly, each
+wheel has its own gain, the true track is not the nominal one, and turns and accelerations
+slip. The robot's constants are drawn once per match from its `drive` stream; without a
+random tree (ideal mode) the drive is perfect.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 
+import numpy as np
 import pymunk
 
-from arena.level import RobotModel
+from arena.level import DriveErrors, RobotModel
+from arena.rng import RandomTree
 
 GRAVITY = 9.81  # m/s^2, for the friction force limits
 
@@ -23,12 +32,36 @@ def ramp(current: float, target: float, max_change: float) -> float:
     return current + max(-max_change, min(max_change, target - current))
 
 
+def servo_response(command: float, top: float, errors: DriveErrors) -> float:
+    """The wheel speed (m/s, before the wheel's gain) a continuous-rotation servo gives for a
+    commanded speed within [-top, top]: nothing inside the dead band, then a curve from 0 to
+    `top` that is linear for `saturation` 0 and rises early and flattens near top speed above."""
+    db, sat = errors.dead_band * top, errors.saturation
+    if not db and not sat:
+        return command
+    a = abs(command)
+    if a <= db:
+        return 0.0
+    u = (a - db) / (top - db)
+    if sat:
+        u = math.tanh(sat * u) / math.tanh(sat)
+    return math.copysign(top * u, command)
+
+
+def turn_share(left: float, right: float) -> float:
+    """How much of a wheel command is turning: 1 for a spin or a pivot, 0 for a straight line."""
+    total = abs(left) + abs(right)
+    return abs(right - left) / total if total else 0.0
+
+
 class DiffDrive:
     """Wheel state and the control body that carries it into the physics."""
 
-    def __init__(self, space: pymunk.Space, body: pymunk.Body, model: RobotModel):
+    def __init__(self, space: pymunk.Space, body: pymunk.Body, model: RobotModel, dt: float,
+                 tree: RandomTree | None = None, slot: int = 0):
         self.model = model
         self.body = body
+        self.dt = dt
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.control.position = body.position
         self.control.angle = body.angle
@@ -40,22 +73,68 @@ class DiffDrive:
         gear.max_bias = 0
         gear.max_force = friction_force * model.track / 2
         space.add(self.control, pivot, gear)
-        self.target = (0.0, 0.0)
+        self.errors = model.drive if tree is not None else DriveErrors()
+        e = self.errors
+        self.gains, self.track = (1.0, 1.0), model.track
+        self._turns: np.random.Generator | None = None
+        self._link: np.random.Generator | None = None
+        if tree is not None:
+            rng = tree.stream("robot", slot, "drive")
+            z = rng.standard_normal(4)  # always four draws, so a zero spread never shifts the others
+            radius = 1.0 + e.radius_sd * z[0]
+            self.gains = (float(radius * (1.0 + e.gain_sd * z[1])), float(radius * (1.0 + e.gain_sd * z[2])))
+            self.track = float(model.track * (1.0 + e.track_sd * z[3]))
+            self._turns = tree.stream("robot", slot, "drive", "turn")
+            self._link = tree.stream("robot", slot, "drive", "link")
+        self.accel = model.max_wheel_accel * (1.0 - e.accel_slip)
+        self.commanded = (0.0, 0.0)  # the last command the wheels took (m/s, nominal)
+        self.target = (0.0, 0.0)  # true wheel speeds that command asks of the servos
         self.wheels = (0.0, 0.0)
+        self.turn_factor = 1.0  # share of the wheels' turn rate the ground lets through
+        self._queue: deque[tuple[int, float, float]] = deque()
+        self._due = 0
+        self._rate = 0.0
         self._motion = (0.0, body.angle)
 
-    def command(self, left: float, right: float) -> None:
-        """Set the wheel speed targets (m/s), clipped to the model's top speed."""
+    def command(self, left: float, right: float, tick: int = 0) -> None:
+        """Send wheel speed targets (m/s, clipped to the model's top speed) at physics tick
+        `tick`; the wheels take them after the link's latency, in order."""
         top = self.model.max_wheel_speed
-        self.target = (max(-top, min(top, left)), max(-top, min(top, right)))
+        left, right = max(-top, min(top, left)), max(-top, min(top, right))
+        delay = 0
+        if self._link is not None:
+            seconds = self.errors.latency + self.errors.latency_jitter * self._link.random()
+            delay = round(seconds / self.dt)
+        self._due = max(self._due, tick + delay)
+        self._queue.append((self._due, left, right))
 
-    def update(self, dt: float, heading: float) -> None:
-        """Ramp the wheels one physics step and set the control body's motion for a robot
-        now at `heading` (pymunk setters are costly: unchanged values are not set again)."""
+    def _take(self, left: float, right: float) -> None:
+        """The servos get a new command: new wheel targets, and a new slip draw for a turn."""
+        if (left, right) == self.commanded:
+            return
+        self.commanded = (left, right)
+        top, e = self.model.max_wheel_speed, self.errors
+        self.target = (self.gains[0] * servo_response(left, top, e), self.gains[1] * servo_response(right, top, e))
+        self.turn_factor = 1.0
+        if self._turns is not None and left != right:
+            slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
+            self.turn_factor = 1.0 - slip * turn_share(left, right)
+
+    def update(self, dt: float, heading: float, tick: int = 0) -> None:
+        """Take the commands due at `tick`, ramp the wheels one physics step and set the control
+        body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
+        are not set again)."""
+        queue = self._queue
+        while queue and queue[0][0] <= tick:
+            _, left, right = queue.popleft()
+            self._take(left, right)
         if self.wheels != self.target:
-            dv = self.model.max_wheel_accel * dt
+            dv = self.accel * dt
             self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
-            self.control.angular_velocity = (self.wheels[1] - self.wheels[0]) / self.model.track
+        rate = (self.wheels[1] - self.wheels[0]) / self.track * self.turn_factor
+        if rate != self._rate:
+            self._rate = rate
+            self.control.angular_velocity = rate
         v = (self.wheels[0] + self.wheels[1]) / 2
         motion = (v, heading if v else 0.0)  # standing or spinning in place: velocity stays 0
         if motion != self._motion:

@@ -99,6 +99,27 @@ class Laser:
 
 
 @dataclass(frozen=True)
+class DriveErrors:
+    """How a real drive departs from its nominal model (docs/drive.md): the spread of each
+    robot's constants drawn once per match, and the per-turn and per-command randomness.
+    All zero is a perfect drive."""
+
+    gain_sd: float = 0.0  # sd of each wheel's speed gain around 1 (servo and wheel mismatch)
+    radius_sd: float = 0.0  # sd of the common wheel-radius scale around 1
+    track_sd: float = 0.0  # sd of the true track around the nominal one, as a fraction
+    dead_band: float = 0.0  # commands below this fraction of top speed do nothing
+    saturation: float = 0.0  # curvature of the servo response (0: linear)
+    turn_slip: float = 0.0  # mean fraction of a spin or pivot turn lost to slip
+    turn_slip_sd: float = 0.0  # sd of that fraction, drawn per turn command
+    accel_slip: float = 0.0  # fraction of the nominal acceleration lost to slip
+    latency: float = 0.0  # s from a command to the wheels taking it (one-way link)
+    latency_jitter: float = 0.0  # s, uniform extra delay per command
+
+
+PERFECT_DRIVE = DriveErrors()
+
+
+@dataclass(frozen=True)
 class RobotModel:
     """A differential-drive robot: footprint, mass, wheel track and wheel limits."""
 
@@ -110,6 +131,7 @@ class RobotModel:
     max_wheel_speed: float  # m/s
     max_wheel_accel: float  # m/s^2
     friction: float  # ground friction coefficient (top-down friction joints)
+    drive: DriveErrors = PERFECT_DRIVE  # how the real drive departs from the nominal figures above
 
 
 @dataclass(frozen=True)

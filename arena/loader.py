@@ -7,6 +7,7 @@ line can print it and exit 2 without a traceback.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from dataclasses import dataclass
@@ -17,7 +18,8 @@ from typing import Any, Callable
 import yaml
 
 from arena.level import (
-    Beacon, Beacons, ControllerLimits, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules, Task,
+    Beacon, Beacons, ControllerLimits, DriveErrors, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules,
+    Task,
 )
 from arena.robot_models import ROBOT_MODELS
 from arena.units import LENGTH_UNITS
@@ -515,11 +517,32 @@ def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, floa
     return Task(kind=kind, radius=radius, goal=goal), path
 
 
+DRIVE_KEYS = tuple(f.name for f in dataclasses.fields(DriveErrors))
+# Largest allowed value per drive key: spreads stay far from a negative gain or track, a
+# dead band below top speed, slips below the whole motion.
+DRIVE_MAX = {"gain_sd": 0.2, "radius_sd": 0.2, "track_sd": 0.2, "dead_band": 0.9, "turn_slip": 0.9,
+             "turn_slip_sd": 0.5, "accel_slip": 0.9}
+
+
+def _drive(m: _Map, base: DriveErrors) -> DriveErrors:
+    """A robot's drive errors: the model's, with the keys the level gives replaced."""
+    values = {}
+    for key in DRIVE_KEYS:
+        if m.has(key):
+            v = m.req(key, _nonnegative)
+            if v > DRIVE_MAX.get(key, math.inf):
+                raise m.ctx.fail(m.raw(key).line, m.key(key), f"must be at most {DRIVE_MAX[key]:g}, got {v:g}")
+            values[key] = v
+    return dataclasses.replace(base, **values)
+
+
 def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_laser: Laser,
            task: Task, shared_path: tuple[tuple[float, float], ...]) -> RobotSlot:
-    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path"))
+    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path", "drive"))
     model_name = m.opt("model", _choice(*ROBOT_MODELS), "boe-bot")
     model = ROBOT_MODELS[model_name]
+    if m.has("drive"):
+        model = dataclasses.replace(model, drive=_drive(m.sub("drive", DRIVE_KEYS), model.drive))
     start = m.req("start", _pose)
     line = m.raw("start").line
     _inside(ctx, fld, (start.x, start.y), line, m.key("start"), "start")

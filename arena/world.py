@@ -13,6 +13,7 @@ import pymunk
 
 from arena.drive import DiffDrive
 from arena.level import Level, Pose
+from arena.rng import RandomTree
 
 WALL_THICKNESS = 0.02  # m; walls lie just outside the field border
 
@@ -38,9 +39,11 @@ class Contact:
 
 
 class World:
-    """Walls, obstacles, beacons and robots of one level, and their differential drives."""
+    """Walls, obstacles, beacons and robots of one level, and their differential drives.
+    With the match's random tree each drive has its robot's errors; without one (ideal mode)
+    every drive is perfect."""
 
-    def __init__(self, level: Level):
+    def __init__(self, level: Level, rng: RandomTree | None = None):
         self.level = level
         self.dt = level.dt
         self.tick = 0
@@ -78,7 +81,7 @@ class World:
             self.space.add(body, shape)
             self.bodies.append(body)
             self.shapes.append(shape)
-            self.drives.append(DiffDrive(self.space, body, m))
+            self.drives.append(DiffDrive(self.space, body, m, level.dt, rng, r.slot))
             shape.collision_type = 1
             shape.slot = r.slot
         self.state = self._read_state()
@@ -137,8 +140,8 @@ class World:
         return self.tick / self.level.physics_rate
 
     def command(self, slot: int, left: float, right: float) -> None:
-        """Set robot `slot`'s wheel speed targets (m/s)."""
-        self.drives[slot].command(left, right)
+        """Send robot `slot` its wheel speed targets (m/s); they take effect after its link's latency."""
+        self.drives[slot].command(left, right, self.tick)
 
     def _read_state(self) -> tuple[float, ...]:
         out: list[float] = []
@@ -151,7 +154,7 @@ class World:
         """Advance the world one physics step. `state` then holds every robot's
         x, y and unwrapped heading, flat, read once per step for the drives and the sensing."""
         for drive, heading in zip(self.drives, self.state[2::3]):
-            drive.update(self.dt, heading)
+            drive.update(self.dt, heading, self.tick)
         self.space.step(self.dt)
         self.tick += 1
         self.state = self._read_state()

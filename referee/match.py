@@ -115,8 +115,9 @@ class Match:
         self.teams = teams
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
-        self.world = World(level)
-        self.sensing = Sensing(self.world, RandomTree(self.seed), ideal)
+        tree = RandomTree(self.seed)
+        self.world = World(level, None if ideal else tree)
+        self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc

@@ -153,7 +153,9 @@ def test_brief_hides_start_unless_announced(tmp_path):
 
 
 def test_waypoint_task_ends_match_when_done():
-    result = run_match(level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 12")), [resolve("ref:dead-reckoning")])
+    # a perfect drive (ideal), so blind dead reckoning surely reaches both waypoints
+    result = run_match(level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 12")), [resolve("ref:dead-reckoning")],
+                       ideal=True)
     r = result["robots"][0]
     assert r["task"]["reached"] == 2 and r["score"]["task"] == 100.0
     assert result["end_reason"] == "task_complete"
