@@ -38,6 +38,7 @@ from robots.toolkit.tracker import HitTracker
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
 CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
 PEAK = 0.14  # m/s: the fused controller's straight-line speed, the paper's peak
+CREEP = 0.03  # m/s: the slowest straight-line speed, well above the servos' dead band
 SPIN_SPEED = 0.08  # m/s: each wheel's speed in a spin turn (1.5 rad/s on the BOE-bot)
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
@@ -177,24 +178,27 @@ class Bac(Controller):
 
     def _guide(self, pose: tuple[float, float, float]) -> tuple[float, float]:
         x, y, h = pose
-        self.target = next_waypoint(self.path, self.target, x, y, SWITCH * self.brief.task.radius)
+        within = SWITCH * self.brief.task.radius
+        self.target = next_waypoint(self.path, self.target, x, y, within)
         if self.target >= len(self.path):
             self.turning = None
             return 0.0, 0.0
         tx, ty = self.path[self.target]
         wheels, top = self.tracker.wheels, self.brief.robot.max_wheel_speed
         error = wrap(math.atan2(ty - y, tx - x) - h)  # the turn still to make, from now
-        settling = heading_change(wheels, [(0.0, PEAK, PEAK)], top)  # what driving straight on still turns
+        cruise = self._speed(x, y, h, within)
+        settling = heading_change(wheels, [(0.0, cruise, cruise)], top)  # what driving straight on still turns
         if self.turning is None:
             left = wrap(error - settling)
-            if abs(left) <= DEAD_BAND:
-                return PEAK, PEAK
+            near = math.dist((x, y), (tx, ty)) < 2 * within  # where a small offset is a large angle
+            if abs(left) <= DEAD_BAND or (near and abs(left) <= SPIN):
+                return cruise, cruise
             self.turning = int(math.copysign(1 if abs(left) <= SPIN else 2, left))
         mode = self.turning
 
         def command(s: float) -> tuple[float, float]:
             if abs(mode) == 1:  # pivot: the inner wheel slows to a halt at s = 1
-                inner, outer = PEAK * (1 - s), PEAK
+                inner, outer = cruise * (1 - s), cruise
             else:  # spin: wheels opposite at equal speed
                 inner, outer = -SPIN_SPEED * s, SPIN_SPEED * s
             return (inner, outer) if mode > 0 else (outer, inner)
@@ -202,7 +206,7 @@ class Bac(Controller):
         period = self.brief.control_period
 
         def turned(s: float) -> float:  # signed along the turn's direction
-            return math.copysign(1, mode) * heading_change(wheels, [(period, *command(s)), (0.0, PEAK, PEAK)], top)
+            return math.copysign(1, mode) * heading_change(wheels, [(period, *command(s)), (0.0, cruise, cruise)], top)
 
         want = math.copysign(1, mode) * error
         if turned(1.0) <= want:  # more than one period's worth: full rate, and again next tick
@@ -215,3 +219,18 @@ class Bac(Controller):
             mid = (lo + hi) / 2
             lo, hi = (mid, hi) if turned(mid) < want else (lo, mid)
         return command((lo + hi) / 2)
+
+    def _speed(self, x: float, y: float, h: float, within: float) -> float:
+        """Straight-line speed: the peak, but slowing into a waypoint where a spin turn follows
+        (the paper's robot turned on the spot), so that it arrives slowly and does not
+        overshoot the corner by a control period's travel."""
+        k = self.target
+        if k + 1 >= len(self.path):
+            return PEAK
+        (tx, ty), (nx, ny) = self.path[k], self.path[k + 1]
+        if abs(wrap(math.atan2(ny - ty, nx - tx) - h)) <= SPIN:
+            return PEAK
+        brake = 0.5 * self.brief.robot.max_wheel_accel  # half the drive's limit: slip and latency
+        ahead = sum(self.tracker.wheels.speeds) / 2 * self.brief.control_period  # before the next command
+        room = max(0.0, math.dist((x, y), (tx, ty)) - within - ahead)
+        return min(PEAK, max(CREEP, math.sqrt(2 * brake * room)))
