@@ -37,9 +37,9 @@ from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
 CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
-PEAK = 0.14  # m/s: the fused controller's straight-line speed, the paper's peak
+PEAK = 0.17  # m/s: the fused controller's straight-line speed, the peak of the line run ("The peak velocity of the robot was 0.17 m/s")
 CREEP = 0.03  # m/s: the slowest straight-line speed, well above the servos' dead band
-SPIN_SPEED = 0.08  # m/s: each wheel's speed in a spin turn (1.5 rad/s on the BOE-bot)
+SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BOE-bot)
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
 
@@ -230,7 +230,7 @@ class Bac(Controller):
         (tx, ty), (nx, ny) = self.path[k], self.path[k + 1]
         if abs(wrap(math.atan2(ny - ty, nx - tx) - h)) <= SPIN:
             return PEAK
-        brake = 0.5 * self.brief.robot.max_wheel_accel  # half the drive's limit: slip and latency
+        brake = 0.8 * self.brief.robot.max_wheel_accel  # a margin below the drive's limit: slip and latency
         ahead = sum(self.tracker.wheels.speeds) / 2 * self.brief.control_period  # before the next command
         room = max(0.0, math.dist((x, y), (tx, ty)) - within - ahead)
         return min(PEAK, max(CREEP, math.sqrt(2 * brake * room)))

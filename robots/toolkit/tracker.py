@@ -15,6 +15,11 @@ fix. Outliers go at three levels:
   duration ("The algorithm selected the smallest pulse duration ... as a difference
   tolerance"); three of the four arrays are enough ("the system uses the remaining three
   pulses"). A fix with four arrays must also be self-consistent.
+The heading is checked as Bac measured it, "by evaluating two consecutive positions": on a
+straight run, once the filtered position has moved `track_check` (m), the direction of travel
+must agree with the filtered heading within `heading_check` (rad), or the heading restarts
+from it (a robot held by a wall or another robot turns less than it was told, and the laser's
+own rate cannot tell that from a robot that turns).
 """
 
 from __future__ import annotations
@@ -41,7 +46,8 @@ class HitTracker:
     drive may stray from its commands in heading."""
 
     def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
-                 q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02):
+                 q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
+                 track_check: float = 0.02, heading_check: float = 0.5):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
         self.period = 2 * math.pi / abs(self.omega)
@@ -53,6 +59,8 @@ class HitTracker:
         self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
         self.rejected = 0  # hits in a row that failed the gate
         self.restarts = 0
+        self.track_check, self.heading_check = track_check, heading_check
+        self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
         if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
             x, y, h = brief.start
@@ -65,6 +73,11 @@ class HitTracker:
 
     def command(self, left: float, right: float) -> None:
         """The wheel command just sent to the drive (m/s), effective now."""
+        straight = left == right > 0 and self.wheels.speeds[0] == self.wheels.speeds[1]
+        if not straight or self.ekf is None:
+            self.run_from = None
+        elif self.run_from is None:
+            self.run_from = self.ekf.pose[:2]
         self.wheels.command(left, right, self.top)
 
     def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent], now: float) -> None:
@@ -77,6 +90,15 @@ class HitTracker:
             self._advance(e.time)
             self._hit(e.time, e.beacon)
         self._advance(now)
+        if self.run_from is not None and self.ekf is not None:
+            x, y, h = self.ekf.pose
+            if math.dist((x, y), self.run_from) > self.track_check:
+                travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
+                if abs(wrap(travel - h)) > self.heading_check:
+                    self.ekf = self._filter(x, y, travel, wrap(h + self.ekf.s[3] - travel), var_xy=float(self.ekf.P[0, 0]),
+                                            var_heading=0.05, var_sum=1e-4)
+                    self.restarts += 1
+                self.run_from = (x, y)
 
     def _filter(self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float,
                 var_sum: float) -> BearingEKF:
