@@ -115,8 +115,7 @@ class DiffDrive:
         self.commanded = (left, right)
         top, e = self.model.max_wheel_speed, self.errors
         self.target = (self.gains[0] * servo_response(left, top, e), self.gains[1] * servo_response(right, top, e))
-        self.turn_factor = 1.0
-        if self._turns is not None and left != right:
+        if self._turns is not None and left != right:  # a turn's slip lasts through its slowing down
             slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
             self.turn_factor = 1.0 - slip * turn_share(left, right)
 

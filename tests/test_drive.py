@@ -1,11 +1,18 @@
 """Differential drive against analytic kinematics, and contacts against geometry."""
 
+import dataclasses
+import itertools
 import math
+import statistics
 
 import pytest
 
+from arena.level import DriveErrors, Pose
 from arena.loader import parse_level
+from arena.rng import RandomTree
 from arena.world import World
+from referee.match import Match
+from referee.teams import resolve
 from conftest import MINI_LEVEL
 
 BIG = MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [4.0, 4.0]").replace(
@@ -143,3 +150,189 @@ def test_box_and_circle_obstacles_stop_a_robot():
         run(w, 15.0)  # 2.5 m of travel if nothing were in the way
         front = w.pose(0).x + w.level.robots[0].model.length / 2
         assert front == pytest.approx(face, abs=0.005)
+
+
+# ---- the drive error model (docs/drive.md) ------------------------------------------------
+
+PERFECT = {f.name: 0.0 for f in dataclasses.fields(DriveErrors)}
+
+
+def erring(seed=1, text=BIG, **errors):
+    """A world whose robot 0 has exactly the given drive errors (the rest zero), seeded."""
+    spec = ", ".join(f"{k}: {v}" for k, v in {**PERFECT, **errors}.items())
+    text = text.replace("    start_known: true\n", f"    start_known: true\n    drive: {{{spec}}}\n", 1)
+    return World(parse_level(text.encode(), "test.yaml"), RandomTree(seed))
+
+
+def test_gain_mismatch_drives_the_arc_kinematics_predicts():
+    # equal commands, unequal wheels: R = (track/2)(vr+vl)/(vr-vl) with the wheels' true speeds
+    w = erring(seed=2, gain_sd=0.03)
+    m = w.level.robots[0].model
+    gl, gr = w.drives[0].gains
+    assert abs(gr - gl) > 0.03  # a real mismatch to measure (this seed draws one)
+    v = 0.1
+    vl, vr = gl * v, gr * v
+    w.command(0, v, v)
+    run(w, 1.0)  # past the ramp
+    radius = m.track / 2 * (vr + vl) / (vr - vl)
+    p = w.pose(0)
+    center = (p.x - radius * math.sin(p.heading), p.y + radius * math.cos(p.heading))
+    for _ in range(8):
+        run(w, 0.25)
+        q = w.pose(0)
+        assert math.dist((q.x, q.y), center) == pytest.approx(abs(radius), rel=2e-3)
+
+
+def test_wheel_gains_spread_as_configured():
+    # each wheel's gain ~ N(1, gain_sd): the sample sd of 2 x 150 draws lies within a
+    # 4-sigma band of the sample-sd distribution (sd of the sd ~ sigma / sqrt(2n))
+    sigma, n = 0.03, 150
+    gains = [g for s in range(n) for g in erring(seed=s, gain_sd=sigma).drives[0].gains]
+    sd = statistics.stdev(gains)
+    assert abs(statistics.mean(gains) - 1) < 4 * sigma / math.sqrt(2 * n)
+    assert abs(sd - sigma) < 4 * sigma / math.sqrt(2 * 2 * n)
+
+
+def test_true_track_sets_the_spin_rate():
+    # a spin turns at (vr - vl) / true track, not at the nominal track the team is told
+    w = erring(seed=10, track_sd=0.05)
+    nominal, true = w.level.robots[0].model.track, w.drives[0].track
+    assert abs(true / nominal - 1) > 0.03  # this seed draws a clear error
+    v, T = 0.05, 2.0
+    w.command(0, -v, v)
+    run(w, T)
+    w.command(0, 0.0, 0.0)
+    run(w, 1.0)
+    turned = 2 * v * T / true  # the ramp down gives back what the ramp up lost
+    assert w.pose(0).heading == pytest.approx(math.remainder(turned, 2 * math.pi), abs=2 * v / true * w.dt)
+
+
+def test_dead_band_swallows_small_commands():
+    w = erring(dead_band=0.1)
+    top = w.level.robots[0].model.max_wheel_speed
+    w.command(0, 0.09 * top, -0.09 * top)
+    run(w, 2.0)
+    assert w.pose(0) == Pose(2.0, 2.0, 0.0)
+    w.command(0, 0.2 * top, 0.2 * top)  # above the band: moves
+    run(w, 2.0)
+    assert w.pose(0).x > 2.0 + 0.01
+
+
+def test_servo_response_curve_sets_the_cruise_speed():
+    # a command c above the dead band d (fractions of top speed) gives
+    # top * tanh(s u) / tanh(s) with u = (c - d) / (1 - d)
+    d, s, c = 0.05, 0.8, 0.5
+    w = erring(dead_band=d, saturation=s)
+    top = w.level.robots[0].model.max_wheel_speed
+    w.command(0, c * top, c * top)
+    run(w, 1.0)
+    u = (c - d) / (1 - d)
+    expected = top * math.tanh(s * u) / math.tanh(s)
+    assert w.bodies[0].velocity.length == pytest.approx(expected, rel=1e-6)
+    assert expected > c * top  # the servo runs ahead of a linear model at mid range
+
+
+def test_latency_delays_the_motion_by_its_ticks():
+    # with a fixed latency the whole trajectory is the prompt one, shifted by exactly its ticks
+    latency = 0.05
+    late, prompt = erring(latency=latency), erring()
+    delay = round(latency * late.level.physics_rate)  # 12 ticks at 240 Hz
+    for w in (late, prompt):
+        w.command(0, 0.06, 0.1)
+    xs_late, xs_prompt = [], []
+    for _ in range(120):
+        late.step()
+        prompt.step()
+        xs_late.append(late.state)
+        xs_prompt.append(prompt.state)
+    assert all(s == (2.0, 2.0, 0.0) for s in xs_late[:delay])  # the command is still on its way
+    assert xs_late[delay:] == xs_prompt[:-delay]
+
+
+def test_jittered_commands_arrive_in_order_within_the_latency_window():
+    latency, jitter = 0.02, 0.03
+    w = erring(seed=4, latency=latency, latency_jitter=jitter)
+    rate = w.level.physics_rate
+    lo, hi = round(latency * rate), round((latency + jitter) * rate)
+    taken = []
+    for k in range(40):
+        w.command(0, 0.001 * (k + 1), 0.001 * (k + 1))
+        sent = w.tick
+        while w.drives[0].commanded != (0.001 * (k + 1),) * 2:
+            w.step()
+            assert w.tick - sent <= hi + 1
+        taken.append(w.tick - 1 - sent)  # the update at tick t-1 took it
+        run(w, 0.1)
+    assert all(lo <= t <= hi for t in taken), taken
+    assert len(set(taken)) > 3  # the jitter really varies
+
+
+def spin_ratios(seed, turns, **errors):
+    """Achieved over commanded angle for `turns` separate spin commands."""
+    w = erring(seed=seed, **errors)
+    track = w.level.robots[0].model.track
+    v, T = 0.05, 1.0
+    ratios = []
+    for _ in range(turns):
+        before = w.state[2]
+        w.command(0, -v, v)
+        run(w, T)
+        w.command(0, 0.0, 0.0)
+        run(w, 0.5)
+        ratios.append((w.state[2] - before) / (2 * v * T / track))
+    return ratios
+
+
+def test_spin_slip_loses_the_configured_fraction_in_expectation():
+    slip, sd, n = 0.1, 0.05, 40
+    ratios = spin_ratios(3, n, turn_slip=slip, turn_slip_sd=sd)
+    # the mean of n draws of 1 - slip lies within 4 standard errors of 1 - slip
+    assert statistics.mean(ratios) == pytest.approx(1 - slip, abs=4 * sd / math.sqrt(n))
+    assert statistics.stdev(ratios) == pytest.approx(sd, rel=0.5)  # random per turn
+
+
+def test_acceleration_slip_lengthens_the_ramp():
+    slip = 0.2
+    w = erring(accel_slip=slip)
+    m = w.level.robots[0].model
+    v, T = 0.1, 3.0
+    w.command(0, v, v)
+    run(w, T)
+    ramp = v / (m.max_wheel_accel * (1 - slip))
+    assert w.pose(0).x - 2.0 == pytest.approx(v * T - v * ramp / 2, abs=v * w.dt)
+
+
+def straight_run(seed):
+    w = World(parse_level(BIG.encode(), "test.yaml"), RandomTree(seed))  # the boe-bot's own errors
+    w.command(0, 0.12, 0.12)
+    run(w, 4.0)
+    w.command(0, -0.08, 0.08)
+    run(w, 2.0)
+    return w.state
+
+
+def test_seeds_drift_differently_and_each_reproduces_exactly():
+    runs = {s: straight_run(s) for s in (1, 2, 3)}
+    assert straight_run(2) == runs[2]  # same seed, bit for bit
+    ends = [(x, y) for x, y, _ in runs.values()]
+    assert min(math.dist(a, b) for a, b in itertools.combinations(ends, 2)) > 1e-3
+    ideal = world()
+    ideal.command(0, 0.12, 0.12)
+    run(ideal, 4.0)
+    for x, y, _ in runs.values():
+        assert abs(y - 2.0) > 1e-4  # no seed drives the perfect straight line
+
+
+def test_ideal_match_drives_perfectly_and_a_real_one_does_not():
+    # Match plumbing: ideal gives today's perfect drive (the analytic line of the first test)
+    level = parse_level(BIG.encode(), "test.yaml")
+    for ideal in (True, False):
+        w = Match(level, [resolve("ref:idle")], seed=7, ideal=ideal, isolate=False).world
+        m = level.robots[0].model
+        v, T = 0.1, 5.0
+        w.command(0, v, v)
+        run(w, T)
+        expected = v * T - v * (v / m.max_wheel_accel) / 2
+        p = w.pose(0)
+        on_line = abs(p.x - 2.0 - expected) < v * w.dt and abs(p.y - 2.0) < 1e-9 and abs(p.heading) < 1e-9
+        assert on_line == ideal

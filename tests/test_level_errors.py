@@ -32,6 +32,12 @@ CASES = [
      "beacons.params.bogus", "bogus"),
     ("not a mapping", "field:\n  size: [2.0, 1.0]", "field: 3", "field", "field: 3"),
     ("bool for number", "seed: 3", "seed: true", "seed", "seed:"),
+    ("unknown drive key", "    start_known: true\n", "    start_known: true\n    drive: {gain: 0.1}\n",
+     "robots[0].drive.gain", "drive:"),
+    ("negative drive error", "    start_known: true\n", "    start_known: true\n    drive: {gain_sd: -0.01}\n",
+     "robots[0].drive.gain_sd", "drive:"),
+    ("slip of a whole turn", "    start_known: true\n", "    start_known: true\n    drive: {turn_slip: 1.5}\n",
+     "robots[0].drive.turn_slip", "drive:"),
 ]
 
 
