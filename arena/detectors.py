@@ -20,8 +20,10 @@ from arena.laser import TWO_PI, Crossings, wrap_angle
 IDEAL_OVERRIDES: dict[str, float] = {
     "timing_noise": 0.0, "wobble": 0.0, "false_rate": 0.0, "merge_rate": 0.0,
     "brightness_noise": 0.0, "servo_jitter": 0.0, "quantization": 0, "counts_per_turn": 0,
-    "range": math.inf, "max_incidence": math.pi / 2, "max_tangential_speed": math.inf,
-    "clock_hz": 0.0, "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
+    "range": math.inf, "max_incidence": math.pi / 2, "clock_hz": 0.0,
+    "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
+    "beam_diameter": 0.0, "beam_divergence": 0.0, "aperture": 0.0, "trigger_fraction": 0.0,
+    "rise_time": 0.0, "acceptance": math.inf, "spin_coupling": 0.0,
 }
 
 
@@ -73,25 +75,51 @@ def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
 
 
 def visible(kind: str, c: Crossings, facing: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
-    """Which crossings the hardware of `kind` detects (before random errors)."""
+    """Which crossings pass the hardware's incidence and range gates (the optics decide the rest)."""
     inc = incidence(c, facing)
     if kind == "reflector":
         return (c.distance <= p["range"]) & (inc <= p["max_incidence"])
     if kind == "sensor_array":
-        # the spot sweeps the array face at |beam rate| * range / cos(incidence); the array
-        # answers up to max_tangential_speed (270 m/s at normal incidence in the seed)
-        speed = np.abs(c.beam_rate) * c.distance
-        return (inc <= p["max_incidence"]) & (speed <= p["max_tangential_speed"] * np.cos(inc))
+        return np.ones(len(c), dtype=bool)  # its incidence falloff is the optics' `acceptance`
     if kind == "flash_detector":
         return inc <= flash_limit(c.distance, p)
     raise ValueError(kind)
 
 
 def flash_limit(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
-    """Simi's detectors: the largest detectable incidence falls linearly with range through
-    (near_range, near_incidence) and (far_range, far_incidence), never below zero."""
+    """Simi's detectors: the largest detectable incidence, measured at two ranges ("44 deg at
+    1 foot away and 27 deg at 7 feet away"), linear between and held beyond them: nothing
+    outside the measured ranges is extrapolated."""
+    d = np.clip(distance, p["near_range"], p["far_range"])
     slope = (p["far_incidence"] - p["near_incidence"]) / (p["far_range"] - p["near_range"])
-    return np.maximum(0.0, p["near_incidence"] + slope * (distance - p["near_range"]))
+    return p["near_incidence"] + slope * (d - p["near_range"])
+
+
+def optics(c: Crossings, inc: np.ndarray, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """A beam of finite width sweeping a detector of finite width: (detected, time offset).
+
+    The spot is a top-hat of width w = beam_diameter + beam_divergence x range; the detector
+    presents aperture x cos(incidence) across it and answers with a relative sensitivity
+    S = 2^-(incidence / acceptance)^2. As the spot sweeps at v = |beam rate| x range the light
+    on the detector (a fraction of the beam) rises with the overlap; the comparator fires
+    when it reaches `trigger_fraction`, at overlap x = trigger_fraction w / S. The pulse needs
+    that much light at all, and for at least `rise_time` (Simi's sizing rule); it fires
+    x - (w + a) / 2 of travel before the spot is centred on the detector, which is the time
+    offset returned (negative: early). Zero widths give the exact crossing."""
+    r = c.distance
+    v = np.abs(c.beam_rate) * r
+    w = p.get("beam_diameter", 0.0) + p.get("beam_divergence", 0.0) * r
+    a = p.get("aperture", 0.0) * np.cos(inc)
+    acc = p.get("acceptance", math.inf)
+    sens = np.exp2(-(inc / acc) ** 2) if math.isfinite(acc) else np.ones(len(c))
+    eta = p.get("trigger_fraction", 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        peak = sens * np.where(w > a, a / w, 1.0)  # beam fraction on the detector at full overlap
+        x = np.where(sens > 0, eta * w / sens, np.inf)
+        dwell = (w + a - 2 * x) / v
+        offset = np.where(v > 0, (x - (w + a) / 2) / v, 0.0)
+    ok = (peak >= eta) & (sens > 0) & (dwell >= p.get("rise_time", 0.0))
+    return ok, np.where(ok, offset, 0.0)
 
 
 def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
@@ -119,17 +147,42 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
-def merge_into_next(times: np.ndarray, rate: float, rng: np.random.Generator) -> np.ndarray:
-    """Bac's hardware error: with probability `rate` a pulse is merged into the next one of the
-    same laser, so it is reported at the next pulse's time. The last pulse of a batch is never
-    merged (its successor is not known yet)."""
+def mix64(z: np.ndarray) -> np.ndarray:
+    """SplitMix64's finaliser: a counter-based hash, so a draw keyed by (robot, turn) is the
+    same whichever control period the turn's pulses fall in."""
+    z = z.astype(np.uint64)
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+def unit_draws(key: int, robot: np.ndarray, turn: np.ndarray, salt: int) -> np.ndarray:
+    """Uniform draws in [0, 1), one per (key, robot, turn, salt), vectorised."""
+    with np.errstate(over="ignore"):
+        z = (np.uint64(key) + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03) + np.uint64(salt))
+        return (mix64(z) >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+
+
+def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray,
+                       n_beacons: int, rate: float, key: int) -> np.ndarray:
+    """Bac's hardware error: "occasionally the measured duration of any pulse was added to the
+    next pulse duration. If, for example, pulse T_1 and T_2 read 15 and 20 ms, respectively,
+    T_2 was occasionally processed as 35 ms" ("about 3.4% of all incoming measurements").
+
+    A measurement is one laser revolution; with probability `rate` one of its pulses (array
+    drawn uniformly) loses its own edge and is reported at the time of the pulse before it, so
+    the duration before it reads 0 and the one after it reads the sum of both. `times` are
+    sorted by (robot, time); a pulse whose predecessor fell in an earlier control period is
+    left alone (its time was already delivered)."""
     if rate <= 0 or len(times) < 2:
         return times
-    merged = rng.random(len(times)) < rate
-    merged[-1] = False
+    merged = unit_draws(key, robot, turn, 1) < rate
+    victim = np.floor(unit_draws(key, robot, turn, 2) * n_beacons).astype(np.int64) == beacon
+    has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
+    hit = np.nonzero(merged & victim & has_pred)[0]
     out = times.copy()
-    for i in np.nonzero(merged)[0][::-1]:  # from the back, so chains of merges land on the last
-        out[i] = out[i + 1]
+    out[hit] = times[hit - 1]
     return out
 
 

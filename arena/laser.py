@@ -124,24 +124,13 @@ def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> 
     return robot[order], step[order], s[order], t[order], signed[order]
 
 
-def segment_hits_boxes(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray,
-                       cx: np.ndarray, cy: np.ndarray, heading: np.ndarray,
-                       half_length: np.ndarray, half_width: np.ndarray) -> np.ndarray:
-    """Whether segments P-Q cross oriented rectangles (centre, heading, half extents); elementwise."""
-    c, s = np.cos(heading), np.sin(heading)
-    # both ends in the box frame
-    ax, ay = (px - cx) * c + (py - cy) * s, -(px - cx) * s + (py - cy) * c
-    bx, by = (qx - cx) * c + (qy - cy) * s, -(qx - cx) * s + (qy - cy) * c
-    lo, hi = np.zeros_like(ax), np.ones_like(ax)
-    for a, b, half in ((ax, bx, half_length), (ay, by, half_width)):
-        d = b - a
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t1, t2 = (-half - a) / d, (half - a) / d
-        parallel = d == 0
-        inside = np.abs(a) <= half
-        lo = np.where(parallel, np.where(inside, lo, 2.0), np.maximum(lo, np.minimum(t1, t2)))
-        hi = np.where(parallel, np.where(inside, hi, -1.0), np.minimum(hi, np.maximum(t1, t2)))
-    return lo <= hi
+def segment_hits_circles(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray,
+                         cx: np.ndarray, cy: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Whether segments P-Q pass within `radius` of centres C (closed discs); elementwise."""
+    ux, uy = qx - px, qy - py
+    length2 = ux * ux + uy * uy
+    u = np.clip(((cx - px) * ux + (cy - py) * uy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    return np.hypot(px + u * ux - cx, py + u * uy - cy) <= radius
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:

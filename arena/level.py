@@ -132,6 +132,9 @@ class RobotModel:
     max_wheel_accel: float  # m/s^2
     friction: float  # ground friction coefficient (top-down friction joints)
     drive: DriveErrors = PERFECT_DRIVE  # how the real drive departs from the nominal figures above
+    # radius of the circle, at the robot's centre, that another robot's laser plane meets
+    # (mast, laser housing): only this blocks beams, not the whole footprint
+    silhouette_radius: float = 0.03
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Callable
@@ -33,6 +33,17 @@ COMMON_PARAMS: dict[str, tuple[str, float]] = {
     "timing_noise": ("number", 0.0),  # s, std of the event clock
     "wobble": ("number", 0.0),  # relative std of the laser spin rate
     "wobble_time": ("number", 1.0),  # s, correlation time of the wobble
+    "spin_coupling": ("number", 0.0),  # steady loss of relative spin rate per unit body yaw rate
+    "spin_time": ("number", 0.05),  # s, time the laser motor takes to recover from a turn
+}
+# A finite beam sweeping a finite detector (docs/sensors.md, "Optics").
+OPTICS_PARAMS: dict[str, tuple[str, float]] = {
+    "beam_diameter": ("length", 0.0),
+    "beam_divergence": ("angle", 0.0),  # full angle
+    "aperture": ("length", 0.0),  # detector width across the beam
+    "trigger_fraction": ("number", 0.0),  # fraction of the beam's power that fires the comparator
+    "rise_time": ("number", 0.0),  # s the light must stay above the threshold
+    "acceptance": ("angle", math.inf),  # incidence at which the detector's response halves
 }
 BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
     "reflector": {
@@ -41,12 +52,13 @@ BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
         "false_rate": ("number", 0.0),  # false returns per second
     },
     "sensor_array": {
-        "max_tangential_speed": ("speed", 270.0),
-        "merge_rate": ("number", 0.0),
+        **OPTICS_PARAMS,
+        "merge_rate": ("number", 0.0),  # merged measurements per revolution
+        "false_rate": ("number", 0.0),  # false pulses per second
         "clock_hz": ("number", 20e6),
-        "max_incidence": ("angle", math.radians(90.0)),
     },
     "flash_detector": {
+        **OPTICS_PARAMS,
         "counts_per_turn": ("count", 12500),
         "near_range": ("length", 0.3048),
         "near_incidence": ("angle", math.radians(44.0)),
@@ -538,11 +550,13 @@ def _drive(m: _Map, base: DriveErrors) -> DriveErrors:
 
 def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_laser: Laser,
            task: Task, shared_path: tuple[tuple[float, float], ...]) -> RobotSlot:
-    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path", "drive"))
+    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path", "drive", "silhouette"))
     model_name = m.opt("model", _choice(*ROBOT_MODELS), "boe-bot")
     model = ROBOT_MODELS[model_name]
     if m.has("drive"):
         model = dataclasses.replace(model, drive=_drive(m.sub("drive", DRIVE_KEYS), model.drive))
+    if m.has("silhouette"):  # the radius of what this robot puts in the laser plane
+        model = replace(model, silhouette_radius=m.req("silhouette", _length))
     start = m.req("start", _pose)
     line = m.raw("start").line
     _inside(ctx, fld, (start.x, start.y), line, m.key("start"), "start")

@@ -15,7 +15,7 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena.laser import TWO_PI, Trajectory, find_crossings, find_phase_marks, segment_hits_boxes, wrap_angle
+from arena.laser import TWO_PI, Trajectory, find_crossings, find_phase_marks, segment_hits_circles, wrap_angle
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
@@ -41,19 +41,20 @@ class Sensing:
         self.omega = np.array([r.laser.angular_velocity for r in robots])
         self.direction = np.sign(self.omega)
         self.index = np.array([r.laser.index for r in robots])
-        self.half_length = np.array([r.model.length / 2 for r in robots])
-        self.half_width = np.array([r.model.width / 2 for r in robots])
-        # how far a robot's box can reach from its centre at a batch start, within a batch
+        # what each robot puts in the laser plane: a circle at its centre (mast, laser housing)
+        self.silhouette = np.array([r.model.silhouette_radius for r in robots])
+        # how far that circle can reach from the robot's centre at a batch start, within a batch
         batch = level.control_period
-        self.reach = np.hypot(self.half_length, self.half_width) + np.array(
-            [2 * r.model.max_wheel_speed * batch for r in robots])
+        self.reach = self.silhouette + np.array([2 * r.model.max_wheel_speed * batch for r in robots])
         self.has_obstacles = bool(level.obstacles)
         self.obstacle_filter = pymunk.ShapeFilter(mask=CAT_OBSTACLE)
         self.dt = world.dt
         self.rng = {name: [rng.stream("robot", r, name) for r in range(self.n)]
                     for name in ("wobble", "detector", "timing", "false", "light")}
-        self.merge_rng = rng.stream("beacons", "merge")
+        self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
         self.wobble = np.zeros(self.n)
+        self.spin_lag = np.zeros(self.n)  # the laser's relative rate minus its steady value (rad/s)
+        self.body_rate = np.zeros(self.n)  # the body's yaw rate in the last step (rad/s)
         self.phi = np.zeros(self.n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
         self._rows: list[tuple] = []
@@ -73,7 +74,7 @@ class Sensing:
         poses = np.array([self._last] + self._rows).reshape(steps + 1, self.n, 3)
         t = self._last_t + np.arange(steps + 1) * self.dt
         t[-1] = self.world.time  # exact at the end, so batches join without drift
-        traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(steps))
+        traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(poses[:, :, 2]))
         self._last, self._last_t, self._rows = self._rows[-1], self.world.time, []
         self.phi = traj.phi[-1].copy()
 
@@ -88,20 +89,33 @@ class Sensing:
 
     # ---- laser phase ---------------------------------------------------------------------
 
-    def _phases(self, steps: int) -> np.ndarray:
-        """Unwrapped laser phases at the step ends; the spin rate wobbles as an
-        Ornstein-Uhlenbeck process (relative std `wobble`, correlation time `wobble_time`)."""
+    def _phases(self, heading: np.ndarray) -> np.ndarray:
+        """Unwrapped laser phases at the step ends, from the body headings there.
+
+        The spin rate relative to the body wobbles as an Ornstein-Uhlenbeck process (relative
+        std `wobble`, correlation time `wobble_time`), and it answers the body's turns (Bac:
+        "the laser angular velocity was not constant while the robot turned"): the rotor's
+        inertia keeps its rate in the world when the body's yaw rate changes, so the relative
+        rate first drops by that change, then the motor brings it back, with time constant
+        `spin_time`, to its steady value less `spin_coupling` x the body's yaw rate."""
+        steps = len(heading) - 1
         rate = np.tile(self.omega, (steps, 1))
-        sigma = self.params["wobble"]
+        p = self.params
+        sigma = p["wobble"]
         if sigma > 0:
-            # w[k] = a w[k-1] + kick n[k], solved in closed form: w[k] = a^k (w0 + sum a^-j kick n[j])
-            a = math.exp(-self.dt / self.params["wobble_time"])
-            kick = math.sqrt(1 - a * a) * sigma
+            a = math.exp(-self.dt / p["wobble_time"])
             noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
-            powers = a ** np.arange(1, steps + 1)[:, None]
-            w = powers * (self.wobble + np.cumsum(kick * noise / powers, axis=0))
+            w = first_order(a, self.wobble, math.sqrt(1 - a * a) * sigma * noise)
             rate *= 1.0 + w
             self.wobble = w[-1]
+        coupling = p.get("spin_coupling", 0.0)
+        if coupling > 0:
+            body = np.diff(heading, axis=0) / self.dt
+            change = np.diff(np.vstack([self.body_rate, body]), axis=0)
+            a = math.exp(-self.dt / p["spin_time"])
+            lag = first_order(a, self.spin_lag, -a * change - (1 - a) * coupling * body)
+            rate += lag
+            self.spin_lag, self.body_rate = lag[-1], body[-1]
         return self.phi + np.vstack([np.zeros(self.n), np.cumsum(rate * self.dt, axis=0)])
 
     # ---- occlusion ------------------------------------------------------------------------
@@ -129,9 +143,8 @@ class Sensing:
             near = (o != robot[rows]) & (gap <= self.reach[o])
             rows, o = rows[near], o[near]
             if len(rows):
-                ox, oy, oh = traj.pose_at(step[rows], s[rows], o)
-                hit = segment_hits_boxes(px[rows], py[rows], qx[rows], qy[rows], ox, oy, oh,
-                                         self.half_length[o], self.half_width[o])
+                ox, oy, _ = traj.pose_at(step[rows], s[rows], o)
+                hit = segment_hits_circles(px[rows], py[rows], qx[rows], qy[rows], ox, oy, self.silhouette[o])
                 blocked[rows[hit]] = True
         if self.has_obstacles:
             space = self.world.space
@@ -148,15 +161,23 @@ class Sensing:
             keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
             keep &= det.visible(self.kind, c, self.facing, self.params)
             c = c.take(np.nonzero(keep)[0])
-        c = c.take(np.lexsort((c.beacon, c.robot, c.t)))
         p = self.params
-        robot, times = c.robot, c.t  # sorted by time, robot, beacon
-        for r in np.unique(robot):
-            mine = np.nonzero(robot == r)[0]
-            t = det.jitter(times[mine], p, self.rng["timing"][r], (traj.t[0], traj.t[-1]))
-            if self.kind == "sensor_array":  # a merged pulse shares the very edge of the next one
-                t = det.merge_into_next(np.sort(t), p["merge_rate"], self.merge_rng)
-            times[mine] = det.counter_clock(t, p)
+        times = c.t
+        if self.kind != "reflector" and len(c):  # finite beam and detector widths
+            ok, offset = det.optics(c, det.incidence(c, self.facing), p)
+            c = c.take(np.nonzero(ok)[0])
+            times = c.t + offset[ok]
+        window = (traj.t[0], traj.t[-1])
+        for r in np.unique(c.robot):
+            mine = np.nonzero(c.robot == r)[0]
+            times[mine] = det.jitter(np.maximum(times[mine], window[0]), p, self.rng["timing"][r], window)
+        order = np.lexsort((c.beacon, times, c.robot))
+        c, times = c.take(order), det.counter_clock(times[order], p)
+        robot = c.robot  # sorted by robot, time, beacon
+        if self.kind == "sensor_array":
+            turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
+            times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"],
+                                           self.merge_key)
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         angles = det.quantize_angle(c.phi, steps).tolist() if latched else [None] * len(c)
@@ -166,15 +187,22 @@ class Sensing:
         for r, t, beacon, angle, beam in zip(robot.tolist(), times.tolist(), labels, angles, beams):
             for rx in (range(self.n) if shared else (r,)):
                 out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r, beam=beam))
-        if self.kind == "reflector" and p["false_rate"] > 0:
+        if self.kind in ("reflector", "sensor_array") and p["false_rate"] > 0:
             for r in range(self.n):
                 self._false_returns(traj, r, out[r])
 
     def _false_returns(self, traj: Trajectory, r: int, events: list[det.Detection]) -> None:
-        """Spurious reflections (shiny surfaces, other lights): a Poisson process in time."""
+        """Spurious pulses (shiny surfaces, stray light, electrical noise): a Poisson process in
+        time; a sensor array's false pulse carries the label of an array drawn uniformly."""
         g = self.rng["false"][r]
         t0, t1 = traj.t[0], traj.t[-1]
-        for t in np.sort(g.uniform(t0, t1, size=g.poisson(self.params["false_rate"] * (t1 - t0)))):
+        times = np.sort(g.uniform(t0, t1, size=g.poisson(self.params["false_rate"] * (t1 - t0))))
+        if self.kind == "sensor_array":
+            labels = g.integers(len(self.ids), size=len(times))
+            for t, b in zip(det.counter_clock(times, self.params).tolist(), labels.tolist()):
+                events.append(det.Detection(r, t, "hit", self.ids[b], None, source=-1))
+            return
+        for t in times:
             angle = None
             if self.params["quantization"]:
                 k = min(int(np.searchsorted(traj.t, t)) - 1, len(traj.t) - 2)
@@ -226,3 +254,10 @@ class Sensing:
                 del self.scans[(r, turn)]
                 samples = tuple(int(round(u)) for u in scan)
                 out[r].append(det.Detection(r, float(t[i]), "scan", samples=samples, source=r))
+
+
+def first_order(a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
+    """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, in closed form (vectorised
+    over the steps): y[k] = a^k (y0 + sum_j<=k a^-j drive[j])."""
+    powers = a ** np.arange(1, len(drive) + 1)[:, None]
+    return powers * (y0 + np.cumsum(drive / powers, axis=0))

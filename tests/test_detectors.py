@@ -62,37 +62,85 @@ def test_reflector_false_returns_poisson():
     assert abs(len(hits(ideal)) - true_times) <= 4
 
 
-def test_sensor_array_tangential_speed_limit():
-    # omega * distance > limit * cos(incidence) -> missed. At 150 rad/s: P (1.70 m) sweeps
-    # at 255 m/s, R (2.33 m) at 350 m/s; limit 300 m/s.
-    w = make("sensor_array", omega=150.0, params="  params: {max_tangential_speed: 300}")
-    (events,), _ = sense(w, 1.0, ideal=False)
-    facing = {b.id: b.facing for b in w.level.beacons.items}
+def incidence_of(world, slot, beacon_id):
+    """Angle between the beacon's facing and the direction back to the robot's laser (rad)."""
+    bearing, d = bearing_from(world, slot, beacon_id)
+    facing = world.level.beacons.by_id(beacon_id).facing
+    return abs(math.remainder(bearing + math.pi - facing, 2 * math.pi)), d
+
+
+OPTICS = ("  params: {{beam_diameter: 0.002, beam_divergence: {div}, aperture: 0.004, "
+          "trigger_fraction: {eta}, rise_time: {rise}, clock_hz: 0}}")
+
+
+def test_finite_beam_triggers_early_by_the_hand_computed_offset():
+    # A top-hat spot of width w = 2 mm + divergence x range sweeps a 4 mm detector seen at
+    # incidence i (4 cos i wide) at v = omega x range; the comparator fires at an overlap of
+    # eta w, that is eta w - (w + a) / 2 of travel before the spot is centred on it.
+    div_deg, eta, omega = 0.1, 0.25, 20.0
+    w_ = make("sensor_array", omega=omega, params=OPTICS.format(div=div_deg, eta=eta, rise=0))
+    (real,), _ = sense(w_, 1.0, ideal=False)
+    (exact,), _ = sense(make("sensor_array", omega=omega), 1.0, ideal=True)
     for b in "PQRS":
-        bearing, d = bearing_from(w, 0, b)
-        inc = abs(math.remainder(bearing + math.pi - facing[b], 2 * math.pi))
-        expect_seen = 150.0 * d <= 300 * math.cos(inc)
-        assert bool(hits(events, b)) == expect_seen, b
-    assert hits(events, "P") and not hits(events, "R")  # the layout really tests both sides
-    (ideal,), _ = sense(make("sensor_array", omega=150.0, params="  params: {max_tangential_speed: 300}"),
-                        1.0, ideal=True)
-    assert all(hits(ideal, b) for b in "PQRS")
+        inc, r = incidence_of(w_, 0, b)
+        w = 0.002 + math.radians(div_deg) * r
+        a = 0.004 * math.cos(inc)
+        offset = (eta * w - (w + a) / 2) / (omega * r)
+        got = [e.time for e in hits(real, b)]
+        want = [e.time for e in hits(exact, b)]
+        assert len(got) == len(want) >= 3
+        assert np.allclose(np.array(got) - np.array(want), offset, atol=2e-8), b
 
 
-def test_sensor_array_merges_and_clock():
-    rate = 0.2
-    w = make("sensor_array", params=f"  params: {{merge_rate: {rate}, clock_hz: 20.0e+6}}")
-    (events,), _ = sense(w, 20.0, ideal=False, every=48)
-    times = np.array([e.time for e in hits(events)])
-    # a merged pulse is reported at the next pulse's time: equal consecutive times
-    merged = np.sum(np.diff(times) == 0)
-    n = len(times)
-    expected = rate * n * (1 - 1 / (0.2 * 20 * 20 / (2 * math.pi)))  # none merged at batch ends
-    assert abs(merged - expected) < 4 * math.sqrt(n * rate * (1 - rate))
-    # 20 MHz counter: every time is a whole number of 50 ns ticks
-    ticks = times * 20e6
-    assert np.all(np.abs(ticks - np.round(ticks)) < 1e-3)
-    assert all(e.beacon in "PQRS" for e in hits(events))
+def test_finite_beam_misses_when_too_little_light_or_too_short():
+    # far and wide: a 4 mm detector under a spot 2 mm + 17.5 mrad x range (> 30 mm at 1.7 m)
+    # receives under 4 / 30 of the beam: a threshold of 0.2 is never reached
+    w = make("sensor_array", params=OPTICS.format(div=1.0, eta=0.2, rise=0))
+    (events,), _ = sense(w, 1.0, ideal=False)
+    for b in "PQRS":
+        inc, r = incidence_of(w, 0, b)
+        width = 0.002 + math.radians(1.0) * r
+        assert bool(hits(events, b)) == (0.004 * math.cos(inc) / width >= 0.2), b
+    assert not hits(events)  # the layout puts every array past that range
+    # a rise time longer than the time above threshold, (w + a - 2 eta w) / v, silences a pulse
+    eta, omega = 0.25, 20.0
+    inc, r = incidence_of(w, 0, "P")
+    width = 0.002 + math.radians(0.1) * r
+    above = (width + 0.004 * math.cos(inc) - 2 * eta * width) / (omega * r)
+    for rise, seen in ((0.9 * above, True), (1.1 * above, False)):
+        (events,), _ = sense(make("sensor_array", omega=omega, params=OPTICS.format(div=0.1, eta=eta, rise=rise)),
+                             1.0, ideal=False)
+        assert bool(hits(events, "P")) == seen
+
+
+def test_sensor_array_merges_one_pulse_per_measurement_as_t1_plus_t2():
+    # Bac: "pulse T_1 and T_2 read 15 and 20 ms, respectively, T_2 was occasionally processed
+    # as 35 ms". A merged pulse reports its predecessor's time: the duration before it reads 0
+    # and the one after it reads the sum of both. One draw per revolution.
+    rate, seconds, every = 0.2, 40.0, 240
+    params = f"  params: {{merge_rate: {rate}, clock_hz: 0}}"
+    (real,), _ = sense(make("sensor_array", params=params), seconds, ideal=False, every=every)
+    (exact,), _ = sense(make("sensor_array", params=params), seconds, ideal=True, every=every)
+    x = np.array([e.time for e in hits(exact)])
+    # the k-th pulse of each array, real against exact (a merged pulse may sort before its predecessor)
+    mine = {b: [e.time for e in hits(real, b)] for b in "PQRS"}
+    assert all(len(mine[b]) == len(hits(exact, b)) for b in "PQRS")  # nothing lost
+    seen = {b: 0 for b in "PQRS"}
+    t = []
+    for e in hits(exact):
+        t.append(mine[e.beacon][seen[e.beacon]])
+        seen[e.beacon] += 1
+    t = np.array(t)
+    merged = np.nonzero(t != x)[0]
+    assert len(merged) and np.all(t[merged] == x[merged - 1])
+    inner = merged[merged + 1 < len(t)]
+    assert np.allclose(t[inner + 1] - t[inner], x[inner + 1] - x[inner - 1])  # T1 + T2
+    assert np.all(t[inner] - t[inner - 1] == 0)  # and T1 reads 0
+    # per revolution (4 pulses), the drawn pulse must have a predecessor in its control period
+    batches = len({int(v // (every / 240)) for v in x})
+    expected = rate * (len(x) - batches) / 4
+    revolutions = len(x) / 4
+    assert abs(len(merged) - expected) < 4 * math.sqrt(revolutions * rate * (1 - rate))
 
 
 def test_flash_detector_encoder_angles_and_incidence_limit():

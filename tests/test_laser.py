@@ -144,7 +144,8 @@ def test_another_robot_blocks_the_beam():
 
 def test_a_robot_crossing_the_beam_blocks_it_for_the_right_time():
     # robot 1 drives north across the line from robot 0 to beacon Q. At every expected
-    # crossing, the truth comes from sampling the beam segment densely against robot 1's box.
+    # crossing, the truth comes from sampling the beam segment densely against robot 1's
+    # silhouette in the laser plane (a circle of the model's silhouette radius at its centre).
     w = make(omega=60.0, robots=ONE + "\n  - {model: boe-bot, start: [2.7, 0.5, 90]}")
     events, poses = sense(w, 8.0, commands=[(0, 0), (0.15, 0.15)])
     p0 = w.level.robots[0].start
@@ -160,12 +161,10 @@ def test_a_robot_crossing_the_beam_blocks_it_for_the_right_time():
         t = times[0] + k * period
         i = int(t / w.dt)
         f = t / w.dt - i
-        x, y, h = poses[i, 1] + f * (poses[i + 1, 1] - poses[i, 1])
-        lx = (sx - x) * math.cos(h) + (sy - y) * math.sin(h)
-        ly = -(sx - x) * math.sin(h) + (sy - y) * math.cos(h)
-        margin = np.max(np.minimum(m.length / 2 - np.abs(lx), m.width / 2 - np.abs(ly)))
+        x, y, _ = poses[i, 1] + f * (poses[i + 1, 1] - poses[i, 1])
+        margin = m.silhouette_radius - np.min(np.hypot(sx - x, sy - y))
         if abs(margin) < 1e-3:
-            continue  # grazing: the beam skims the corner, either answer is right
+            continue  # grazing: the beam skims the silhouette, either answer is right
         truly_blocked = margin > 0
         seen = np.any(np.abs(times - t) < 1e-4)
         assert seen != truly_blocked, f"t={t:.4f}: blocked={truly_blocked} but seen={seen}"
