@@ -1,20 +1,25 @@
-"""A robot's pose from labelled beacon hits and its own wheel commands, kept at every instant.
+"""A robot's pose from its laser events and its own wheel commands, kept at every instant.
 
 The EKF of robots.toolkit.ekf predicts with the wheel speeds the controller commanded (the
 nominal ramped model of robots.toolkit.motion: the team cannot know its drive's true gains)
-and takes each hit at its own time, so the pose is exact at the control tick, not at the last
-fix. Outliers go at three levels:
+and takes each event at its own time, so the pose is exact at the control tick, not at the
+last fix. A labelled hit says the beam points at that beacon; an encoder-latched angle says
+where it pointed relative to the robot; an index click says it points straight ahead; an
+unlabelled hit is taken as the beacon whose predicted bearing is nearest. Outliers go at
+three levels:
 - two hits at one instant are Bac's merged pulse ("the measured duration of any pulse was
   added to the next pulse duration"): both are dropped;
 - the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
   merged pulse at another time, a pulse from a turning laser that the model does not follow);
 - when hits keep failing the gate (the robot was pushed, or slipped more than the filter
-  allows), the tracker restarts from a closed-form fix of the last revolution that passes
+  allows), the tracker restarts from a closed-form fix. For labelled hits that is the
+  fix of the last revolution that passes
   Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
   130 ms time-out; its time must agree with the laser's period within its smallest pulse
   duration ("The algorithm selected the smallest pulse duration ... as a difference
   tolerance"); three of the four arrays are enough ("the system uses the remaining three
-  pulses"). A fix with four arrays must also be self-consistent.
+  pulses"). A fix with four arrays must also be self-consistent. Hardware without labels
+  brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule between index clicks.
 The heading is checked as Bac measured it, "by evaluating two consecutive positions": on a
 straight run, once the filtered position has moved `track_check` (m), the direction of travel
 must agree with the filtered heading within `heading_check` (rad), or the heading restarts
@@ -27,6 +32,8 @@ from __future__ import annotations
 import math
 from collections import Counter
 
+from typing import Callable
+
 from robots.api import Brief, SensorEvent
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels
@@ -37,17 +44,23 @@ TIME_OUT = 0.130  # s: "the time-out limit, which was set to 130 ms"
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
 
 
+# A closed-form fix from an event and those before it: (x, y, the beam's world angle now,
+# the heading if the hardware tells it, else None), or None.
+FirstFix = Callable[[SensorEvent], "tuple[float, float, float, float | None] | None"]
+
+
 class HitTracker:
-    """The pose (x, y, heading) of one robot from its labelled hits and wheel commands.
+    """The pose (x, y, heading) of one robot from its laser events and wheel commands.
 
     `bearing_sigma` is one hit's bearing noise (rad), `gate` the EKF gate (standard
     deviations), `lost_after` how many hits in a row may fail the gate before a restart;
     `q_heading` (rad^2 per rad turned) and `q_drift` (rad^2 per m driven) say how far the
-    drive may stray from its commands in heading."""
+    drive may stray from its commands in heading. `first_fix` replaces the labelled
+    revolution fix for starts and restarts."""
 
     def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
                  q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
-                 track_check: float = 0.02, heading_check: float = 0.5):
+                 track_check: float = 0.02, heading_check: float = 0.5, first_fix: FirstFix | None = None):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
         self.period = 2 * math.pi / abs(self.omega)
@@ -60,6 +73,7 @@ class HitTracker:
         self.rejected = 0  # hits in a row that failed the gate
         self.restarts = 0
         self.track_check, self.heading_check = track_check, heading_check
+        self.first_fix = first_fix or self._labelled_fix
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
         if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
@@ -82,13 +96,14 @@ class HitTracker:
 
     def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent], now: float) -> None:
         """Take one control period's events (in time order) and carry the pose to `now`."""
-        hits = [e for e in events if e.kind == "hit" and e.beacon in self.beacons]
-        at = Counter(e.time for e in hits)
-        for e in hits:
-            if at[e.time] > 1:
+        at = Counter(e.time for e in events if e.kind == "hit")
+        for e in events:
+            if e.kind == "hit" and at[e.time] > 1:
                 continue  # a merged pulse: two arrays reported at one instant
+            if e.kind not in ("hit", "index") or (e.beacon is not None and e.beacon not in self.beacons):
+                continue
             self._advance(e.time)
-            self._hit(e.time, e.beacon)
+            self._event(e)
         self._advance(now)
         if self.run_from is not None and self.ekf is not None:
             x, y, h = self.ekf.pose
@@ -112,28 +127,52 @@ class HitTracker:
         if self.ekf:
             self.ekf.predict(dt, v, w)
 
-    def _hit(self, time: float, beacon: str) -> None:
-        self.recent.append((time, beacon))
-        while self.recent[0][0] < time - 2 * TIME_OUT:
-            self.recent.pop(0)
-        if self.ekf is not None:
-            if self.ekf.hit(*self.beacons[beacon], self.var, self.gate):
+    def _event(self, e: SensorEvent) -> None:
+        if e.kind == "hit" and e.beacon is not None:
+            self.recent.append((e.time, e.beacon))
+            while self.recent[0][0] < e.time - 2 * TIME_OUT:
+                self.recent.pop(0)
+        ekf = self.ekf
+        if ekf is not None:
+            if e.kind == "index":
+                ekf.index(self.var, self.gate)
+                return  # a click is no evidence of being lost or not
+            if e.beacon is None:  # unlabelled: the beacon the beam should be pointing at
+                beacon = min(self.beacons, key=lambda k: abs(ekf.predicted_bearing(*self.beacons[k])))
+            else:
+                beacon = e.beacon
+            bx, by = self.beacons[beacon]
+            ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
+                ekf.hit(bx, by, self.var, self.gate)
+            if ok:
                 self.rejected = 0
                 return
             self.rejected += 1
             if self.rejected < self.lost_after:
                 return
-        fix = self.revolution_fix()
-        if fix is None:
-            return
-        x, y, beam = fix
-        if self.ekf is None:  # nothing known of the heading yet: the motion will tell
+        fix = self.first_fix(e)
+        if fix is not None:
+            self.restart(*fix)
+
+    def restart(self, x: float, y: float, beam: float, heading: float | None = None) -> None:
+        """(Re)start the filter at (x, y) with the beam's world angle `beam` now, and the
+        heading if known; otherwise the last heading (or 0) with a wide variance, for the
+        motion to correct."""
+        if heading is not None:
+            self.ekf = self._filter(x, y, heading, wrap(beam - heading), var_xy=1e-4, var_heading=1e-3, var_sum=1e-4)
+        elif self.ekf is None:  # nothing known of the heading yet
             self.ekf = self._filter(x, y, 0.0, beam, var_xy=1e-4, var_heading=10.0, var_sum=1e-4)
         else:  # lost: keep the heading, but let the next metres of motion correct it
             h = self.ekf.pose[2]
             self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
             self.restarts += 1
         self.rejected = 0
+
+    def _labelled_fix(self, e: SensorEvent) -> tuple[float, float, float, None] | None:
+        if e.kind != "hit" or e.beacon is None or not self.recent:
+            return None
+        fix = self.revolution_fix()
+        return None if fix is None else (*fix, None)
 
     def revolution_fix(self) -> tuple[float, float, float] | None:
         """(x, y, beam world angle now) from the revolution that the newest hit closes, or None
