@@ -42,6 +42,7 @@ CREEP = 0.03  # m/s: the slowest straight-line speed, well above the servos' dea
 SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BOE-bot)
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
+PASSED = 0.9  # a waypoint behind the robot counts as passed within this fraction of the task radius
 
 
 class BacSeed(Controller):
@@ -180,12 +181,16 @@ class Bac(Controller):
         x, y, h = pose
         within = SWITCH * self.brief.task.radius
         self.target = next_waypoint(self.path, self.target, x, y, within)
+        while self.target < len(self.path) and self._passed(x, y, h):
+            self.target += 1
         if self.target >= len(self.path):
             self.turning = None
             return 0.0, 0.0
         tx, ty = self.path[self.target]
         wheels, top = self.tracker.wheels, self.brief.robot.max_wheel_speed
         error = wrap(math.atan2(ty - y, tx - x) - h)  # the turn still to make, from now
+        if self.turning is not None and abs(self.turning) == 1 and abs(error) > SPIN:
+            self.turning = int(math.copysign(2, error))  # a pivot that fell behind becomes a spin
         cruise = self._speed(x, y, h, within)
         settling = heading_change(wheels, [(0.0, cruise, cruise)], top)  # what driving straight on still turns
         if self.turning is None:
@@ -219,6 +224,13 @@ class Bac(Controller):
             mid = (lo + hi) / 2
             lo, hi = (mid, hi) if turned(mid) < want else (lo, mid)
         return command((lo + hi) / 2)
+
+    def _passed(self, x: float, y: float, h: float) -> bool:
+        """A waypoint just missed: inside the task radius (with a margin for the estimate's
+        error) and already behind the robot; circling back for it would only loop."""
+        tx, ty = self.path[self.target]
+        close = math.dist((x, y), (tx, ty)) < PASSED * self.brief.task.radius
+        return close and abs(wrap(math.atan2(ty - y, tx - x) - h)) > math.pi / 2
 
     def _speed(self, x: float, y: float, h: float, within: float) -> float:
         """Straight-line speed: the peak, but slowing into a waypoint where a spin turn follows
