@@ -11,11 +11,11 @@ three levels:
   added to the next pulse duration"): both are dropped;
 - the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
   merged pulse at another time, a pulse from a turning laser that the model does not follow);
-- when hits keep failing the gate (the robot was pushed, or slipped more than the filter
-  allows), the tracker restarts from a closed-form fix. For labelled hits that is the
+- when hits keep failing the gate (half of the last `window` or more: the robot was pushed,
+  or slipped more than the filter allows), the tracker restarts from a closed-form fix. For labelled hits that is the
   fix of the last revolution that passes
   Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
-  130 ms time-out; its time must agree with the laser's period within its smallest pulse
+  130 ms time-out (scaled to the laser's rate); its time must agree with the laser's period within its smallest pulse
   duration ("The algorithm selected the smallest pulse duration ... as a difference
   tolerance"); three of the four arrays are enough ("the system uses the remaining three
   pulses"). A fix with four arrays must also be self-consistent. Hardware without labels
@@ -30,7 +30,7 @@ own rate cannot tell that from a robot that turns).
 from __future__ import annotations
 
 import math
-from collections import Counter
+from collections import Counter, deque
 
 from typing import Callable
 
@@ -40,7 +40,9 @@ from robots.toolkit.motion import Wheels
 from robots.toolkit.solvers import least_squares
 from robots.toolkit.steering import wrap
 
-TIME_OUT = 0.130  # s: "the time-out limit, which was set to 130 ms"
+# "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
+# same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
+TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
 
 
@@ -53,24 +55,25 @@ class HitTracker:
     """The pose (x, y, heading) of one robot from its laser events and wheel commands.
 
     `bearing_sigma` is one hit's bearing noise (rad), `gate` the EKF gate (standard
-    deviations), `lost_after` how many hits in a row may fail the gate before a restart;
+    deviations); when `lost_after` of the last `window` hits failed the gate, it restarts;
     `q_heading` (rad^2 per rad turned) and `q_drift` (rad^2 per m driven) say how far the
     drive may stray from its commands in heading. `first_fix` replaces the labelled
     revolution fix for starts and restarts."""
 
-    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
+    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8, window: int = 16,
                  q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
                  track_check: float = 0.02, heading_check: float = 0.5, first_fix: FirstFix | None = None):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
         self.period = 2 * math.pi / abs(self.omega)
+        self.time_out = TIME_OUT_TURNS * self.period
         self.top = brief.robot.max_wheel_speed
         self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
         self.var, self.gate, self.lost_after = bearing_sigma ** 2, gate, lost_after
         self.q = dict(q_xy=q_xy, q_heading=q_heading, q_drift=q_drift)
         self.turn_rate = 0.0  # the robot's own turn rate (rad/s) over the last prediction
         self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
-        self.rejected = 0  # hits in a row that failed the gate
+        self.verdicts: deque[bool] = deque(maxlen=window)  # the last hits: did they pass the gate?
         self.restarts = 0
         self.track_check, self.heading_check = track_check, heading_check
         self.first_fix = first_fix or self._labelled_fix
@@ -130,7 +133,7 @@ class HitTracker:
     def _event(self, e: SensorEvent) -> None:
         if e.kind == "hit" and e.beacon is not None:
             self.recent.append((e.time, e.beacon))
-            while self.recent[0][0] < e.time - 2 * TIME_OUT:
+            while self.recent[0][0] < e.time - 2 * self.time_out:
                 self.recent.pop(0)
         ekf = self.ekf
         if ekf is not None:
@@ -144,11 +147,8 @@ class HitTracker:
             bx, by = self.beacons[beacon]
             ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
                 ekf.hit(bx, by, self.var, self.gate)
-            if ok:
-                self.rejected = 0
-                return
-            self.rejected += 1
-            if self.rejected < self.lost_after:
+            self.verdicts.append(ok)
+            if ok or self.verdicts.count(False) < self.lost_after:
                 return
         fix = self.first_fix(e)
         if fix is not None:
@@ -166,7 +166,7 @@ class HitTracker:
             h = self.ekf.pose[2]
             self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
             self.restarts += 1
-        self.rejected = 0
+        self.verdicts.clear()
 
     def _labelled_fix(self, e: SensorEvent) -> tuple[float, float, float, None] | None:
         if e.kind != "hit" or e.beacon is None or not self.recent:
@@ -184,7 +184,7 @@ class HitTracker:
         begin = before[-1]
         duration = end - self.recent[begin][0]
         rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
-        if duration > TIME_OUT:
+        if duration > self.time_out:
             return None  # a pulse of the closing array itself went missing
         hits = self.recent[begin + 1:]
         times = [self.recent[begin][0]] + [t for t, _ in hits]
