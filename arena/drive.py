@@ -55,7 +55,8 @@ def turn_share(left: float, right: float) -> float:
 
 
 class DiffDrive:
-    """Wheel state and the control body that carries it into the physics."""
+    """Wheel state and the control body that carries it into the physics every `dt` s; with
+    the match's random `tree`, robot `slot`'s drive errors, else a perfect drive."""
 
     def __init__(self, space: pymunk.Space, body: pymunk.Body, model: RobotModel, dt: float,
                  tree: RandomTree | None = None, slot: int = 0):
@@ -96,7 +97,7 @@ class DiffDrive:
         self._rate = 0.0
         self._motion = (0.0, body.angle)
 
-    def command(self, left: float, right: float, tick: int = 0) -> None:
+    def command(self, left: float, right: float, tick: int) -> None:
         """Send wheel speed targets (m/s, clipped to the model's top speed) at physics tick
         `tick`; the wheels take them after the link's latency, in order."""
         top = self.model.max_wheel_speed
@@ -119,7 +120,7 @@ class DiffDrive:
             slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
             self.turn_factor = 1.0 - slip * turn_share(left, right)
 
-    def update(self, dt: float, heading: float, tick: int = 0) -> None:
+    def update(self, heading: float, tick: int) -> None:
         """Take the commands due at `tick`, ramp the wheels one physics step and set the control
         body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
         are not set again)."""
@@ -128,7 +129,7 @@ class DiffDrive:
             _, left, right = queue.popleft()
             self._take(left, right)
         if self.wheels != self.target:
-            dv = self.accel * dt
+            dv = self.accel * self.dt
             self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
         rate = (self.wheels[1] - self.wheels[0]) / self.track * self.turn_factor
         if rate != self._rate:

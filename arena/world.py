@@ -154,7 +154,7 @@ class World:
         """Advance the world one physics step. `state` then holds every robot's
         x, y and unwrapped heading, flat, read once per step for the drives and the sensing."""
         for drive, heading in zip(self.drives, self.state[2::3]):
-            drive.update(self.dt, heading, self.tick)
+            drive.update(heading, self.tick)
         self.space.step(self.dt)
         self.tick += 1
         self.state = self._read_state()

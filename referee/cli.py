@@ -169,7 +169,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--json", metavar="OUT", help="write the result JSON here")
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
     s.add_argument("--ideal", action="store_true",
-                   help="ideal sensors: no noise, no missed or false pulses, no quantization")
+                   help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors")
     s.add_argument("--in-process", action="store_true",
                    help="run the controllers inside this process (for a debugger); same results within budget")
     s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")

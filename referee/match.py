@@ -251,9 +251,9 @@ class Match:
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
               limits: ControllerLimits | None = None, logs: Path | None = None) -> dict:
-    """Run one match and return its result. `ideal` turns every sensor noise and failure off;
-    `isolate=False` runs the controllers inside this process instead of their own; `limits`
-    replaces the level's controller limits (NO_LIMITS for debugging); `logs` is a folder
-    for each controller's output (`slotN.log`), tracebacks included."""
+    """Run one match and return its result. `ideal` turns every sensor noise and failure and
+    every drive error off; `isolate=False` runs the controllers inside this process instead of
+    their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
+    `logs` is a folder for each controller's output (`slotN.log`), tracebacks included."""
     return Match(level, teams, seed, replay, ideal, isolate, limits, logs).run()
 

@@ -7,11 +7,12 @@ import statistics
 
 import pytest
 
+import levels
 from arena.level import DriveErrors, Pose
-from arena.loader import parse_level
+from arena.loader import load_level, parse_level
 from arena.rng import RandomTree
 from arena.world import World
-from referee.match import Match
+from referee.match import Match, run_match
 from referee.teams import resolve
 from conftest import MINI_LEVEL
 
@@ -336,3 +337,17 @@ def test_ideal_match_drives_perfectly_and_a_real_one_does_not():
         p = w.pose(0)
         on_line = abs(p.x - 2.0 - expected) < v * w.dt and abs(p.y - 2.0) < 1e-9 and abs(p.heading) < 1e-9
         assert on_line == ideal
+
+
+def test_blind_dead_reckoning_drifts_on_the_asabe_letters():
+    # ~15 m of path: a wheel-gain difference of about 1 % alone turns the heading by
+    # 0.01 * 15 / 0.105 ~ 1.4 rad over the run, so the blind estimate must be off by tens of
+    # centimetres, differently per seed; with a perfect drive it stays within a centimetre
+    level = load_level(levels.path("asabe"))
+    drifts = []
+    for seed in (1, 2):
+        loc = run_match(level, [resolve("ref:dead-reckoning")], seed=seed, isolate=False)["robots"][0]["localization"]
+        drifts.append(loc["position_rms"])
+    assert min(drifts) > 0.1 and drifts[0] != drifts[1]
+    ideal = run_match(level, [resolve("ref:dead-reckoning")], seed=1, isolate=False, ideal=True)
+    assert ideal["robots"][0]["localization"]["position_rms"] < 0.01

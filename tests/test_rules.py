@@ -22,7 +22,8 @@ def team(tmp_path, body, name="t.py"):
 
 
 def play(text, *teams):
-    return run_match(level(text), list(teams), isolate=False)
+    """A match with a perfect drive (ideal), so the fouls land where straight-line kinematics says."""
+    return run_match(level(text), list(teams), isolate=False, ideal=True)
 
 
 STRAIGHT = """
