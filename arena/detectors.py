@@ -1,8 +1,9 @@
 """Detector hardware models: which geometric crossings become events, and how wrong they are.
 
 Each model takes the crossings of one batch (already cleared of occlusion) and decides, with
-the seed's limits, which are detected; then the shared error sources act on the survivors:
-angle quantization, timing noise and clock quantization. Parameters and their seed figures
+the seed's limits and the optics of a finite beam on a finite detector, which are detected
+and when they fire; then the shared error sources act on the survivors: angle quantization,
+timing noise, clock quantization and Bac's merged measurements. Parameters and their seed figures
 are listed in docs/sensors.md; `ideal` turns every noise and failure source off.
 """
 
@@ -23,7 +24,7 @@ IDEAL_OVERRIDES: dict[str, float] = {
     "range": math.inf, "max_incidence": math.pi / 2, "clock_hz": 0.0,
     "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
     "beam_diameter": 0.0, "beam_divergence": 0.0, "aperture": 0.0, "trigger_fraction": 0.0,
-    "rise_time": 0.0, "acceptance": math.inf, "spin_coupling": 0.0,
+    "rise_time": 0.0, "acceptance": math.inf, "spin_coupling": 0.0, "spin_time": 0.0, "placement_error": 0.0,
 }
 
 
@@ -95,30 +96,52 @@ def flash_limit(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return p["near_incidence"] + slope * (d - p["near_range"])
 
 
-def optics(c: Crossings, inc: np.ndarray, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def sensitivity(kind: str, c: Crossings, inc: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+    """The detector's response at this incidence, relative to head-on (0..1).
+
+    A sensor array's phototransistors fall off as S = 2^-(incidence / acceptance)^2. Simi's
+    collector loses light with incidence ("a reduction in the laser beam intensity due to
+    poor reflectivity on the plexiglass and an increase in the number of ricochets"); its
+    response falls the same way, scaled so that it just reaches the trigger threshold at the
+    measured limit (flash_limit): S = S_limit^((incidence / limit)^2)."""
+    if kind == "flash_detector" and p.get("trigger_fraction", 0.0) > 0:
+        limit = flash_limit(c.distance, p)
+        w = spot_width(c.distance, p)
+        a = p.get("aperture", 0.0) * np.cos(limit)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_limit = np.minimum(1.0, p["trigger_fraction"] / np.where(w > a, a / w, 1.0))
+            return np.where(limit > 0, s_limit ** ((inc / limit) ** 2), 0.0)
+    acc = p.get("acceptance", math.inf)
+    return np.exp2(-(inc / acc) ** 2) if math.isfinite(acc) else np.ones(len(inc))
+
+
+def spot_width(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+    """The beam's width at this range: exit diameter plus full divergence x range."""
+    return p.get("beam_diameter", 0.0) + p.get("beam_divergence", 0.0) * distance
+
+
+def optics(c: Crossings, inc: np.ndarray, sens: np.ndarray, p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """A beam of finite width sweeping a detector of finite width: (detected, time offset).
 
-    The spot is a top-hat of width w = beam_diameter + beam_divergence x range; the detector
-    presents aperture x cos(incidence) across it and answers with a relative sensitivity
-    S = 2^-(incidence / acceptance)^2. As the spot sweeps at v = |beam rate| x range the light
-    on the detector (a fraction of the beam) rises with the overlap; the comparator fires
-    when it reaches `trigger_fraction`, at overlap x = trigger_fraction w / S. The pulse needs
-    that much light at all, and for at least `rise_time` (Simi's sizing rule); it fires
-    x - (w + a) / 2 of travel before the spot is centred on the detector, which is the time
-    offset returned (negative: early). Zero widths give the exact crossing."""
+    The spot is a top-hat of width w (spot_width); the detector presents aperture x
+    cos(incidence) across it and answers with relative sensitivity `sens`. As the spot
+    sweeps at v = |beam rate| x range, the light on the detector (a fraction of the beam)
+    rises with the overlap; the comparator fires when it reaches `trigger_fraction`, at an
+    overlap x = trigger_fraction w / sens. The pulse needs that much light at all, and for
+    at least `rise_time` (Simi's sizing rule); it fires x - (w + a) / 2 of travel before the
+    spot is centred on the detector: the time offset returned (negative: early). Zero widths
+    give the exact crossing."""
     r = c.distance
     v = np.abs(c.beam_rate) * r
-    w = p.get("beam_diameter", 0.0) + p.get("beam_divergence", 0.0) * r
+    w = spot_width(r, p)
     a = p.get("aperture", 0.0) * np.cos(inc)
-    acc = p.get("acceptance", math.inf)
-    sens = np.exp2(-(inc / acc) ** 2) if math.isfinite(acc) else np.ones(len(c))
     eta = p.get("trigger_fraction", 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         peak = sens * np.where(w > a, a / w, 1.0)  # beam fraction on the detector at full overlap
         x = np.where(sens > 0, eta * w / sens, np.inf)
         dwell = (w + a - 2 * x) / v
         offset = np.where(v > 0, (x - (w + a) / 2) / v, 0.0)
-    ok = (peak >= eta) & (sens > 0) & (dwell >= p.get("rise_time", 0.0))
+    ok = (peak >= eta * (1 - 1e-9)) & (sens > 0) & (dwell >= p.get("rise_time", 0.0))
     return ok, np.where(ok, offset, 0.0)
 
 
@@ -147,21 +170,16 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
-def mix64(z: np.ndarray) -> np.ndarray:
-    """SplitMix64's finaliser: a counter-based hash, so a draw keyed by (robot, turn) is the
-    same whichever control period the turn's pulses fall in."""
-    z = z.astype(np.uint64)
-    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
-
-
-def unit_draws(key: int, robot: np.ndarray, turn: np.ndarray, salt: int) -> np.ndarray:
-    """Uniform draws in [0, 1), one per (key, robot, turn, salt), vectorised."""
+def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """64 random bits per (match key, robot, revolution), vectorised: SplitMix64's finaliser,
+    a counter-based hash, so a revolution's draw does not depend on which control period its
+    pulses fall in."""
     with np.errstate(over="ignore"):
         z = (np.uint64(key) + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03) + np.uint64(salt))
-        return (mix64(z) >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03))
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
 
 
 def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray,
@@ -177,8 +195,9 @@ def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray,
     left alone (its time was already delivered)."""
     if rate <= 0 or len(times) < 2:
         return times
-    merged = unit_draws(key, robot, turn, 1) < rate
-    victim = np.floor(unit_draws(key, robot, turn, 2) * n_beacons).astype(np.int64) == beacon
+    h = revolution_hash(key, robot, turn)
+    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0 ** -53 < rate  # the high 53 bits
+    victim = (h & np.uint64(0x7FF)).astype(np.int64) % n_beacons == beacon  # the low 11
     has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
     hit = np.nonzero(merged & victim & has_pred)[0]
     out = times.copy()

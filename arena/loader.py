@@ -33,8 +33,9 @@ COMMON_PARAMS: dict[str, tuple[str, float]] = {
     "timing_noise": ("number", 0.0),  # s, std of the event clock
     "wobble": ("number", 0.0),  # relative std of the laser spin rate
     "wobble_time": ("number", 1.0),  # s, correlation time of the wobble
+    "placement_error": ("length", 0.0),  # how far a beacon may really stand from its map position
     "spin_coupling": ("number", 0.0),  # steady loss of relative spin rate per unit body yaw rate
-    "spin_time": ("number", 0.05),  # s, time the laser motor takes to recover from a turn
+    "spin_time": ("number", 0.0),  # s, time the laser motor takes to recover from a turn; 0 = it never lags
 }
 # A finite beam sweeping a finite detector (docs/sensors.md, "Optics").
 OPTICS_PARAMS: dict[str, tuple[str, float]] = {

@@ -2,9 +2,10 @@
 
 `record()` runs after every physics step and only stores each robot's pose (cheap);
 `flush()` runs at each control tick and turns the steps since the last tick into
-detections, all at once and vectorized: laser phases (with speed wobble), exact crossing
-times (arena.laser), occlusion by other robots at the crossing instant and by obstacles,
-the detector model of the level's beacon kind, index clicks, and the random errors.
+detections, all at once and vectorized: laser phases (with speed wobble and the lag when the
+body turns), exact crossing times (arena.laser), occlusion by other robots' silhouettes at
+the crossing instant and by obstacles, the detector model of the level's beacon kind (its
+optics set when each pulse fires, or whether it does), index clicks, and the random errors.
 """
 
 from __future__ import annotations
@@ -32,8 +33,13 @@ class Sensing:
         self.crosstalk = level.beacons.crosstalk
         items = level.beacons.items
         self.ids = [b.id for b in items]
-        self.bx = np.array([b.x for b in items])
-        self.by = np.array([b.y for b in items])
+        # where the detectors really are: the map's coordinates, off by the surveying error
+        # (uniform in a disc of radius `placement_error`, drawn once per match)
+        g = rng.stream("beacons", "placement")
+        spread = self.params.get("placement_error", 0.0) * np.sqrt(g.random(len(items)))
+        angle = TWO_PI * g.random(len(items))
+        self.bx = np.array([b.x for b in items]) + spread * np.cos(angle)
+        self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
         self.facing = np.array([b.facing for b in items])
         self.beacon_radius = level.beacons.radius
         robots = level.robots
@@ -108,8 +114,8 @@ class Sensing:
             w = first_order(a, self.wobble, math.sqrt(1 - a * a) * sigma * noise)
             rate *= 1.0 + w
             self.wobble = w[-1]
-        coupling = p.get("spin_coupling", 0.0)
-        if coupling > 0:
+        if p.get("spin_time", 0.0) > 0:
+            coupling = p.get("spin_coupling", 0.0)
             body = np.diff(heading, axis=0) / self.dt
             change = np.diff(np.vstack([self.body_rate, body]), axis=0)
             a = math.exp(-self.dt / p["spin_time"])
@@ -164,15 +170,18 @@ class Sensing:
         p = self.params
         times = c.t
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
-            ok, offset = det.optics(c, det.incidence(c, self.facing), p)
+            inc = det.incidence(c, self.facing)
+            ok, offset = det.optics(c, inc, det.sensitivity(self.kind, c, inc, p), p)
             c = c.take(np.nonzero(ok)[0])
             times = c.t + offset[ok]
         window = (traj.t[0], traj.t[-1])
         for r in np.unique(c.robot):
             mine = np.nonzero(c.robot == r)[0]
             times[mine] = det.jitter(np.maximum(times[mine], window[0]), p, self.rng["timing"][r], window)
+        # the laser's relative phase at the instant the detector fires (an encoder latches it)
+        phase = c.phi + (times - c.t) * self.omega[c.robot]
         order = np.lexsort((c.beacon, times, c.robot))
-        c, times = c.take(order), det.counter_clock(times[order], p)
+        c, phase, times = c.take(order), phase[order], det.counter_clock(times[order], p)
         robot = c.robot  # sorted by robot, time, beacon
         if self.kind == "sensor_array":
             turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
@@ -180,7 +189,7 @@ class Sensing:
                                            self.merge_key)
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
-        angles = det.quantize_angle(c.phi, steps).tolist() if latched else [None] * len(c)
+        angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * len(c)
         labels = [self.ids[b] for b in c.beacon.tolist()] if self.kind != "reflector" else [None] * len(c)
         shared = self.crosstalk == "shared"
         beams = zip(c.x.tolist(), c.y.tolist(), self.bx[c.beacon].tolist(), self.by[c.beacon].tolist())
@@ -196,7 +205,10 @@ class Sensing:
         time; a sensor array's false pulse carries the label of an array drawn uniformly."""
         g = self.rng["false"][r]
         t0, t1 = traj.t[0], traj.t[-1]
-        times = np.sort(g.uniform(t0, t1, size=g.poisson(self.params["false_rate"] * (t1 - t0))))
+        count = g.poisson(self.params["false_rate"] * (t1 - t0))
+        if not count:
+            return
+        times = np.sort(g.uniform(t0, t1, size=count))
         if self.kind == "sensor_array":
             labels = g.integers(len(self.ids), size=len(times))
             for t, b in zip(det.counter_clock(times, self.params).tolist(), labels.tolist()):

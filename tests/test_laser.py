@@ -176,3 +176,52 @@ def test_obstacle_blocks_the_beam():
     w = make(obstacles="obstacles:\n  - {kind: circle, center: [1.0, 0.8], radius: 0.1}")
     (events,), _ = sense(w, 3.0)
     assert hits(events, "P") == [] and len(hits(events, "R")) >= 9
+
+
+def test_only_the_silhouette_at_beam_height_blocks():
+    # robot 1's footprint (105 x 95 mm) straddles the line from robot 0 to P, 35 mm from its
+    # centre; its silhouette in the laser plane (a 20 mm mast) does not reach the line
+    p0, b = (1.7, 1.2), (0.2, 0.3)
+    n = np.array([b[1] - p0[1], p0[0] - b[0]]) / math.dist(p0, b)  # unit normal to the line
+    centre = np.array([0.95, 0.75]) + 0.035 * n
+    start = f"[{centre[0]:.6f}, {centre[1]:.6f}, 0]"
+    w = make(robots=ONE + f"\n  - {{model: boe-bot, start: {start}}}")
+    m = w.level.robots[1].model
+    rel = np.array([0.95, 0.75]) - centre
+    assert abs(rel[0]) < m.length / 2 and abs(rel[1]) < m.width / 2  # the line crosses the footprint
+    assert m.silhouette_radius < 0.035
+    events, _ = sense(w, 3.0)
+    assert len(hits(events[0], "P")) >= 9
+    # a level may give a model a wider silhouette (a tall housing): then it blocks
+    w = make(robots=ONE + f"\n  - {{model: boe-bot, start: {start}, silhouette: 0.04}}")
+    events, _ = sense(w, 3.0)
+    assert hits(events[0], "P") == [] and len(hits(events[0], "Q")) >= 9
+
+
+def test_the_laser_lags_when_the_body_starts_turning():
+    # Bac: "the laser angular velocity was not constant while the robot turned". The rotor
+    # keeps its world rate when the body starts to spin, then the motor restores its relative
+    # rate (time constant tau) to omega - c x body rate: the beam's world rate ends at
+    # omega + (1 - c) x body rate.
+    omega, c, tau = 20.0, 0.5, 0.05
+    params = f"  params: {{spin_coupling: {c}, spin_time: {tau}}}"
+    w = make(params=params)
+    (events,), poses = sense(w, 4.0, commands=[(-0.2, 0.2)], ideal=False)
+    spin = (poses[-1, 0, 2] - poses[-241, 0, 2])  # rad/s over the last second (steady by then)
+    times = np.array([e.time for e in hits(events, "P")])
+    gaps = np.diff(times[times > 2.0])
+    assert np.allclose(gaps, 2 * math.pi / (omega + (1 - c) * spin), rtol=2e-3)
+    (ideal,), _ = sense(make(params=params), 4.0, commands=[(-0.2, 0.2)], ideal=True)
+    times = np.array([e.time for e in hits(ideal, "P")])
+    assert np.allclose(np.diff(times[times > 2.0]), 2 * math.pi / (omega + spin), rtol=2e-3)
+
+
+def test_first_order_closed_form_matches_the_recursion():
+    from arena.sensing import first_order
+    rng = np.random.default_rng(3)
+    a, y0, drive = 0.93, np.array([0.4, -1.0]), rng.normal(size=(50, 2))
+    want, y = [], y0.copy()
+    for k in range(50):
+        y = a * y + drive[k]
+        want.append(y.copy())
+    assert np.allclose(first_order(a, y0, drive), want, rtol=1e-9, atol=1e-12)
