@@ -64,10 +64,14 @@ def test_goto_controllers_reach_their_goal(level):
 # ---- the paper's own method reproduces the paper's figures ------------------------------
 
 def test_bac_seed_static_precision_of_table_1():
-    # Table 1: correct measurements std 1.7 mm in x and y, robot standing at (1.16, 0.53) m
+    # Table 1: the std of the correct measurements is 1.7 mm in x and y, the robot standing at
+    # (1.16, 0.53) m; "the number of filtered errors varied between 1% and 3.7%", so a few
+    # wrong positions may pass the paper's filter: at most 3.7 % of the reports
     pairs = traced("bac-static", "ref:bac-seed")
-    xs = [e[0] for e, _ in pairs[10:]]
-    ys = [e[1] for e, _ in pairs[10:]]
+    good = [e for e, _ in pairs[10:] if math.dist(e[:2], (1.16, 0.53)) < 0.02]
+    assert len(good) >= (1 - 0.037) * len(pairs[10:])
+    xs = [e[0] for e in good]
+    ys = [e[1] for e in good]
     sx, sy = statistics.pstdev(xs), statistics.pstdev(ys)
     assert 0.3e-3 < sx < 5e-3 and 0.3e-3 < sy < 5e-3, (sx, sy)  # "of the order of" 1.7 mm
     assert abs(statistics.mean(xs) - 1.16) < 3e-3 and abs(statistics.mean(ys) - 0.53) < 3e-3

@@ -38,6 +38,8 @@ TRAVEL = 0.03  # m driven before the direction of travel is trusted
 MAX_TRAVEL_TURN = 0.15  # rad: a stretch that turned more than this is not a straight line
 APPROACH = 1.5  # 1/s: the speed (m/s) is at most this times the distance (m) to the waypoint
 CREEP = 0.03  # m/s: the slowest speed, well above the servos' dead band
+WINDOW = 1.0  # laser revolutions of hits in one fix (longer: more hits, but more motion in them)
+STEER = 1.5  # rad/s of turn per rad of heading error while driving
 SPIN_ABOVE = 0.5  # rad: heading errors above this turn on the spot
 MAX_JUMP = 0.10  # m: a fix further than this from the estimate needs a second one to agree
 
@@ -139,7 +141,8 @@ class Starter(Controller):
 
     def _localize(self, observation: Observation) -> None:
         self.hits += [(e.time, e.beacon) for e in observation.events if e.kind == "hit" and e.beacon]
-        self.hits = [h for h in self.hits if h[0] > observation.time - self.period]
+        # the hits of the last revolution: every beacon once
+        self.hits = [h for h in self.hits if h[0] > observation.time - WINDOW * self.period]
         # the beam turns at the laser's rate plus the robot's own turn rate; while we turn
         # hard that rate is poorly known, so we dead-reckon through turns instead
         turn = (self.wheels[1] - self.wheels[0]) / self.brief.robot.track
@@ -189,8 +192,12 @@ class Starter(Controller):
         if abs(error) > SPIN_ABOVE:  # turn on the spot, slowing as the error shrinks
             w = max(-0.5 * top / half, min(0.5 * top / half, 0.5 * error / period))
             return -w * half, w * half
-        # slow down into each waypoint: a robot that overshoots may end against a wall
-        v, w = min(0.7 * top, max(CREEP, APPROACH * math.dist((x, y), (tx, ty)))), 0.5 * error / period
+        v, w = 0.7 * top, STEER * error
+        nxt = self.path[self.target + 1] if self.target + 1 < len(self.path) else None
+        if nxt is None or abs(wrap(math.atan2(nxt[1] - ty, nxt[0] - tx) - h)) > SPIN_ABOVE:
+            # slow down into a waypoint where we must turn on the spot (or stop): a robot
+            # that overshoots it may end up against a wall
+            v = min(v, max(CREEP, APPROACH * math.dist((x, y), (tx, ty))))
         return max(-top, min(top, v - w * half)), max(-top, min(top, v + w * half))
 
     def _predict(self, left: float, right: float) -> None:
