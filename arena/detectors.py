@@ -170,6 +170,14 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
+def first_tick_after(t: float, p: Mapping[str, float]) -> float:
+    """The earliest time after `t` that the event clock can read (the next counter tick, or
+    the next float if there is no counter)."""
+    if p.get("clock_hz", 0.0) > 0:
+        return (math.floor(t * p["clock_hz"] + 1e-6) + 1) / p["clock_hz"]
+    return math.nextafter(t, math.inf)
+
+
 def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """64 random bits per (match key, robot, revolution), vectorised: SplitMix64's finaliser,
     a counter-based hash, so a revolution's draw does not depend on which control period its

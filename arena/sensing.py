@@ -183,6 +183,9 @@ class Sensing:
         order = np.lexsort((c.beacon, times, c.robot))
         c, phase, times = c.take(order), phase[order], det.counter_clock(times[order], p)
         robot = c.robot  # sorted by robot, time, beacon
+        # a pulse that fired early, before this period began, is read at the counter's first
+        # tick inside it: the previous period's events are delivered already
+        times = np.maximum(times, det.first_tick_after(window[0], p))
         if self.kind == "sensor_array":
             turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
             times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"],
@@ -270,6 +273,12 @@ class Sensing:
 
 def first_order(a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
     """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, in closed form (vectorised
-    over the steps): y[k] = a^k (y0 + sum_j<=k a^-j drive[j])."""
+    over the steps): y[k] = a^k (y0 + sum_j<=k a^-j drive[j]). A time constant so short that
+    a^k underflows within the batch takes the step-by-step recursion instead."""
+    if a ** len(drive) < 1e-150:
+        out, y = np.empty_like(drive), y0
+        for k in range(len(drive)):
+            y = out[k] = a * y + drive[k]
+        return out
     powers = a ** np.arange(1, len(drive) + 1)[:, None]
     return powers * (y0 + np.cumsum(drive / powers, axis=0))

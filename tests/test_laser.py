@@ -219,9 +219,10 @@ def test_the_laser_lags_when_the_body_starts_turning():
 def test_first_order_closed_form_matches_the_recursion():
     from arena.sensing import first_order
     rng = np.random.default_rng(3)
-    a, y0, drive = 0.93, np.array([0.4, -1.0]), rng.normal(size=(50, 2))
-    want, y = [], y0.copy()
-    for k in range(50):
-        y = a * y + drive[k]
-        want.append(y.copy())
-    assert np.allclose(first_order(a, y0, drive), want, rtol=1e-9, atol=1e-12)
+    for a in (0.93, 1e-4):  # the second underflows a^k: a time constant far below a step
+        y0, drive = np.array([0.4, -1.0]), rng.normal(size=(50, 2))
+        want, y = [], y0.copy()
+        for k in range(50):
+            y = a * y + drive[k]
+            want.append(y.copy())
+        assert np.allclose(first_order(a, y0, drive), want, rtol=1e-9, atol=1e-12)
