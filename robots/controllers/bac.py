@@ -37,7 +37,8 @@ from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
 CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
-PEAK = 0.17  # m/s: the fused controller's straight-line speed, the peak of the line run ("The peak velocity of the robot was 0.17 m/s")
+# m/s: the fused controller's straight-line speed, the line run's "peak velocity of the robot was 0.17 m/s"
+PEAK = 0.17
 CREEP = 0.03  # m/s: the slowest straight-line speed, well above the servos' dead band
 SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BOE-bot)
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
@@ -187,19 +188,27 @@ class Bac(Controller):
             self.turning = None
             return 0.0, 0.0
         tx, ty = self.path[self.target]
-        wheels, top = self.tracker.wheels, self.brief.robot.max_wheel_speed
         error = wrap(math.atan2(ty - y, tx - x) - h)  # the turn still to make, from now
         if self.turning is not None and abs(self.turning) == 1 and abs(error) > SPIN:
             self.turning = int(math.copysign(2, error))  # a pivot that fell behind becomes a spin
         cruise = self._speed(x, y, h, within)
-        settling = heading_change(wheels, [(0.0, cruise, cruise)], top)  # what driving straight on still turns
+        # what driving straight on still turns, as the wheels settle
+        settling = heading_change(self.tracker.wheels, [(0.0, cruise, cruise)], self.brief.robot.max_wheel_speed)
         if self.turning is None:
             left = wrap(error - settling)
             near = math.dist((x, y), (tx, ty)) < 2 * within  # where a small offset is a large angle
             if abs(left) <= DEAD_BAND or (near and abs(left) <= SPIN):
                 return cruise, cruise
             self.turning = int(math.copysign(1 if abs(left) <= SPIN else 2, left))
-        mode = self.turning
+        return self._turn(error, cruise)
+
+    def _turn(self, error: float, cruise: float) -> tuple[float, float]:
+        """The wheel command of the turn in progress for this control period. Its strength s
+        (0..1) is solved so that this period plus the ramp back to driving straight at `cruise`
+        turns exactly `error` (rad, from now) on the nominal wheel model; a turn longer than
+        that goes at full strength and is solved again at the next tick."""
+        mode, wheels, top = self.turning, self.tracker.wheels, self.brief.robot.max_wheel_speed
+        period = self.brief.control_period
 
         def command(s: float) -> tuple[float, float]:
             if abs(mode) == 1:  # pivot: the inner wheel slows to a halt at s = 1
@@ -208,13 +217,11 @@ class Bac(Controller):
                 inner, outer = -SPIN_SPEED * s, SPIN_SPEED * s
             return (inner, outer) if mode > 0 else (outer, inner)
 
-        period = self.brief.control_period
-
         def turned(s: float) -> float:  # signed along the turn's direction
             return math.copysign(1, mode) * heading_change(wheels, [(period, *command(s)), (0.0, cruise, cruise)], top)
 
         want = math.copysign(1, mode) * error
-        if turned(1.0) <= want:  # more than one period's worth: full rate, and again next tick
+        if turned(1.0) <= want:
             return command(1.0)
         self.turning = None  # the turn ends within this period and the ramp back to straight
         lo, hi = 0.0, 1.0
