@@ -60,8 +60,8 @@ class HitTracker:
     drive may stray from its commands in heading. `first_fix` replaces the labelled
     revolution fix for starts and restarts."""
 
-    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8, window: int = 16,
-                 q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
+    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
+                 window: int = 16, q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
                  track_check: float = 0.02, heading_check: float = 0.5, first_fix: FirstFix | None = None):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
@@ -108,15 +108,21 @@ class HitTracker:
             self._advance(e.time)
             self._event(e)
         self._advance(now)
-        if self.run_from is not None and self.ekf is not None:
-            x, y, h = self.ekf.pose
-            if math.dist((x, y), self.run_from) > self.track_check:
-                travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
-                if abs(wrap(travel - h)) > self.heading_check:
-                    self.ekf = self._filter(x, y, travel, wrap(h + self.ekf.s[3] - travel), var_xy=float(self.ekf.P[0, 0]),
-                                            var_heading=0.05, var_sum=1e-4)
-                    self.restarts += 1
-                self.run_from = (x, y)
+        self._check_heading()
+
+    def _check_heading(self) -> None:
+        """Bac's heading from consecutive positions, as a check on the filter's heading."""
+        if self.run_from is None or self.ekf is None:
+            return
+        x, y, h = self.ekf.pose
+        if math.dist((x, y), self.run_from) <= self.track_check:
+            return
+        travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
+        if abs(wrap(travel - h)) > self.heading_check:  # keep the beam's world angle, turn the heading
+            self.ekf = self._filter(x, y, travel, wrap(h + self.ekf.s[3] - travel), var_xy=float(self.ekf.P[0, 0]),
+                                    var_heading=0.05, var_sum=1e-4)
+            self.restarts += 1
+        self.run_from = (x, y)
 
     def _filter(self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float,
                 var_sum: float) -> BearingEKF:
