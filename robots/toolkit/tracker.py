@@ -12,7 +12,9 @@ three levels:
 - the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
   merged pulse at another time, a pulse from a turning laser that the model does not follow);
 - when hits keep failing the gate (half of the last `window` or more: the robot was pushed,
-  or slipped more than the filter allows), the tracker restarts from a closed-form fix. For labelled hits that is the
+  or slipped more than the filter allows), or when every closed-form fix for over a
+  revolution, the robot not turning, disagrees with the filter by more than 25 mm plus a revolution's travel (a filter that explains the
+  pulses with a wrong laser phase and position), the tracker restarts from a closed-form fix. For labelled hits that is the
   fix of the last revolution that passes
   Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
   130 ms time-out (scaled to the laser's rate); its time must agree with the laser's period within its smallest pulse
@@ -43,6 +45,7 @@ from robots.toolkit.steering import wrap
 # "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
 # same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
 TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
+STEADY_TURN = 0.3  # rad/s: turning slower, a closed-form fix may check the filter
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
 
 
@@ -75,6 +78,10 @@ class HitTracker:
         self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
         self.verdicts: deque[bool] = deque(maxlen=window)  # the last hits: did they pass the gate?
         self.restarts = 0
+        # a closed-form fix this far from the filter is a disagreement (a fix averages a
+        # revolution's motion, so the margin grows by one revolution's travel at top speed)
+        self.fix_check = 0.025 + self.top * self.period
+        self.disagree_since: float | None = None  # since when every closed-form fix disagrees
         self.track_check, self.heading_check = track_check, heading_check
         self.first_fix = first_fix or self._labelled_fix
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
@@ -141,24 +148,36 @@ class HitTracker:
             self.recent.append((e.time, e.beacon))
             while self.recent[0][0] < e.time - 2 * self.time_out:
                 self.recent.pop(0)
-        ekf = self.ekf
-        if ekf is not None:
-            if e.kind == "index":
-                ekf.index(self.var, self.gate)
-                return  # a click is no evidence of being lost or not
-            if e.beacon is None:  # unlabelled: the beacon the beam should be pointing at
-                beacon = min(self.beacons, key=lambda k: abs(ekf.predicted_bearing(*self.beacons[k])))
-            else:
-                beacon = e.beacon
-            bx, by = self.beacons[beacon]
-            ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
-                ekf.hit(bx, by, self.var, self.gate)
-            self.verdicts.append(ok)
-            if ok or self.verdicts.count(False) < self.lost_after:
-                return
+        lost = self.ekf is None or not self._update(e)
         fix = self.first_fix(e)
-        if fix is not None:
+        if fix is None:
+            return
+        if lost:
             self.restart(*fix)
+        elif abs(self.turn_rate) > STEADY_TURN or math.dist(fix[:2], self.ekf.pose[:2]) <= self.fix_check:
+            self.disagree_since = None  # agreed, or turning: the laser lags its motor, fixes are poor
+        elif self.disagree_since is None:
+            self.disagree_since = e.time
+        elif e.time - self.disagree_since > self.period:
+            # every fix far off for over a revolution: not one bad pulse shared by a few
+            # overlapping revolutions, but a filter that is wrong
+            self.restart(*fix)
+
+    def _update(self, e: SensorEvent) -> bool:
+        """The EKF update for one event; False once the filter is lost."""
+        ekf = self.ekf
+        if e.kind == "index":
+            ekf.index(self.var, self.gate)
+            return True  # a click is no evidence of being lost or not
+        if e.beacon is None:  # unlabelled: the beacon the beam should be pointing at
+            beacon = min(self.beacons, key=lambda k: abs(ekf.predicted_bearing(*self.beacons[k])))
+        else:
+            beacon = e.beacon
+        bx, by = self.beacons[beacon]
+        ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
+            ekf.hit(bx, by, self.var, self.gate)
+        self.verdicts.append(ok)
+        return ok or self.verdicts.count(False) < self.lost_after
 
     def restart(self, x: float, y: float, beam: float, heading: float | None = None) -> None:
         """(Re)start the filter at (x, y) with the beam's world angle `beam` now, and the
@@ -173,6 +192,7 @@ class HitTracker:
             self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
             self.restarts += 1
         self.verdicts.clear()
+        self.disagree_since = None
 
     def _labelled_fix(self, e: SensorEvent) -> tuple[float, float, float, None] | None:
         if e.kind != "hit" or e.beacon is None or not self.recent:
