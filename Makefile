@@ -6,18 +6,18 @@
 PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || echo python3)
 VENV   := .venv
 PY     := $(VENV)/bin/python
-SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' 2>/dev/null)
+SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' -o -name '*.yaml' -o -name '*.html' -o -name '*.js' 2>/dev/null)
 export SDL_VIDEODRIVER ?= dummy
 export SDL_AUDIODRIVER ?= dummy
 
-.PHONY: demo test bench clean
+.PHONY: demo test bench fidelity clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
 
 $(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet '.[test,dask]'
+	$(PY) -m pip install --quiet '.[test,dask,rl]'
 	touch $@
 
 demo: $(VENV)/.installed
@@ -31,6 +31,9 @@ test: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/all.py --json out/bench.json
+
+fidelity: $(VENV)/.installed
+	$(VENV)/bin/python benchmarks/fidelity.py --out docs/fidelity.md
 
 clean:
 	rm -rf $(VENV) out build *.egg-info

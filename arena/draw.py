@@ -6,11 +6,9 @@ hits, paths and waypoints, debug drawings, and a HUD. Works on any surface, head
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-import pygame  # noqa: E402
+import pygame
 
 from arena.level import Level
 
@@ -18,7 +16,8 @@ PALETTE = [(230, 80, 60), (60, 140, 230), (60, 180, 90), (220, 170, 40), (170, 9
 BACKGROUND, FIELD, WALL, OBSTACLE = (24, 26, 30), (236, 232, 220), (70, 70, 76), (120, 110, 100)
 BEACON = {"reflector": (210, 40, 40), "sensor_array": (30, 90, 200), "flash_detector": (200, 120, 20),
           "light": (250, 210, 40)}
-HUD_HEIGHT = 56
+HUD_HEIGHT = 56  # the least: a title line, one line per robot, the timeline
+HUD_TEXT, OVERLAY, OVERLAY_TEXT = (235, 235, 235), (16, 18, 24), (250, 250, 250)
 
 
 @dataclass(frozen=True)
@@ -60,13 +59,15 @@ class Painter:
         self.size = size
         w, h = size
         f = level.field
-        margin = max(12, min(w, h) // 30)
-        self.scale = min((w - 2 * margin) / f.size[0], (h - HUD_HEIGHT - 2 * margin) / f.size[1])
-        self.ox = (w - f.size[0] * self.scale) / 2 - f.xmin * self.scale
-        self.oy = HUD_HEIGHT + (h - HUD_HEIGHT - f.size[1] * self.scale) / 2 + f.ymax * self.scale
         pygame.font.init()
         self.font = pygame.font.Font(None, max(16, h // 36))
         self.small = pygame.font.Font(None, max(13, h // 48))
+        self.line = self.font.get_linesize() + 2
+        self.hud_height = max(HUD_HEIGHT, 6 + (1 + len(level.robots)) * self.line + 14)
+        margin = max(12, min(w, h) // 30)
+        self.scale = min((w - 2 * margin) / f.size[0], (h - self.hud_height - 2 * margin) / f.size[1])
+        self.ox = (w - f.size[0] * self.scale) / 2 - f.xmin * self.scale
+        self.oy = self.hud_height + (h - self.hud_height - f.size[1] * self.scale) / 2 + f.ymax * self.scale
         self.px = max(1, round(self.scale * 0.004))  # a line width that stays visible at any size
 
     def to_screen(self, x: float, y: float) -> tuple[int, int]:
@@ -169,18 +170,42 @@ class Painter:
 
     def _hud(self, surface: pygame.Surface, scene: Scene) -> None:
         w, _ = self.size
-        pygame.draw.rect(surface, (40, 42, 48), (0, 0, w, HUD_HEIGHT))
-        for i, line in enumerate(scene.hud[:2]):
-            surface.blit(self.font.render(line, True, (235, 235, 235)), (10, 6 + i * (HUD_HEIGHT // 2 - 4)))
+        pygame.draw.rect(surface, (40, 42, 48), (0, 0, w, self.hud_height))
+        for i, line in enumerate(scene.hud[:1 + len(self.level.robots)]):
+            c = HUD_TEXT if i == 0 else _mix(color(i - 1), HUD_TEXT, 0.45)  # a robot's line in its colour
+            surface.blit(self.font.render(line, True, c), (10, 6 + i * self.line))
         if scene.timeline:
             now, marks, duration = scene.timeline
-            y = HUD_HEIGHT - 6
+            y = self.hud_height - 6
             pygame.draw.line(surface, (110, 110, 120), (10, y), (w - 10, y), 3)
             span = max(duration, 1e-9)
             for m in marks:  # fouls
                 x = 10 + (w - 20) * m / span
                 pygame.draw.line(surface, (240, 80, 60), (x, y - 6), (x, y + 2), 2)
             pygame.draw.circle(surface, (250, 250, 250), (10 + (w - 20) * min(now, span) / span, y), 5)
+
+
+def help_box(surface: pygame.Surface, title: str, rows: tuple[tuple[str, str], ...],
+             font: pygame.font.Font) -> pygame.Rect:
+    """A dark box in the middle of the surface: a title, then (key, what it does) rows in two
+    columns (the viewer's key help). Returns where it was drawn."""
+    head = font.render(title, True, OVERLAY_TEXT)
+    keys = [font.render(k, True, OVERLAY_TEXT) for k, _ in rows]
+    texts = [font.render(t, True, OVERLAY_TEXT) for _, t in rows]
+    column = max(k.get_width() for k in keys) + 24
+    line = font.get_linesize() + 4
+    box = pygame.Rect(0, 0, max(head.get_width(), column + max(t.get_width() for t in texts)) + 40,
+                      line * (len(rows) + 1) + 36)
+    box.center = surface.get_rect().center
+    shade = pygame.Surface(box.size, pygame.SRCALPHA)
+    shade.fill((*OVERLAY, 225))
+    surface.blit(shade, box.topleft)
+    surface.blit(head, (box.left + 20, box.top + 15))
+    for i, (k, t) in enumerate(zip(keys, texts)):
+        y = box.top + 21 + line * (i + 1)
+        surface.blit(k, (box.left + 20, y))
+        surface.blit(t, (box.left + 20 + column, y))
+    return box
 
 
 def _mix(a: tuple[int, int, int], b: tuple[int, int, int], t: float) -> tuple[int, int, int]:

@@ -207,6 +207,10 @@ class Level:
     rules: Rules = Rules()
     text: str = ""  # the file's text, so a replay can carry its level whole
 
+    def __deepcopy__(self, memo: dict) -> Level:
+        """A Level is immutable all the way down: a deep copy is itself (Gymnasium's make copies its kwargs)."""
+        return self
+
     @property
     def dt(self) -> float:
         return 1.0 / self.physics_rate

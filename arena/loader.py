@@ -10,13 +10,18 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-from dataclasses import dataclass, replace
+import re
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Callable
 
 import yaml
 
+import levels
+
+from arena import level_checks
+from arena.errors import LaserArenaError
 from arena.level import (
     Beacon, Beacons, ControllerLimits, DriveErrors, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules,
     Task,
@@ -77,7 +82,7 @@ BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
 DEFAULT_BEACON_RADIUS = 0.02  # m
 
 
-class LevelError(Exception):
+class LevelError(LaserArenaError):
     """A level file problem, printed as one line: `file:line: key: message`."""
 
     def __init__(self, source: str, line: int | None, key: str, message: str):
@@ -86,7 +91,7 @@ class LevelError(Exception):
 
     def __str__(self) -> str:
         where = f"{self.source}:{self.line}" if self.line else self.source
-        return f"{where}: {self.key}: {self.message}"
+        return f"{where}: {self.key}: {self.message}" if self.key else f"{where}: {self.message}"
 
 
 @dataclass
@@ -277,6 +282,18 @@ def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]
 
 # ---- the level ------------------------------------------------------------------------------
 
+def find_level(name: str) -> Level:
+    """Load a level by path, or by built-in name (`asabe`); `LevelError` if there is neither."""
+    p = Path(name)
+    if p.is_file():
+        return load_level(p)
+    if name in levels.names():
+        return load_level(levels.path(name), display=f"levels/{name}.yaml")
+    if p.suffix in (".yaml", ".yml") or p.parent != Path("."):
+        return load_level(p)  # reports the unreadable file
+    raise LevelError(name, None, "", "no such level file or built-in level (see `laserarena levels`)")
+
+
 def load_level(path: str | Path, display: str | None = None) -> Level:
     """Read, parse and validate a level file; raise `LevelError` on any problem."""
     source = display or str(path)
@@ -284,12 +301,19 @@ def load_level(path: str | Path, display: str | None = None) -> Level:
         data = Path(path).read_bytes()
     except OSError as e:
         raise LevelError(source, None, "(file)", f"cannot read: {e.strerror or e}") from None
-    return parse_level(data, source)
+    return parse_level(data, source, base=Path(path).resolve().parent)
 
 
-def parse_level(data: bytes, source: str) -> Level:
-    """Parse and validate level YAML bytes; `source` names the file in errors."""
+def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
+    """Parse and validate level YAML bytes; `source` names the file in errors. With `base`, the
+    level file's folder, the checks that concern a contest rather than the physics run too:
+    the default controller must exist (a file found relative to `base`) and there must be
+    enough beacons for a fix. A replay's level text is parsed without `base` (its controller
+    may live elsewhere), as are test fixtures that simulate, say, two lights."""
     ctx = _Ctx(source)
+    problem = level_checks.text_problem(data)
+    if problem:
+        raise LevelError(source, problem.line, problem.key, problem.message)
     try:
         text = data.decode("utf-8")
         root = yaml.compose(text, Loader=yaml.SafeLoader)
@@ -302,7 +326,8 @@ def parse_level(data: bytes, source: str) -> Level:
                          f"malformed YAML: {problem}") from None
     if root is None:
         raise LevelError(source, 1, "(top)", "the file is empty")
-    top = _Map(ctx, _locate(root, source), "", (
+    located = _locate(root, source)
+    top = _Map(ctx, located, "", (
         "name", "description", "units", "seed", "time_limit", "physics_rate", "control_period",
         "record_rate", "field", "obstacles", "beacons", "laser", "robots", "task",
         "default_controller", "limits", "rules"))
@@ -319,10 +344,9 @@ def parse_level(data: bytes, source: str) -> Level:
         raise ctx.fail(top.raw("control_period").line, "control_period",
                        f"{control_period:g} s is not a whole multiple of the physics step "
                        f"1/{physics_rate} s")
-    record_rate = top.opt("record_rate", _integer, 30)
+    record_rate = top.opt("record_rate", _integer, DEFAULT_RECORD_RATE)
     if record_rate <= 0 or physics_rate % record_rate:
-        raise ctx.fail(top.raw("record_rate").line, "record_rate",
-                       f"must divide physics_rate {physics_rate}")
+        raise _rate_problem(ctx, top, physics_rate, record_rate)
 
     fmap = top.sub("field", ("size", "origin", "walls"))
     fld = Field(origin=fmap.opt("origin", _point, (0.0, 0.0)), size=fmap.req("size", _size),
@@ -354,7 +378,12 @@ def parse_level(data: bytes, source: str) -> Level:
     if task.kind == "race" and len(robots) < 2:
         raise ctx.fail(task_map.node.line, "task.kind", "a race needs at least two robots")
 
-    return Level(
+    default_controller = top.req("default_controller", _text)
+    if base is not None:
+        default_controller, why = level_checks.controller_problem(default_controller, base)
+        if why:
+            raise ctx.fail(top.raw("default_controller").line, "default_controller", f"{default_controller}: {why}")
+    level = Level(
         name=top.req("name", _text),
         description=top.req("description", _text),
         source=source,
@@ -370,11 +399,48 @@ def parse_level(data: bytes, source: str) -> Level:
         beacons=beacons,
         robots=tuple(sorted(robots, key=lambda r: r.slot)),
         task=task,
-        default_controller=top.req("default_controller", _text),
+        default_controller=default_controller,
         limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
         rules=_rules(top.sub("rules", ("speed_limit", "min_impulse", "penalties"))) if top.has("rules") else Rules(),
         text=text,
     )
+    problem = level_checks.level_problem(level, contest=base is not None)
+    if problem:
+        raise ctx.fail(problem.line or _line_of(located, problem.key), problem.key, problem.message)
+    return level
+
+
+DEFAULT_RECORD_RATE = 30  # replay frames per second
+
+
+def _rate_problem(ctx: _Ctx, top: _Map, physics_rate: int, record_rate: int) -> LevelError:
+    """record_rate must divide physics_rate; when it was left at its default, the fault is the
+    physics_rate the file does give, so say that rather than blame a key that is not there."""
+    divisors = [d for d in range(1, physics_rate + 1) if physics_rate % d == 0 and 10 <= d <= 60]
+    hint = f" (e.g. {' or '.join(map(str, divisors[:3]))})" if divisors else ""
+    if not top.has("record_rate"):
+        return ctx.fail(top.raw("physics_rate").line, "physics_rate",
+                        f"{physics_rate} Hz is not a multiple of the default record_rate {record_rate} Hz; "
+                        f"give a physics_rate that is, or set record_rate to a divisor of {physics_rate}{hint}")
+    return ctx.fail(top.raw("record_rate").line, "record_rate",
+                    f"{record_rate} Hz must be positive and divide physics_rate {physics_rate} Hz{hint}")
+
+
+def _line_of(root: _Node, key: str) -> int | None:
+    """The file line of a dotted key such as `robots[0].start` (None if it is not in the file)."""
+    node: _Node | None = root
+    line = root.line
+    for name, index in re.findall(r"([^.\[\]]+)|\[(\d+)\]", key):
+        if node is None:
+            break
+        if name and isinstance(node.value, _MapValue) and name in node.value.items:
+            line, node = node.value.keylines[name], node.value.items[name]
+        elif index and isinstance(node.value, list) and int(index) < len(node.value):
+            node = node.value[int(index)]
+            line = node.line
+        else:
+            break
+    return line
 
 
 def _rules(m: _Map) -> Rules:
@@ -436,6 +502,9 @@ def _obstacle(ctx: _Ctx, node: _Node, key: str, fld: Field) -> Obstacle:
     pts = m.req("points", _points)
     if len(pts) < 3:
         raise ctx.fail(m.raw("points").line, m.key("points"), "a polygon needs at least 3 points")
+    why = level_checks.convex_problem(pts)
+    if why:
+        raise ctx.fail(m.raw("points").line, m.key("points"), why)
     for i, p in enumerate(pts):
         _inside(ctx, fld, p, m.raw("points").line, f"{m.key('points')}[{i}]", "point")
     return Obstacle("polygon", pts)
@@ -557,7 +626,7 @@ def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_las
     if m.has("drive"):
         model = dataclasses.replace(model, drive=_drive(m.sub("drive", DRIVE_KEYS), model.drive))
     if m.has("silhouette"):  # the radius of what this robot puts in the laser plane
-        model = replace(model, silhouette_radius=m.req("silhouette", _length))
+        model = dataclasses.replace(model, silhouette_radius=m.req("silhouette", _length))
     start = m.req("start", _pose)
     line = m.raw("start").line
     _inside(ctx, fld, (start.x, start.y), line, m.key("start"), "start")

@@ -26,8 +26,8 @@ import solvers  # noqa: E402
 
 import levels  # noqa: E402
 from arena.loader import load_level  # noqa: E402
-from referee.match import run_match  # noqa: E402
-from referee.teams import resolve  # noqa: E402
+from referee.match.loop import run_match  # noqa: E402
+from referee.sandbox.teams import resolve  # noqa: E402
 
 
 def world_vs_match() -> dict:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import levels
 from arena.loader import load_level
-from referee import grade as g
+from referee.contest import grade as g
 
 
 def cpu() -> float:

@@ -11,9 +11,9 @@ import time
 
 import levels
 from arena.loader import load_level
-from referee.match import brief_for, run_match
-from referee.process import ProcessBot
-from referee.teams import resolve
+from referee.match.loop import brief_for, run_match
+from referee.sandbox.process import ProcessBot
+from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 
 

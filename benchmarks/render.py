@@ -20,10 +20,10 @@ import pygame  # noqa: E402
 import levels  # noqa: E402
 from arena.draw import Painter  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
-from referee.match import run_match  # noqa: E402
-from referee.render import Scenes  # noqa: E402
-from referee.replay import load  # noqa: E402
-from referee.teams import resolve  # noqa: E402
+from referee.match.loop import run_match  # noqa: E402
+from referee.media.render import Scenes  # noqa: E402
+from referee.records.replay import load  # noqa: E402
+from referee.sandbox.teams import resolve  # noqa: E402
 
 SIZE = (960, 640)
 

@@ -1,4 +1,11 @@
-"""The authority: match loop, controller processes, rules, scoring, replays, grading, CLI."""
+"""The authority: it runs matches, keeps team code in sandboxes, scores, records and shows.
+
+Rooms, each a subpackage whose `__init__` says what it holds and may import:
+`match` (the lockstep loop, rules, tasks, scoring), `sandbox` (team specs and controller
+processes), `records` (results, replays), `contest` (grading), `media` (video, viewer, plots,
+maps), `gym` (RL environments, optional) and `cli` (the `laserarena` command). docs/architecture.md
+draws the rooms and what flows between them.
+"""
 
 from importlib import metadata
 

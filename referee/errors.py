@@ -1,5 +1,38 @@
-"""User-facing errors: printed as one line, exit code 2, never a traceback."""
+"""The referee's errors, one hierarchy under `arena.errors.LaserArenaError`, and their exit codes.
+
+Every error path of the command line ends in one of these: `referee.cli.main` prints the one
+line and exits with the error's `exit_code` (docs/cli.md lists the codes).
+
+- `arena.loader.LevelError`: a level file (file:line: key: message);
+- `TeamError`: a team spec or a team's files that cannot be resolved;
+- `ReplayError`: a replay that cannot be read (also a ValueError, for library callers);
+- `JournalError`: a grading journal that cannot be read or written;
+- `SandboxError`: the controllers cannot be started as promised on this machine;
+- `UserError`: any other bad argument or path on the command line (usage).
+"""
+
+from __future__ import annotations
+
+from arena.errors import LaserArenaError
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
-class UserError(Exception):
-    """Bad input from the user (a team spec, a level name, a path); its text is one line."""
+class UserError(LaserArenaError):
+    """A bad argument, value or path given on the command line or to the Python API."""
+
+
+class TeamError(LaserArenaError):
+    """A team spec that names nothing loadable, or whose files cannot be shipped."""
+
+
+class ReplayError(LaserArenaError, ValueError):
+    """A file that is not a readable LaserArena replay (damaged, truncated, another version)."""
+
+
+class JournalError(LaserArenaError):
+    """A grading journal that is corrupt, foreign, or cannot be written."""
+
+
+class SandboxError(LaserArenaError):
+    """Controllers cannot be isolated as promised here (say, the install is closed to them)."""

@@ -3,10 +3,10 @@
 import json
 
 from arena.loader import load_level
-from referee.canonical import dumps
-from referee.match import run_match
-from referee.replay import load
-from referee.teams import resolve
+from referee.records.canonical import dumps
+from referee.match.loop import run_match
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
 import levels
 from conftest import run_cli
 

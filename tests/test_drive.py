@@ -12,8 +12,8 @@ from arena.level import DriveErrors, Pose
 from arena.loader import load_level, parse_level
 from arena.rng import RandomTree
 from arena.world import World
-from referee.match import Match, run_match
-from referee.teams import resolve
+from referee.match.loop import Match, run_match
+from referee.sandbox.teams import resolve
 from conftest import MINI_LEVEL
 
 BIG = MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [4.0, 4.0]").replace(

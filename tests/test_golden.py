@@ -1,7 +1,7 @@
 """The golden replay: a change detector, as the replay issue asks.
 
 It fails when a change alters simulation results (physics, sensing, noise, controllers,
-scoring) without a bump of the replay format version or of `referee.replay.BEHAVIOUR`. After a
+scoring) without a bump of the replay format version or of `referee.records.replay.BEHAVIOUR`. After a
 deliberate change, bump BEHAVIOUR and regenerate: `python tests/test_golden.py`.
 """
 
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import levels
 from arena.loader import parse_level
-from referee.match import run_match
-from referee.replay import BEHAVIOUR, VERSION
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.records.replay import BEHAVIOUR, VERSION
+from referee.sandbox.teams import resolve
 
 GOLDEN = Path(__file__).parent / "golden" / "replay.json"
 
@@ -44,7 +44,7 @@ def test_golden_replay():
         "the replay format or behaviour version changed: regenerate with `python tests/test_golden.py`"
     assert content_hash() == golden["sha256"], (
         "simulation results changed without a version bump: if that is intended, bump "
-        "referee.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`")
+        "referee.records.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from referee.grade import interval
+from referee.contest.grade import interval
 from conftest import run_cli
 
 ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet"]

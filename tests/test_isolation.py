@@ -8,11 +8,11 @@ import pytest
 
 import levels
 from arena.loader import load_level, parse_level
-from referee.canonical import dumps
-from referee.match import run_match
-from referee.replay import load
+from referee.records.canonical import dumps
+from referee.match.loop import run_match
+from referee.records.replay import load
 from arena.level import ControllerLimits
-from referee.teams import resolve
+from referee.sandbox.teams import resolve
 
 
 def team_file(tmp_path, body, name="team.py"):

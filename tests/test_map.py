@@ -8,7 +8,7 @@ import pytest
 
 import levels
 from arena.loader import load_level
-from referee import accuracy_map as am
+from referee.media import accuracy_map as am
 from robots.toolkit.solvers import least_squares
 from conftest import run_cli
 

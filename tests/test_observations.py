@@ -8,8 +8,8 @@ import textwrap
 import pytest
 
 from arena.loader import load_level
-from referee.match import run_match
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 import levels
 from conftest import run_cli
@@ -59,7 +59,7 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
             from robots.api import Command
             return Command(0.05, 0.1)
 
-    from referee.teams import Team
+    from referee.sandbox.teams import Team
     level = load_level(levels.path("asabe"))
     run_match(level, [Team("spy", Spy)], ideal=False, isolate=False)
     assert len(log) > 100

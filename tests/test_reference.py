@@ -11,8 +11,8 @@ import pytest
 
 import levels
 from arena.loader import load_level
-from referee.match import Match, run_match
-from referee.teams import resolve
+from referee.match.loop import Match, run_match
+from referee.sandbox.teams import resolve
 from robots.toolkit.solvers import least_squares
 
 IN = 0.0254

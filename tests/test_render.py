@@ -9,10 +9,10 @@ import pytest
 import levels
 from arena.draw import BEACON, FIELD, Painter, color
 from arena.loader import load_level
-from referee.match import run_match
-from referee.render import Scenes, render
-from referee.replay import load
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.media.render import Scenes, render
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ def test_mp4_decodes_to_the_right_frame_count(replay, tmp_path):
 
 
 def test_watch_plays_a_replay_and_a_live_match_headless(replay):
-    from referee.watch import watch
+    from referee.media.watch import watch
     assert watch(str(replay), max_frames=5, speed=8.0) == 5
     assert watch("bac-line", max_frames=5, speed=8.0) == 5
 

@@ -6,8 +6,8 @@ import textwrap
 import pytest
 
 from arena.loader import parse_level
-from referee.match import run_match
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
 from conftest import MINI_LEVEL
 
 

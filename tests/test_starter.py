@@ -8,8 +8,8 @@ import pytest
 
 import levels
 from arena.loader import load_level
-from referee.match import run_match
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
 from robots.controllers import starter
 from robots.controllers.starter import fix
 

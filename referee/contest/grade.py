@@ -51,9 +51,9 @@ class Job:
 def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     """Run one job (in a worker); return it with its canonical result JSON and wall time."""
     from arena.loader import load_level
-    from referee.canonical import dumps
-    from referee.match import run_match
-    from referee.teams import resolve
+    from referee.records.canonical import dumps
+    from referee.match.loop import run_match
+    from referee.sandbox.teams import resolve
 
     start = time.perf_counter()
     level = load_level(job.level_path, display=job.level)

@@ -21,7 +21,8 @@ from pathlib import Path
 from typing import IO
 
 from arena.level import Level
-from referee.canonical import DECIMALS, dumps
+from referee.errors import ReplayError
+from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
 BEHAVIOUR = 6  # bump when a change alters simulation results (the golden-replay test says so)
@@ -141,11 +142,11 @@ def load(path: str | Path) -> Replay:
     try:
         header = next(it)
     except (OSError, EOFError, StopIteration, json.JSONDecodeError) as e:
-        raise ValueError(f"{path}: not a LaserArena replay ({e})") from None
+        raise ReplayError(f"{path}: not a LaserArena replay ({e})") from None
     if header.get("format") != FORMAT:
-        raise ValueError(f"{path}: not a LaserArena replay")
+        raise ReplayError(f"{path}: not a LaserArena replay")
     if header.get("version") != VERSION:
-        raise ValueError(f"{path}: replay format version {header.get('version')}, this is {VERSION}")
+        raise ReplayError(f"{path}: replay format version {header.get('version')}, this is {VERSION}")
     rep = Replay(header)
     lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
     try:
@@ -158,7 +159,7 @@ def load(path: str | Path) -> Replay:
             elif k in lists:
                 lists[k].append(rec)
     except (OSError, EOFError, json.JSONDecodeError) as e:
-        raise ValueError(f"{path}: a truncated or damaged replay ({e})") from None
+        raise ReplayError(f"{path}: a truncated or damaged replay ({e})") from None
     if not rep.frames:
-        raise ValueError(f"{path}: a replay without frames")
+        raise ReplayError(f"{path}: a replay without frames")
     return rep

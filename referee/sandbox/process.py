@@ -22,9 +22,9 @@ from pathlib import Path
 
 import robots
 from arena.level import ControllerLimits
-from referee.bot import Fault
-from referee.privacy import check_readable_by_others, drop_to, share_team_file
-from referee.teams import Team
+from referee.sandbox.bot import Fault
+from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_file
+from referee.sandbox.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
 from robots.loading import is_file_spec

@@ -8,20 +8,18 @@ ships its own ffmpeg), with a progress bar.
 from __future__ import annotations
 
 import bisect
-import os
 import sys
 from pathlib import Path
 
-os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # headless unless a display is asked for
-os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import pygame  # noqa: E402
+import pygame
 
-from arena.draw import Painter, RobotView, Scene  # noqa: E402
-from arena.loader import parse_level  # noqa: E402
-from referee.errors import UserError  # noqa: E402
-from referee.replay import Replay, load  # noqa: E402
+from arena.draw import Painter, RobotView, Scene
+from arena.level import Level
+from arena.loader import parse_level
+from referee.errors import UserError
+from referee.records.replay import Replay, load
+from referee.media.standings import Standings
 
 TRAIL = 8.0  # s of trail behind each robot
 BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams
@@ -35,16 +33,14 @@ class Scenes:
         h = rep.header
         self.level = parse_level(h["level"]["text"].encode(), h["level"]["name"])
         self.rate = h["record_rate"]
-        self.paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in self.level.robots)
-        if self.level.task.goal is not None:
-            g = self.level.task.goal
-            self.paths = tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in self.level.robots)
+        self.paths = paths(self.level)
         self.teams = [t["label"] for t in rep.header["teams"]]
         self.event_times: list[float] = []
         self.events: list[dict] = []
         self.estimates: dict[int, tuple[list, list]] = {}
         self.debug: dict[int, tuple[list, list]] = {}
         self.seen = {"e": 0, "est": 0, "dbg": 0}
+        self.standings = Standings(self.level, rep)
         self.update()
 
     @property
@@ -66,6 +62,7 @@ class Scenes:
         self.seen = {"e": len(rep.events), "est": len(rep.estimates), "dbg": len(rep.debug)}
         self.stopped_at = {f["r"]: f["time"] for f in rep.faults if f["kind"] != "skipped_tick"}
         self.foul_times = tuple(sorted(f["time"] for f in rep.fouls))
+        self.standings.update()
 
     def at(self, t: float) -> Scene:
         frames = self.rep.frames
@@ -83,15 +80,23 @@ class Scenes:
         drawings = tuple((slot, d) for slot in self.debug for d in (_latest(self.debug[slot], t) or []))
         fouls = sum(1 for f in self.foul_times if f <= t)
         hud = (f"{self.level.name}  seed {self.rep.header['seed']}   t = {t:6.2f} s / {self.duration:.1f} s"
-               f"   fouls {fouls}",
-               self._standings(t))
+               f"   fouls {fouls}", *self._standings(t))
         return Scene(tuple(robots), beams, self.paths, drawings, hud, (t, self.foul_times, self.duration))
 
-    def _standings(self, t: float) -> str:
+    def _standings(self, t: float) -> tuple[str, ...]:
+        """One line per robot; at the end of a finished replay, the referee's own scores."""
         result = self.rep.result
         if result and t >= self.duration - 1e-9:
-            return "   ".join(f"{r['slot']} {r['team']}: {r['score']['total']:.1f}" for r in result["robots"])
-        return "   ".join(f"{slot} {team}" for slot, team in enumerate(self.teams))
+            return tuple(f"{r['slot']} {r['team']}   final score {r['score']['total']:.1f}" for r in result["robots"])
+        return tuple(self.standings.line(slot, team, t) for slot, team in enumerate(self.teams))
+
+
+def paths(level: Level) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """Each slot's drawn path: from its start through its waypoints, or straight to the goal."""
+    if level.task.goal is not None:
+        g = level.task.goal
+        return tuple(((r.start.x, r.start.y), (g.x, g.y)) for r in level.robots)
+    return tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in level.robots)
 
 
 def _latest(series: tuple[list, list] | None, t: float):

@@ -6,6 +6,7 @@ Bad input (a level file, a team spec, a path) prints one line to stderr and exit
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -14,26 +15,15 @@ from pathlib import Path
 
 import levels
 from arena.level import Level
-from arena.loader import LevelError, load_level
+from arena.loader import find_level, load_level
 from referee import __version__
-from referee.canonical import dumps
-from referee.errors import UserError
-from referee.match import NO_LIMITS, run_match
-from referee.starter_kit import create
-from referee.summary import table
-from referee.teams import resolve
-
-
-def find_level(name: str) -> Level:
-    """Load a level by path, or by built-in name (`asabe`)."""
-    p = Path(name)
-    if p.is_file():
-        return load_level(p)
-    if name in levels.names():
-        return load_level(levels.path(name), display=f"levels/{name}.yaml")
-    if p.suffix in (".yaml", ".yml") or p.parent != Path("."):
-        return load_level(p)  # reports the unreadable file
-    raise UserError(f"{name}: no such level file or built-in level (see `laserarena levels`)")
+from referee.records.canonical import dumps
+from arena.errors import LaserArenaError
+from referee.errors import EXIT_INTERRUPTED, UserError
+from referee.match.loop import NO_LIMITS, run_match
+from referee.cli.starter_kit import create
+from referee.cli.summary import table
+from referee.sandbox.teams import resolve
 
 
 def cmd_levels(args: argparse.Namespace) -> int:
@@ -75,7 +65,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
-    from referee import grade as g
+    from referee.contest import grade as g
     found = []
     for name in args.level:
         lv = find_level(name)
@@ -103,27 +93,36 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    from referee.verify import verify
+    from referee.match.verify import verify
     ok, message = verify(Path(args.replay), args.team)
     print(f"{args.replay}: {message}")
     return 0 if ok else 1
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from referee.render import render
+    from referee.media.render import render
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT, e.g. 960x640") from None
-    n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
-               end=args.to, quiet=args.quiet)
-    if not args.quiet:
-        print(f"wrote {n} frames to {args.out}")
+    if not (args.html or args.out):
+        raise UserError("render: give --out (a folder, FILE.mp4 or FILE.html) and/or --html FILE.html")
+    html = args.html or (args.out if Path(args.out).suffix.lower() in (".html", ".htm") else None)
+    if html:
+        from referee.media.viewer import write_viewer
+        write_viewer(Path(args.replay), Path(html), size=(w, h))
+        if not args.quiet:
+            print(f"wrote {html}: open it in a web browser")
+    if args.out and args.out != html:
+        n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
+                   end=args.to, quiet=args.quiet)
+        if not args.quiet:
+            print(f"wrote {n} frames to {args.out}")
     return 0
 
 
 def cmd_watch(args: argparse.Namespace) -> int:
-    from referee.watch import KEYS_HELP, watch
+    from referee.media.watch import KEYS_HELP, watch
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
@@ -133,8 +132,27 @@ def cmd_watch(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_plot(args: argparse.Namespace) -> int:
+    from referee.media.plot import error_figure
+    if args.width < 320:
+        raise UserError("--width must be at least 320")
+    if not Path(args.out).resolve().parent.is_dir():
+        raise UserError(f"{args.out}: the folder does not exist")
+    fig = error_figure(Path(args.replay), Path(args.out), width=args.width)
+    for r in fig.robots:
+        if r.times:
+            rms = (sum(v * v for v in r.position_mm) / len(r.times)) ** 0.5
+            print(f"{r.slot} {r.team}: {len(r.times)} estimates, position error rms {rms:.1f} mm "
+                  f"max {max(r.position_mm):.1f} mm, heading error max {max(r.heading_deg):.1f} deg, "
+                  f"{len(r.fouls)} fouls, {len(r.faults)} faults")
+        else:
+            print(f"{r.slot} {r.team}: no estimates")
+    print(f"wrote {args.out}")
+    return 0
+
+
 def cmd_map(args: argparse.Namespace) -> int:
-    from referee import accuracy_map as am
+    from referee.media import accuracy_map as am
     maps = [am.compute(find_level(args.level), cells=args.cells)]
     if args.compare:
         maps.append(am.compute(find_level(args.compare), cells=args.cells))
@@ -193,9 +211,10 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
 
-    s = sub.add_parser("render", help="render a replay to PNG frames or an MP4, headless")
+    s = sub.add_parser("render", help="render a replay to PNG frames, an MP4 or a web page, headless")
     s.add_argument("replay")
-    s.add_argument("--out", required=True, help="a folder (PNG frames) or FILE.mp4")
+    s.add_argument("--out", help="a folder (PNG frames), FILE.mp4, or FILE.html (a page that plays it)")
+    s.add_argument("--html", metavar="OUT", help="write a self-contained web page that plays the replay")
     s.add_argument("--fps", type=int, default=30)
     s.add_argument("--size", default="960x640", help="WIDTHxHEIGHT in pixels")
     s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")
@@ -219,6 +238,12 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
     s.set_defaults(func=cmd_map)
 
+    s = sub.add_parser("plot", help="plot each robot's position and heading error over a replay")
+    s.add_argument("replay")
+    s.add_argument("--out", default="errors.png", help="the PNG to write (default errors.png)")
+    s.add_argument("--width", type=int, default=960, help="picture width in pixels")
+    s.set_defaults(func=cmd_plot)
+
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")
     s.add_argument("--team", action="append", metavar="T", help="where a team's controller is here (in slot order)")
@@ -235,12 +260,14 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
+        os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
     args = parser().parse_args(argv)
     try:
         return args.func(args)
-    except (LevelError, UserError) as e:
+    except LaserArenaError as e:
         print(f"laserarena: {e}", file=sys.stderr)
-        return 2
+        return e.exit_code
     except KeyboardInterrupt:
         print("laserarena: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED

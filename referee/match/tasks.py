@@ -1,6 +1,6 @@
 """Task progress: which waypoints each robot has reached, whether it reached its goal, when,
 and how far it strayed from the ideal path. Checked against the true pose; scoring of the
-progress is in referee/scoring.py and docs/rules.md.
+progress is in referee/match/scoring.py and docs/rules.md.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 
 from arena.level import Level, Pose
-from referee.rules import Polyline
+from referee.match.rules import Polyline
 
 
 class TaskTracker:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from referee.teams import Team
+from referee.sandbox.teams import Team
 from robots.api import Brief, Command, Observation
 from robots.protocol import command_problem
 

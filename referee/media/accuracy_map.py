@@ -16,17 +16,15 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import numpy as np  # noqa: E402
-import pygame  # noqa: E402
+import numpy as np
+import pygame
 
-from arena import detectors as det  # noqa: E402
-from arena.draw import BEACON, BACKGROUND  # noqa: E402
-from arena.laser import Crossings  # noqa: E402
-from arena.level import Level  # noqa: E402
-from arena.world import CAT_OBSTACLE, World  # noqa: E402
+from arena import detectors as det
+from arena.draw import BEACON, BACKGROUND
+from arena.laser import Crossings
+from arena.level import Level
+from arena.world import CAT_OBSTACLE, World
 
 NO_FIX = (90, 90, 96)
 STOPS = [(0.0, (48, 18, 59)), (0.25, (50, 136, 189)), (0.5, (102, 194, 165)), (0.75, (254, 224, 139)),

@@ -19,16 +19,16 @@ from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
-from referee.bot import Fault, InProcessBot
-from referee.privacy import make_undumpable
-from referee.process import ProcessBot
-from referee.estimates import EstimateStats
-from referee.replay import ReplayWriter
-from referee.rules import Rules
-from referee.scoring import score
-from referee.tasks import TaskTracker
-from referee.teams import Team
-from robots.api import BeaconInfo, Brief, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
+from referee.sandbox.bot import Fault, InProcessBot
+from referee.sandbox.privacy import make_undumpable
+from referee.sandbox.process import ProcessBot
+from referee.match.estimates import EstimateStats
+from referee.records.replay import ReplayWriter
+from referee.match.rules import Rules
+from referee.match.scoring import score
+from referee.match.tasks import TaskTracker
+from referee.sandbox.teams import Team
+from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 2
 NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
@@ -152,41 +152,64 @@ class Match:
             return False  # the cheap test first: this runs after every physics step
         return all(self.stopped[s] or self.tracker.done(s) for s in range(len(self.teams)))
 
-    def _control_tick(self, tick: int) -> None:
-        time = self.world.time
+    def observe(self) -> list[Observation | None]:
+        """The first half of a control tick: deliver the sensor events since the last tick and
+        return each robot's Observation (None for a stopped robot, which is counted estimate-less)."""
+        time, tick = self.world.time, self.world.tick // self.level.steps_per_control
         for slot, detections in enumerate(self.sensing.flush()):
             self.inbox[slot].extend(to_event(d) for d in detections)
             if self.writer:
                 for d in detections:
                     self.writer.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
-        for slot, bot in enumerate(self.bots):
-            truth = self.world.pose(slot)
+        out: list[Observation | None] = []
+        for slot in range(len(self.bots)):
             if self.stopped[slot]:
-                self.estimates[slot].add(truth, None)
+                self.estimates[slot].add(self.world.pose(slot), None)
+                out.append(None)
                 continue
             events, self.inbox[slot] = tuple(self.inbox[slot]), []
-            out = bot.step(Observation(tick=tick, time=time, events=events))
-            if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
-                self._fault(slot, out)
-                self.estimates[slot].add(truth, None)
-                continue
-            self.world.command(slot, float(out.left), float(out.right))
-            self.estimates[slot].add(truth, out.estimate)
-            if self.writer:
-                if out.estimate is not None:
-                    self.writer.record("est", t=time, r=slot, e=list(out.estimate))
-                if out.debug:
-                    self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in out.debug])
+            out.append(Observation(tick=tick, time=time, events=events))
+        return out
+
+    def answer(self, slot: int, out: Command | Fault) -> None:
+        """The second half of a control tick for one robot: take its controller's answer."""
+        time, truth = self.world.time, self.world.pose(slot)
+        if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
+            self._fault(slot, out)
+            self.estimates[slot].add(truth, None)
+            return
+        self.world.command(slot, float(out.left), float(out.right))
+        self.estimates[slot].add(truth, out.estimate)
+        if self.writer:
+            if out.estimate is not None:
+                self.writer.record("est", t=time, r=slot, e=list(out.estimate))
+            if out.debug:
+                self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in out.debug])
+
+    def _control_tick(self) -> None:
+        for slot, obs in enumerate(self.observe()):
+            if obs is not None:
+                self.answer(slot, self.bots[slot].step(obs))
 
     def run(self) -> dict:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
-            return self._run()
+            self.begin()
+            while not self.ended:
+                self._control_tick()
+                self.advance()
+            return self.end()
         finally:
-            for bot in self.bots:
-                bot.close()
+            self.close()
 
-    def _run(self) -> dict:
+    def close(self) -> None:
+        """End every controller (their processes, if isolated)."""
+        for bot in self.bots:
+            bot.close()
+
+    def begin(self) -> None:
+        """Start the controllers, give each its brief, record the first frame. A step-wise
+        driver (referee.gym) then repeats observe / answer / advance until `ended`, and calls `end()`."""
         level, world = self.level, self.world
         for bot in self.bots:
             bot.launch()
@@ -196,18 +219,29 @@ class Match:
                 self._fault(slot, fault)
         if self.writer:
             self.writer.frame(world.time, poses(world))
-        total_steps = round(level.time_limit * level.physics_rate)
-        spc = level.steps_per_control
-        while world.tick < total_steps:
-            if world.tick % spc == 0:
-                self._control_tick(world.tick // spc)
+        self.total_steps = round(level.time_limit * level.physics_rate)
+        self.ended = world.tick >= self.total_steps
+
+    def advance(self) -> None:
+        """Step physics (and the hooks after each step) up to the next control tick, or to the
+        end of the match: the time limit, or every robot done or stopped (sets `ended`)."""
+        world = self.world
+        for _ in range(self.level.steps_per_control):
             world.step()
             for hook in self.hooks:
                 hook.after_step(world)
             if self._over():
                 self.end_reason = "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) \
                     else "all_stopped"
-                break
+                self.ended = True
+                return
+            if world.tick >= self.total_steps:
+                self.ended = True
+                return
+
+    def end(self) -> dict:
+        """Finish the rules, write the replay's last records, and return the result."""
+        world = self.world
         self.rules.finish(world)
         result = self._result()
         if self.writer:

@@ -10,9 +10,9 @@ total = task + time + localization - penalties, where
 
 from __future__ import annotations
 
-from referee.estimates import EstimateStats
-from referee.rules import Foul
-from referee.tasks import TaskTracker
+from referee.match.estimates import EstimateStats
+from referee.match.rules import Foul
+from referee.match.tasks import TaskTracker
 
 TASK_POINTS, TIME_POINTS, LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS = 100.0, 20.0, 25.0, 100.0
 RMS_SCALE = 0.010  # m: an RMS error of 10 mm halves the localization points
@@ -23,7 +23,12 @@ def localization_quality(stats: EstimateStats) -> float:
     summary = stats.summary()
     if not summary["estimates"]:
         return 0.0
-    return stats.fraction / (1.0 + summary["position_rms"] / RMS_SCALE)
+    return quality(stats.fraction, summary["position_rms"])
+
+
+def quality(fraction: float, position_rms: float) -> float:
+    """The localization quality q of a fraction of ticks with an estimate and their RMS error (m)."""
+    return fraction / (1.0 + position_rms / RMS_SCALE)
 
 
 def score(tracker: TaskTracker, slot: int, stats: EstimateStats, fouls: list[Foul], time_limit: float) -> dict:

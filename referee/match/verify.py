@@ -8,9 +8,9 @@ from pathlib import Path
 
 from arena.loader import parse_level
 from referee.errors import UserError
-from referee.match import run_match
-from referee.replay import controller_hash, load
-from referee.teams import resolve
+from referee.match.loop import run_match
+from referee.records.replay import controller_hash, load
+from referee.sandbox.teams import resolve
 
 
 def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, str]:

@@ -1,0 +1,232 @@
+"""Checks of a level beyond its schema: file size and YAML nesting, convex obstacles, start
+poses clear of everything, enough beacons for a fix, and a default controller that exists.
+
+Each check returns a `Problem` (the dotted key it concerns and a one-line message) or None;
+`arena.loader` turns the first problem into a `LevelError` with the key's file line.
+"""
+
+from __future__ import annotations
+
+import importlib.machinery
+import importlib.util
+import math
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+import yaml
+
+from arena.level import Level, Obstacle, Pose, RobotModel
+
+MAX_BYTES = 1 << 20  # a level is a page of YAML; a megabyte is already absurd
+MAX_DEPTH = 16  # nested mappings and lists; the deepest built-in level nests 4
+MAX_NODES = 200_000  # YAML events (scalars, mappings, lists) in the whole file
+# Beacons a fix needs: every solver of robots/toolkit/solvers.py works from three bearings
+# (ToTal, circle intersection, Newton, Bac's corner table with three of four arrays, the wall
+# targets, the lights' law of sines); with fewer, no position can be computed at all.
+MIN_BEACONS = {"reflector": 3, "sensor_array": 3, "flash_detector": 3, "light": 3}
+EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What is wrong with a level: the dotted `key` it concerns, a one-line `message`, and the
+    file line when the check knows it better than the key does."""
+
+    key: str
+    message: str
+    line: int | None = None
+
+
+def text_problem(data: bytes) -> Problem | None:
+    """Size and nesting limits, checked on the YAML event stream (PyYAML's parser is iterative,
+    so this cannot exhaust the stack the way composing a 10 000-deep list would). Aliases count
+    as the values they repeat, so a few lines of nested aliases ("billion laughs") cannot
+    expand into millions of values or levels."""
+    if len(data) > MAX_BYTES:
+        return Problem("(file)", f"{len(data)} bytes; a level file may have at most {MAX_BYTES}")
+    stack: list[list] = []  # per open mapping or list: [anchor, values in it so far, height]
+    anchored: dict[str, tuple[int, int]] = {}  # anchor -> (values, height) of what it names
+    finished = 0  # values of the document's finished top nodes
+    deep = f"nested more than {MAX_DEPTH} levels deep"
+    try:
+        for event in yaml.parse(data.decode("utf-8", errors="replace"), Loader=yaml.SafeLoader):
+            line = event.start_mark.line + 1
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                if len(stack) >= MAX_DEPTH:
+                    return Problem("(yaml)", deep, line)
+                stack.append([event.anchor, 1, 1])
+                continue
+            if isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                anchor, values, height = stack.pop()
+                item = (values, height)
+            elif isinstance(event, yaml.AliasEvent):
+                if any(entry[0] == event.anchor for entry in stack):
+                    return Problem("(yaml)", f"the alias *{event.anchor} repeats a value that contains it", line)
+                anchor, item = None, anchored.get(event.anchor, (1, 0))
+                if len(stack) + item[1] > MAX_DEPTH:
+                    return Problem("(yaml)", deep, line)
+            elif isinstance(event, yaml.ScalarEvent):
+                anchor, item = event.anchor, (1, 0)
+            else:
+                continue
+            if anchor:
+                anchored[anchor] = item
+            if stack:
+                stack[-1][1] += item[0]
+                stack[-1][2] = max(stack[-1][2], item[1] + 1)
+            else:
+                finished += item[0]
+            if finished + sum(entry[1] for entry in stack) > MAX_NODES:
+                return Problem("(yaml)", f"more than {MAX_NODES} values (an alias counts as all it repeats)", line)
+    except yaml.YAMLError:
+        return None  # malformed YAML: the loader's composer reports it with its line
+    return None
+
+
+def convex_problem(points: tuple[tuple[float, float], ...]) -> str | None:
+    """Why a polygon is not a simple convex one, or None. pymunk would silently use the convex
+    hull of a concave outline (and the drawing would not), so such a level is refused: split
+    the shape into convex polygons instead."""
+    n = len(points)
+    turns, sign, area = 0.0, 0.0, 0.0
+    for i in range(n):
+        (ax, ay), (bx, by), (cx, cy) = points[i - 1], points[i], points[(i + 1) % n]
+        ux, uy, vx, vy = bx - ax, by - ay, cx - bx, cy - by
+        if math.hypot(ux, uy) < EPS:
+            return f"points {(i - 1) % n} and {i} coincide"
+        cross = ux * vy - uy * vx
+        scale = math.hypot(ux, uy) * math.hypot(vx, vy)
+        if abs(cross) > EPS * scale:
+            if sign and (cross > 0) != (sign > 0):
+                return f"not convex: the outline turns the other way at point {i}; split it into convex polygons"
+            sign = cross
+        turns += math.atan2(cross, ux * vx + uy * vy)
+        area += ax * by - bx * ay
+    if abs(area) < EPS:
+        return "the points enclose no area"
+    if abs(abs(turns) - 2 * math.pi) > 1e-6:
+        return "the outline crosses itself; give the points in order around the polygon"
+    return None
+
+
+def footprint(model: RobotModel, pose: Pose) -> list[tuple[float, float]]:
+    """The corners of a robot's body at `pose`, counter-clockwise."""
+    c, s = math.cos(pose.heading), math.sin(pose.heading)
+    half = ((model.length / 2, model.width / 2), (-model.length / 2, model.width / 2),
+            (-model.length / 2, -model.width / 2), (model.length / 2, -model.width / 2))
+    return [(pose.x + c * dx - s * dy, pose.y + s * dx + c * dy) for dx, dy in half]
+
+
+def _separated(a: list[tuple[float, float]], b: list[tuple[float, float]]) -> bool:
+    """True if two convex polygons do not overlap (a separating axis exists; touching is apart)."""
+    for poly in (a, b):
+        for i in range(len(poly)):
+            (x0, y0), (x1, y1) = poly[i - 1], poly[i]
+            nx, ny = y1 - y0, x0 - x1
+            pa = [nx * x + ny * y for x, y in a]
+            pb = [nx * x + ny * y for x, y in b]
+            if max(pa) <= min(pb) + EPS or max(pb) <= min(pa) + EPS:
+                return True
+    return False
+
+
+def _circle_apart(poly: list[tuple[float, float]], centre: tuple[float, float], radius: float) -> bool:
+    """True if a circle and a convex polygon do not overlap."""
+    px, py = centre
+    inside = True
+    sign = 0.0
+    for i in range(len(poly)):
+        (x0, y0), (x1, y1) = poly[i - 1], poly[i]
+        cross = (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)
+        if sign and cross * sign < 0:
+            inside = False
+        sign = sign or cross
+        dx, dy = x1 - x0, y1 - y0
+        t = max(0.0, min(1.0, ((px - x0) * dx + (py - y0) * dy) / (dx * dx + dy * dy)))
+        if math.hypot(x0 + t * dx - px, y0 + t * dy - py) < radius - EPS:
+            return False
+    return not inside
+
+
+def _obstacle_apart(body: list[tuple[float, float]], ob: Obstacle) -> bool:
+    if ob.kind == "circle":
+        return _circle_apart(body, ob.points[0], ob.radius)
+    return _separated(body, list(ob.points))
+
+
+def start_problem(level: Level) -> Problem | None:
+    """A robot whose body, at its start pose, overlaps an obstacle, a beacon or another robot."""
+    bodies = {r.slot: footprint(r.model, r.start) for r in level.robots}
+    for i, r in enumerate(level.robots):
+        key = f"robots[{i}].start"
+        body = bodies[r.slot]
+        for k, ob in enumerate(level.obstacles):
+            if not _obstacle_apart(body, ob):
+                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps obstacles[{k}]")
+        for b in level.beacons.items:
+            if not _circle_apart(body, (b.x, b.y), level.beacons.radius):
+                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps beacon {b.id}")
+        for other in level.robots[:i]:
+            if not _separated(body, bodies[other.slot]):
+                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps robot slot {other.slot}")
+    return None
+
+
+def beacon_count_problem(level: Level) -> Problem | None:
+    """Fewer beacons than any position fix of the level's beacon kind needs."""
+    need = MIN_BEACONS[level.beacons.kind]
+    have = len(level.beacons.items)
+    if have < need:
+        return Problem("beacons.items", f"{have} {level.beacons.kind} beacon(s); a position fix from bearings "
+                                        f"needs at least {need}")
+    return None
+
+
+def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
+    """Whether a default controller spec names something that exists, found WITHOUT running any
+    of its code: `ref:NAME` among the reference controllers, `FILE.py[:Class]` relative to the
+    level's folder `base`, `module:Class` by the import system's finders, or an installed
+    controller's entry point. Returns (the spec with a file made absolute, problem or None)."""
+    from robots.controllers import REFERENCE
+    from robots.loading import ENTRY_POINT_GROUP, is_file_spec
+    if spec.startswith("ref:"):
+        if spec[4:] not in REFERENCE:
+            return spec, f"no reference controller {spec[4:]!r} (have: {', '.join(sorted(REFERENCE))})"
+        return spec, None
+    if is_file_spec(spec):
+        path, _, rest = spec.partition(".py")
+        file = Path(path + ".py")
+        file = file if file.is_absolute() else base / file
+        if not file.is_file():
+            return spec, f"no such file {file} (a controller file is found relative to the level file)"
+        return str(file.resolve()) + rest, None
+    if ":" not in spec:
+        if not any(ep.name == spec for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)):
+            return spec, (f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
+                          f"controller (entry point group {ENTRY_POINT_GROUP})")
+        return spec, None
+    module, _, cls = spec.partition(":")
+    if not cls or not module or not _module_exists(module):
+        return spec, f"no importable module {module!r}" if module else "expected module:Class"
+    return spec, None
+
+
+def _module_exists(name: str) -> bool:
+    """Find a dotted module with the import system's finders, executing no package's __init__."""
+    parts = name.split(".")
+    try:
+        spec = importlib.util.find_spec(parts[0])  # a top-level name: finders only, nothing runs
+        for i in range(1, len(parts)):
+            if spec is None or spec.submodule_search_locations is None:
+                return False
+            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[:i + 1]), spec.submodule_search_locations)
+    except (ImportError, ValueError):
+        return False
+    return spec is not None
+
+
+def level_problem(level: Level, contest: bool = True) -> Problem | None:
+    """The first problem of a loaded level that the schema alone does not catch; `contest`
+    adds the checks that concern a contest rather than the physics (enough beacons)."""
+    return (beacon_count_problem(level) if contest else None) or start_problem(level)

@@ -1,0 +1,74 @@
+"""A Gymnasium environment: one robot of a level, driven by an agent's actions.
+
+    import gymnasium
+    env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
+
+Importing this module registers `LaserArena-v0` with Gymnasium (that is how `make`'s
+"module:EnvName" form finds it). Observations, actions and rewards: docs/rl.md. Needs the
+`rl` extra (`pip install 'laserarena[rl]'`).
+
+The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the match driven
+one control period at a time for agents (`session`), the fixed-size observation encoding
+(`observation`) and frames for `render()` (`view`). It may import the match core, the
+sandbox's team specs, `arena` and `robots.api`; nothing imports it but users.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+
+from arena.level import Level
+from referee.gym.session import AgentSession
+
+ENV_ID = "LaserArena-v0"
+
+
+class LaserArenaEnv(gymnasium.Env):
+    """Robot `slot` of `level` is the agent; other slots run `others` (default: the level's
+    default controller) in this process. One step is one control period."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(self, level: str | Path | Level = "asabe", slot: int = 0, others: list[str] | None = None,
+                 ideal: bool = False, report_estimate: bool = False, replay: str | Path | None = None,
+                 render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
+        self.session = AgentSession(level, (slot,), others, ideal, report_estimate, replay)
+        self.slot = slot
+        enc = self.session.encoders[slot]
+        self.observation_space = gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (self.session.action_size(),), dtype=np.float32)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode {render_mode!r}: only 'rgb_array'")
+        self.render_mode, self.render_size = render_mode, render_size
+
+    @property
+    def brief(self):
+        """What the robot's team may know (map, path, hardware): robots.api.Brief."""
+        return self.session.encoders[self.slot].brief
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """A new match: with `seed`, that match seed; without, the next from the env's generator."""
+        super().reset(seed=seed)
+        match_seed = seed if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
+        obs = self.session.reset(match_seed)
+        return obs[self.slot], {"seed": match_seed}
+
+    def step(self, action):
+        out = self.session.step({self.slot: action})
+        s = self.slot
+        return out.observations[s], out.rewards[s], out.terminated[s], out.truncated[s], out.infos[s]
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            from referee.gym.view import frame
+            return frame(self.session, self.render_size)
+        return None
+
+    def close(self) -> None:
+        self.session.close()
+
+
+gymnasium.register(id=ENV_ID, entry_point="referee.gym:LaserArenaEnv")

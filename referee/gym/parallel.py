@@ -1,0 +1,78 @@
+"""A PettingZoo ParallelEnv: every robot of a level is an agent (`robot_0`, `robot_1`, ...).
+
+    from referee.gym.parallel import LaserArenaParallelEnv
+    env = LaserArenaParallelEnv(level="asabe-race")
+
+Each agent observes and acts as in the Gymnasium env (docs/rl.md); an agent that finishes
+its task (or is stopped) leaves `agents` and its robot stands still while the others play on.
+Needs the `rl` extra.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+from pettingzoo import ParallelEnv
+
+from arena.level import Level
+from referee.gym.session import AgentSession, load
+
+
+class LaserArenaParallelEnv(ParallelEnv):
+    """All robot slots of `level` are agents, stepped together once per control period."""
+
+    metadata = {"name": "laserarena_v0", "render_modes": ["rgb_array"], "render_fps": 30}
+
+    def __init__(self, level: str | Path | Level = "asabe-race", ideal: bool = False, report_estimate: bool = False,
+                 replay: str | Path | None = None, render_mode: str | None = None,
+                 render_size: tuple[int, int] = (480, 360)):
+        level = load(level)
+        n = len(level.robots)
+        self.session = AgentSession(level, tuple(range(n)), [], ideal, report_estimate, replay)
+        self.possible_agents = [f"robot_{s}" for s in range(n)]
+        self.agents: list[str] = []
+        self.render_mode, self.render_size = render_mode, render_size
+        self._rng = np.random.default_rng()
+
+    @functools.lru_cache(maxsize=None)
+    def observation_space(self, agent: str) -> gymnasium.spaces.Box:
+        enc = self.session.encoders[self._slot(agent)]
+        return gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
+
+    @functools.lru_cache(maxsize=None)
+    def action_space(self, agent: str) -> gymnasium.spaces.Box:
+        return gymnasium.spaces.Box(-1.0, 1.0, (self.session.action_size(),), dtype=np.float32)
+
+    def _slot(self, agent: str) -> int:
+        return self.possible_agents.index(agent)
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        """A new match: with `seed`, that match seed; without, the next from the env's generator."""
+        if seed is not None:
+            self._rng = np.random.default_rng(seed)
+        match_seed = seed if seed is not None else int(self._rng.integers(0, 2**31 - 1))
+        obs = self.session.reset(match_seed)
+        self.agents = list(self.possible_agents)
+        return ({a: obs[self._slot(a)] for a in self.agents},
+                {a: {"seed": match_seed} for a in self.agents})
+
+    def step(self, actions: dict):
+        out = self.session.step({self._slot(a): actions[a] for a in self.agents if a in actions})
+        live = list(self.agents)
+        pick = (lambda d: {a: d[self._slot(a)] for a in live})
+        result = (pick(out.observations), pick(out.rewards), pick(out.terminated), pick(out.truncated),
+                  pick(out.infos))
+        self.agents = [a for a in live if not (out.terminated[self._slot(a)] or out.truncated[self._slot(a)])]
+        return result
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            from referee.gym.view import frame
+            return frame(self.session, self.render_size)
+        return None
+
+    def close(self) -> None:
+        self.session.close()

@@ -1,0 +1,194 @@
+"""One match driven step by step by learning agents, for the Gymnasium and PettingZoo envs.
+
+The agents ARE the controllers of their slots: the session runs the referee's own `Match`
+(same physics, sensing, rules and task tracking), takes each control tick's observations
+from it, and answers for the agent slots with the agents' actions; other slots run their
+controllers in this process. Rewards are the score of docs/rules.md spread over the ticks,
+plus a potential-based shaping term (docs/rl.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from arena.level import Level
+from referee.gym.observation import ObservationEncoder
+from referee.match.loop import Match, brief_for
+from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
+from referee.sandbox.teams import Team, resolve
+from robots.api import Command
+from robots.controllers.idle import Idle
+
+AGENT_SPEC = "ref:idle"  # what the replay header names for an agent slot (its answers come from the agent)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One control tick's outcome for the agent slots (dicts keyed by slot)."""
+
+    observations: dict[int, np.ndarray]
+    rewards: dict[int, float]
+    terminated: dict[int, bool]
+    truncated: dict[int, bool]
+    infos: dict[int, dict]
+
+
+def load(level: str | Path | Level) -> Level:
+    """A level by built-in name, file path, or already loaded."""
+    if isinstance(level, Level):
+        return level
+    from arena.loader import find_level
+    return find_level(str(level))
+
+
+class AgentSession:
+    """Matches of one level in which the slots `agents` are driven by actions.
+
+    An action is a float array in -1..1: the left and right wheel speeds as fractions of the
+    robot's top speed; with `report_estimate`, followed by the pose estimate that the referee
+    scores, x and y scaled so -1..1 spans the field and heading / pi."""
+
+    def __init__(self, level: str | Path | Level, agents: tuple[int, ...], others: list[str] | None = None,
+                 ideal: bool = False, report_estimate: bool = False, replay: str | Path | None = None):
+        self.level = load(level)
+        n = len(self.level.robots)
+        if not agents or any(not 0 <= s < n for s in agents) or len(set(agents)) != len(agents):
+            raise ValueError(f"{self.level.name} has robot slots 0..{n - 1}; agents {agents} do not fit")
+        self.agents = tuple(agents)
+        specs = list(others or [])
+        rest = [s for s in range(n) if s not in self.agents]
+        if len(specs) > len(rest):
+            raise ValueError(f"{len(specs)} other controllers for {len(rest)} non-agent slot(s)")
+        specs += [self.level.default_controller] * (len(rest) - len(specs))
+        self.others = dict(zip(rest, (resolve(s) for s in specs)))
+        self.ideal, self.report_estimate, self.replay = ideal, report_estimate, replay
+        samples = int(self.level.beacons.params.get("samples_per_turn", 0))
+        self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}
+        self.total_ticks = math.ceil(self.level.time_limit / self.level.control_period - 1e-9)
+        self.match: Match | None = None
+        self.result: dict | None = None
+
+    def action_size(self) -> int:
+        """2 (wheel speeds), or 5 with a pose estimate; every component is in -1..1."""
+        return 5 if self.report_estimate else 2
+
+    def estimate(self, a: np.ndarray) -> tuple[float, float, float]:
+        """An action's normalized estimate (-1..1 spans the field, and -pi..pi) in metres and radians."""
+        f = self.level.field
+        u = np.clip(a[2:5], -1.0, 1.0)
+        return (f.xmin + (u[0] + 1) / 2 * f.size[0], f.ymin + (u[1] + 1) / 2 * f.size[1], float(u[2]) * math.pi)
+
+    def reset(self, seed: int) -> dict[int, np.ndarray]:
+        """Start a new match with `seed`; return each agent's first observation."""
+        self.close()
+        teams = [self.others[s] if s in self.others else Team(f"agent{s}", Idle, AGENT_SPEC)
+                 for s in range(len(self.level.robots))]
+        self.match = Match(self.level, teams, seed=seed, replay=self.replay, ideal=self.ideal, isolate=False)
+        self.match.begin()
+        self.result = None
+        self.done = {s: False for s in self.agents}
+        for enc in self.encoders.values():
+            enc.reset()
+        self.potential = {s: self._potential(s) for s in self.agents}
+        self.fouls = {s: 0 for s in self.agents}
+        return self._observe()
+
+    def _observe(self) -> dict[int, np.ndarray]:
+        """The control tick's first half: deliver events, let the other slots answer."""
+        m = self.match
+        observations = m.observe()
+        for slot, obs in enumerate(observations):
+            if obs is None:
+                continue
+            if slot in self.others:
+                m.answer(slot, m.bots[slot].step(obs))
+            else:
+                self.encoders[slot].take(obs)
+        return {s: self.encoders[s].encode(m.world.time) for s in self.agents}
+
+    def step(self, actions: dict[int, np.ndarray]) -> Step:
+        """Apply the agents' actions for one control period and return what follows."""
+        m = self.match
+        if m is None or m.ended:
+            raise RuntimeError("the match has ended: call reset()")
+        loc = np.zeros(len(self.level.robots))
+        for slot in self.agents:
+            if m.stopped[slot]:
+                continue
+            if self.done[slot]:  # a finished agent stands still while the others play on
+                m.answer(slot, Command(0.0, 0.0))
+                continue
+            a = np.asarray(actions[slot], dtype=np.float64)
+            top = self.level.robots[slot].model.max_wheel_speed
+            left, right = (float(np.clip(v, -1.0, 1.0)) * top for v in a[:2])
+            estimate = None
+            if self.report_estimate:
+                estimate = self.estimate(a)
+                truth = m.world.pose(slot)
+                loc[slot] = self._localization(math.hypot(estimate[0] - truth.x, estimate[1] - truth.y))
+            m.answer(slot, Command(left, right, estimate))
+            self.encoders[slot].command = (left, right)
+        m.advance()
+        terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
+        truncated = {s: m.ended and not terminated[s] for s in self.agents}
+        if m.ended or all(terminated.values()):
+            self.result = m.end()  # the rules' last fouls count in this last reward
+            m.ended = True
+            observations = {s: self.encoders[s].encode(m.world.time) for s in self.agents}
+        else:
+            observations = self._observe()
+        rewards, infos = {}, {}
+        for slot in self.agents:
+            rewards[slot] = self._reward(slot) + float(loc[slot])
+            infos[slot] = {"progress": m.tracker.progress(slot), "time": m.world.time}
+            if self.result is not None:
+                infos[slot]["result"] = self.result
+            self.done[slot] = terminated[slot]
+        return Step(observations, rewards, terminated, truncated, infos)
+
+    def _localization(self, error: float) -> float:
+        points = LOCALIZE_TASK_POINTS if self.level.task.kind == "localize" else LOCALIZATION_POINTS
+        return points / self.total_ticks / (1.0 + error / RMS_SCALE)
+
+    def _potential(self, slot: int) -> float:
+        """Task points reached so far plus the fraction of the current leg covered (shaping)."""
+        m = self.match
+        tracker = m.tracker
+        if tracker.kind == "localize":
+            return 0.0
+        value = TASK_POINTS * tracker.progress(slot)
+        targets = tracker.targets(slot)
+        i = tracker.next[slot]
+        if tracker.kind != "goto" and i < len(targets):
+            r = self.level.robots[slot]
+            prev = targets[i - 1] if i else (r.start.x, r.start.y)
+            leg = math.dist(prev, targets[i])
+            p = m.world.pose(slot)
+            if leg > 0:
+                value += TASK_POINTS / len(targets) * min(1.0, max(0.0, 1.0 - math.dist((p.x, p.y), targets[i]) / leg))
+        return value
+
+    def _reward(self, slot: int) -> float:
+        m = self.match
+        phi = self._potential(slot)
+        reward = phi - self.potential[slot]
+        self.potential[slot] = phi
+        fouls = m.rules.fouls[slot]
+        reward -= sum(f.penalty for f in fouls[self.fouls[slot]:])
+        self.fouls[slot] = len(fouls)
+        finished = m.tracker.finished[slot]
+        if finished is not None and not self.done[slot] and m.tracker.kind != "localize":
+            reward += TIME_POINTS * (1.0 - finished / self.level.time_limit)
+        return float(reward)
+
+    def close(self) -> None:
+        """End the current match; an episode left before its end still gets its replay, ending there."""
+        if self.match is not None:
+            if self.result is None and self.match.writer is not None:
+                self.result = self.match.end()
+            self.match.close()
+            self.match = None

@@ -1,0 +1,8 @@
+"""The match core: the lockstep loop (`loop`), the rules that call fouls (`rules`), task
+progress (`tasks`), localization accuracy (`estimates`), the score (`scoring`), and re-running
+a recorded match to check it (`verify`).
+
+It may import `arena` (the world it referees), `robots.api` (the messages a controller
+exchanges), the sandbox (to run controllers) and records (to write replays); nothing from
+contest, media, gym or cli.
+"""

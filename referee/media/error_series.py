@@ -1,0 +1,81 @@
+"""A replay's localization errors over time: each reported estimate against the true pose.
+
+The truth at an estimate's time is the recorded frame at that time, interpolated linearly
+between the two frames around it when the control period is not a multiple of the frame
+period (replays record true poses at `record_rate`, estimates at control ticks). Used by
+`laserarena plot` and by the viewer's HUD; it grows as a live replay grows.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+
+from referee.records.replay import Replay
+
+
+def truth_at(frames: list, times: list[float], slot: int, t: float) -> tuple[float, float, float] | None:
+    """Robot `slot`'s true pose at time `t` from the frames (whose times are `times`), or None
+    past the last frame."""
+    i = bisect.bisect_left(times, t - 1e-9)
+    if i >= len(frames):
+        return None
+    if abs(times[i] - t) <= 1e-9 or i == 0:
+        return tuple(frames[i][1][slot])
+    (t0, p0), (t1, p1) = frames[i - 1], frames[i]
+    a, b = p0[slot], p1[slot]
+    w = (t - t0) / (t1 - t0)
+    dh = math.remainder(b[2] - a[2], 2 * math.pi)
+    return (a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), math.remainder(a[2] + w * dh, 2 * math.pi))
+
+
+def pose_error(estimate, truth) -> tuple[float, float]:
+    """Position error (m) and absolute heading error (rad, 0..pi) of an estimate."""
+    return (math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]),
+            abs(math.remainder(estimate[2] - truth[2], 2 * math.pi)))
+
+
+@dataclass
+class ErrorTrack:
+    """One robot's estimate errors so far: times (s), position (m), heading (rad)."""
+
+    slot: int
+    times: list[float] = field(default_factory=list)
+    position: list[float] = field(default_factory=list)
+    heading: list[float] = field(default_factory=list)
+    done: int = 0  # estimate records taken in
+    frame_times: list[float] = field(default_factory=list)
+    squares: list[float] = field(default_factory=list)  # running sum of squared position errors
+
+    def rms_until(self, t: float) -> float | None:
+        """RMS position error (m) of the estimates reported up to time `t`, None if none."""
+        n = self.until(t)
+        return math.sqrt(self.squares[n - 1] / n) if n else None
+
+    def extend(self, rep: Replay) -> None:
+        """Take in the robot's estimate records whose truth is already recorded."""
+        self.frame_times.extend(f[0] for f in rep.frames[len(self.frame_times):])
+        for rec in rep.estimates[self.done:]:
+            if rec["r"] == self.slot:
+                truth = truth_at(rep.frames, self.frame_times, self.slot, rec["t"])
+                if truth is None:
+                    break  # its frame is not recorded yet (live play): next time
+                d, h = pose_error(rec["e"], truth)
+                self.times.append(rec["t"])
+                self.position.append(d)
+                self.heading.append(h)
+                self.squares.append((self.squares[-1] if self.squares else 0.0) + d * d)
+            self.done += 1
+
+    def until(self, t: float) -> int:
+        """How many estimates were reported up to time `t`."""
+        return bisect.bisect_right(self.times, t + 1e-9)
+
+
+def tracks(rep: Replay) -> list[ErrorTrack]:
+    """Every robot's error track over the whole replay."""
+    out = [ErrorTrack(slot) for slot in range(len(rep.frames[0][1]))]
+    for track in out:
+        track.extend(rep)
+    return out

@@ -1,0 +1,81 @@
+"""Each robot's standing at any moment of a replay, for the viewer's HUD: task progress so
+far, score so far, and the error of its latest estimate. Grows with a live replay.
+
+Progress is tracked on the recorded frames (the referee tracks every physics step, so a
+waypoint grazed between two frames may show a frame late); the score so far applies
+docs/rules.md to what happened up to that moment: task and time points, localization
+points of the estimates so far (ticks so far as the denominator), penalties of the fouls so far.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+
+from arena.level import Level
+from referee.media.error_series import ErrorTrack
+from referee.records.replay import Replay
+from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS, quality
+from referee.match.tasks import TaskTracker
+
+
+class Standings:
+    """Progress per frame and estimate errors of every robot of one replay."""
+
+    def __init__(self, level: Level, rep: Replay):
+        self.level, self.rep = level, rep
+        self.tracker = TaskTracker(level)
+        self.progress: list[list[float]] = [[] for _ in level.robots]  # per frame
+        self.finished: list[float | None] = [None] * len(level.robots)
+        self.errors = [ErrorTrack(slot) for slot in range(len(level.robots))]
+        self.frames_done = 0
+        self.update()
+
+    def update(self) -> None:
+        """Take in the frames and estimates recorded since the last call."""
+        for t, poses in self.rep.frames[self.frames_done:]:
+            for slot, (x, y, _) in enumerate(poses):
+                if t > 0:  # the referee tracks after physics steps, never at the start
+                    self.tracker.update(slot, x, y, t)
+                self.progress[slot].append(self.tracker.progress(slot))
+                self.finished[slot] = self.tracker.finished[slot]
+        self.frames_done = len(self.rep.frames)
+        for track in self.errors:
+            track.extend(self.rep)
+
+    def _frame(self, t: float) -> int:
+        frames = self.rep.frames
+        return int(min(max(round(t * self.rep.header["record_rate"]), 0), len(frames) - 1))
+
+    def score(self, slot: int, t: float) -> float:
+        """Robot `slot`'s score had the match ended at time `t`."""
+        localize = self.level.task.kind == "localize"
+        progress = self.progress[slot][self._frame(t)]
+        points = 0.0 if localize else TASK_POINTS * progress
+        finished = self.finished[slot]
+        if finished is not None and finished <= t and not localize:
+            points += TIME_POINTS * (1.0 - finished / self.level.time_limit)
+        track = self.errors[slot]
+        n = track.until(t)
+        if n:
+            ticks = math.floor(t / self.level.control_period + 1e-9) + 1
+            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * \
+                quality(min(1.0, n / ticks), track.rms_until(t))
+        return points - sum(f["penalty"] for f in self.rep.fouls if f["r"] == slot and f["time"] <= t)
+
+    def error_now(self, slot: int, t: float) -> tuple[float, float] | None:
+        """Position (m) and heading (rad) error of the latest estimate reported by time `t`."""
+        track = self.errors[slot]
+        i = bisect.bisect_right(track.times, t + 1e-9) - 1
+        return (track.position[i], track.heading[i]) if i >= 0 else None
+
+    def line(self, slot: int, team: str, t: float) -> str:
+        """The HUD line of one robot."""
+        kind = self.level.task.kind
+        progress = self.progress[slot][self._frame(t)]
+        targets = len(self.tracker.targets(slot))
+        task = {"localize": "localize", "goto": f"{100 * progress:.0f} % of the way"}.get(
+            kind, f"{round(progress * targets)}/{targets} waypoints")
+        err = self.error_now(slot, t)
+        shown = f"err {1000 * err[0]:.0f} mm {math.degrees(err[1]):.0f} deg" if err else "no estimate"
+        return f"{slot} {team}   score {self.score(slot, t):6.1f}   {task}   {shown}"

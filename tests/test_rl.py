@@ -1,0 +1,142 @@
+"""The Gymnasium and PettingZoo envs: API conformance, the referee's own physics and scoring,
+and observations that match the geometry. Needs the `rl` extra (installed by `make test`)."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+gymnasium = pytest.importorskip("gymnasium", reason="the rl extra is not installed: pip install '.[rl]'")
+pytest.importorskip("pettingzoo", reason="the rl extra is not installed: pip install '.[rl]'")
+
+import levels  # noqa: E402
+from arena.loader import load_level, parse_level  # noqa: E402
+from referee.gym.observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
+from referee.match.loop import brief_for, run_match  # noqa: E402
+from referee.sandbox.teams import resolve  # noqa: E402
+from robots.api import Observation  # noqa: E402
+from robots.controllers.dead_reckoning import DeadReckoning  # noqa: E402
+
+
+def shortened(name: str, seconds: float):
+    d = yaml.safe_load(levels.path(name).read_text())
+    d["time_limit"] = seconds
+    return parse_level(yaml.safe_dump(d).encode(), f"{name}-{seconds:g}.yaml")
+
+
+def test_gym_make_by_module_name_and_check_env():
+    from gymnasium.utils.env_checker import check_env
+    env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
+    assert env.action_space.shape == (2,) and env.observation_space.shape == (HEADER + PER_BEACON * 4,)
+    check_env(env.unwrapped, skip_render_check=False)
+    env.close()
+    with_estimate = gymnasium.make("referee.gym:LaserArena-v0", level=shortened("vannoy", 5), report_estimate=True,
+                                   render_mode="rgb_array")
+    check_env(with_estimate.unwrapped)
+    with_estimate.reset(seed=4)
+    assert with_estimate.render().shape == (360, 480, 3)
+    with_estimate.close()
+
+
+def drive_like_dead_reckoning(env, level):
+    """Step the env with the commands ref:dead-reckoning would give (it reads no sensor)."""
+    ctrl = DeadReckoning()
+    ctrl.setup(brief_for(level, 0))
+    top = level.robots[0].model.max_wheel_speed
+    env.reset(seed=level.seed)
+    tick, total = 0, 0.0
+    while True:
+        cmd = ctrl.step(Observation(tick, tick * level.control_period, ()))
+        _, reward, terminated, truncated, info = env.step(np.array([cmd.left / top, cmd.right / top]))
+        total += reward
+        tick += 1
+        if terminated or truncated:
+            return total, info
+
+
+def test_env_runs_the_referees_physics_and_its_return_is_the_score():
+    from referee.gym import LaserArenaEnv
+    level = load_level(levels.path("bac-line"))
+    ref = run_match(level, [resolve("ref:dead-reckoning")], isolate=False)["robots"][0]
+    env = LaserArenaEnv(level=level)
+    total, info = drive_like_dead_reckoning(env, level)
+    env.close()
+    got = info["result"]["robots"][0]
+    assert got["final_pose"] == pytest.approx(ref["final_pose"], abs=1e-9)
+    assert got["task"]["reached"] == ref["task"]["reached"] == 10
+    assert got["task"]["finished"] == pytest.approx(ref["task"]["finished"], abs=1e-9)
+    s = ref["score"]  # every waypoint reached: the shaping telescopes to nothing, no estimates were given
+    assert total == pytest.approx(s["task"] + s["time"] - s["penalties"], abs=1e-6)
+
+
+def test_bearings_in_the_observation_match_the_geometry():
+    """Standing still with ideal sensors on bac-static, each beacon's encoded bearing is the
+    angle from the robot's heading to the beacon, computed here from the level's coordinates."""
+    from referee.gym import LaserArenaEnv
+    level = load_level(levels.path("bac-static"))
+    env = LaserArenaEnv(level=level, ideal=True)
+    env.reset(seed=1)
+    for _ in range(5):
+        obs, *_ = env.step(np.zeros(2))
+    env.close()
+    start = level.robots[0].start
+    period = 2 * math.pi / level.robots[0].laser.angular_velocity
+    seen = 0
+    for k, b in enumerate(level.beacons.items):
+        c, s, age, flag = obs[HEADER + PER_BEACON * k: HEADER + PER_BEACON * (k + 1)]
+        if not flag:
+            assert age == AGE_MAX
+            continue
+        seen += 1
+        want = math.atan2(b.y - start.y, b.x - start.x) - start.heading
+        assert math.remainder(math.atan2(s, c) - want, 2 * math.pi) == pytest.approx(0, abs=2e-3), b.id
+        assert 0 <= age <= period + 1e-6
+    assert seen >= 3
+    assert obs[0] == pytest.approx(1.0 / level.time_limit, rel=1e-6)  # 5 ticks of 0.2 s
+
+
+def test_pettingzoo_parallel_api_and_every_robot_an_agent():
+    from pettingzoo.test import parallel_api_test
+    from referee.gym.parallel import LaserArenaParallelEnv
+    env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))
+    parallel_api_test(env, num_cycles=40)
+    assert env.possible_agents == ["robot_0", "robot_1", "robot_2", "robot_3"]
+    obs, _ = env.reset(seed=2)
+    steps = 0
+    while env.agents:
+        _, rewards, terminated, truncated, infos = env.step({a: np.ones(2) for a in env.agents})
+        steps += 1
+    assert steps == 20 and all(truncated.values())  # 4 s of 0.2 s periods, nobody finished a lap
+    assert len(infos["robot_0"]["result"]["robots"]) == 4
+    env.close()
+
+
+def test_random_policy_example_runs():
+    script = Path(__file__).resolve().parent.parent / "examples" / "random_policy.py"
+    proc = subprocess.run([sys.executable, str(script), "--level", "bac-line", "--episodes", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "mean return" in proc.stdout
+
+
+def test_env_replays_load_and_plot(tmp_path):
+    """An episode's replay, even one left before its end, is a whole replay: it loads and plots."""
+    from referee.gym import LaserArenaEnv
+    from referee.media.plot import error_figure
+    from referee.records.replay import load
+    path = tmp_path / "episode.replay"
+    env = LaserArenaEnv(level="bac-line", replay=path, report_estimate=True)
+    env.reset(seed=3)
+    for _ in range(10):
+        env.step(np.array([0.5, 0.5, 0.0, 0.0, 0.0]))
+    env.reset(seed=4)  # leaves the first episode after 2 s
+    rep = load(path)
+    assert rep.duration == pytest.approx(2.0) and rep.result["seed"] == 3
+    fig = error_figure(path)
+    assert len(fig.robots[0].times) == 10  # one estimate per step
+    env.close()
+    assert load(path).result["seed"] == 4 and not list(tmp_path.glob(".laserarena-*"))
