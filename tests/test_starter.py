@@ -1,6 +1,8 @@
 """The starter controller (`ref:starter`, the file `laserarena new` copies) localizes and drives."""
 
+import ast
 import math
+import sys
 
 import pytest
 
@@ -8,6 +10,7 @@ import levels
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
+from robots.controllers import starter
 from robots.controllers.starter import fix
 
 
@@ -46,3 +49,12 @@ def test_starter_static_is_exact_when_ideal_and_follows_the_line():
     line = run_match(load_level(levels.path("bac-line")), [resolve("ref:starter")], ideal=True)
     r = line["robots"][0]
     assert r["task"]["reached"] == 10 and r["localization"]["position_rms"] < 0.005
+
+
+def test_starter_stays_one_self_contained_file():
+    # `laserarena new` copies this one file for a team: it may import the API and the standard library only
+    tree = ast.parse(open(starter.__file__).read())
+    modules = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names} | \
+        {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert all(m == "robots.api" or m.split(".")[0] in sys.stdlib_module_names for m in modules), modules
+

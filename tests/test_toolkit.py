@@ -1,13 +1,18 @@
-"""Revolution bookkeeping, BeAMS midpoints, the wheel model and the EKF on synthetic data."""
+"""Revolution bookkeeping, BeAMS midpoints, the wheel model, the EKF and the HitTracker on
+synthetic data whose truth is geometry."""
 
+import dataclasses
 import math
 
 import pytest
 
-from robots.api import SensorEvent
+from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, TaskInfo
+from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible
 from robots.toolkit.ekf import BearingEKF
-from robots.toolkit.motion import Wheels
+from robots.toolkit.motion import Wheels, heading_change
+from robots.toolkit.steering import wrap
+from robots.toolkit.tracker import HitTracker
 
 
 def test_index_revolutions_give_angles_from_time_fractions():
@@ -63,3 +68,146 @@ def test_ekf_converges_and_gates_an_outlier():
     assert accepted > 90 and math.dist((ex, ey), (x, y)) < 1e-4
     ekf.predict(0.5 * 2 * math.pi / omega / 4, 0.0, 0.0)  # an eighth of a turn later
     assert not ekf.hit(*beacons[0], 1e-6)  # the beam is not pointing at it now: gated out
+
+
+# ---- the wheel model's turn prediction and the HitTracker ----------------------------------
+
+def test_heading_change_of_a_trapezoid_spin():
+    # from rest: each wheel ramps to 0.1 m/s in 0.2 s, holds, ramps down in 0.2 s after the
+    # stop command at 0.4 s; a trapezoid's area is speed x command time: 0.04 m per wheel
+    w = Wheels(track=0.1, accel=0.5)
+    turned = heading_change(w, [(0.4, -0.1, 0.1), (0.0, 0.0, 0.0)], top=0.17)
+    assert turned == pytest.approx(2 * 0.04 / 0.1)
+    assert w.speeds == (0.0, 0.0)  # a prediction leaves the model itself alone
+    w.command(0.1, 0.1, top=0.17)
+    w.advance(1.0)
+    assert heading_change(w, [(0.0, 0.1, 0.1)], top=0.17) == 0.0
+
+
+ARRAYS = {"O": (0.0, 0.0), "A": (1.83, 0.0), "B": (1.83, 1.22), "C": (0.0, 1.22)}
+
+
+def table_brief(start=None, omega=81.0):
+    return Brief(slot=0, field=(0.0, 0.0, 1.83, 1.22), beacon_kind="sensor_array",
+                 beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()), laser=LaserInfo(omega, False),
+                 robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
+                 task=TaskInfo("localize", 0.05), control_period=0.2, time_limit=10.0, start=start)
+
+
+def standing_hits(x, y, beam0, omega, turns, skip=()):
+    """Exact pulse times of a standing robot whose beam points at world angle beam0 at t = 0."""
+    period = 2 * math.pi / omega
+    out = []
+    for k in range(turns):
+        for b, (bx, by) in ARRAYS.items():
+            if b not in skip:
+                t = (math.atan2(by - y, bx - x) - beam0) % (2 * math.pi) / omega + k * period
+                out.append(SensorEvent(t, "hit", b))
+    return sorted(out, key=lambda e: e.time)
+
+
+def test_tracker_starts_from_three_of_four_arrays():
+    # one array occluded all along: "the system uses the remaining three pulses"
+    tracker = HitTracker(table_brief())
+    hits = standing_hits(0.7, 0.5, 0.3, 81.0, 6, skip={"B"})
+    tracker.feed(hits, hits[-1].time)
+    x, y, _ = tracker.pose
+    assert math.dist((x, y), (0.7, 0.5)) < 1e-6
+
+
+def test_tracker_checks_revolution_time_and_time_out():
+    tracker = HitTracker(table_brief())
+    hits = standing_hits(0.7, 0.5, 0.3, 81.0, 2)
+    tracker.recent = [(e.time, e.beacon) for e in hits[:5]]  # one revolution, closed by its first array
+    assert tracker.revolution_fix() is not None
+    (t0, b0), *rest = tracker.recent
+    smallest = min(b - a for (a, _), (b, _) in zip(tracker.recent, tracker.recent[1:]))
+    late = rest[-1][0] + 1.5 * smallest  # the closing pulse beyond the smallest pulse duration
+    tracker.recent = [(t0, b0), *rest[:-1], (late, rest[-1][1])]
+    assert tracker.revolution_fix() is None  # Bac's revolution-time filter
+    # the closing array missed a turn: its revolution spans two turns, beyond the 130 ms time-out
+    first, *between, _ = tracker.recent
+    period = 2 * math.pi / 81.0
+    tracker.recent = [first, *((t + period, b) for t, b in between), (first[0] + 2 * period, first[1])]
+    assert tracker.recent[-1][0] - tracker.recent[0][0] > 0.130
+    assert tracker.revolution_fix() is None
+    # at 31 rad/s a turn takes 203 ms: the time-out is the same share of a turn, not 130 ms
+    slow = HitTracker(table_brief(omega=31.0))
+    slow.recent = [(e.time, e.beacon) for e in standing_hits(0.7, 0.5, 0.3, 31.0, 2)[:5]]
+    assert slow.revolution_fix() is not None
+
+
+def test_tracker_drops_merged_pulses_and_recovers_when_lost():
+    # announced start 0.1 m off the truth: most pulses fail the gate until the tracker
+    # restarts from a checked revolution, then it holds the true pose
+    tracker = HitTracker(table_brief(start=(0.8, 0.5, 0.0)))
+    hits = standing_hits(0.7, 0.5, 0.3, 81.0, 12)
+    merged = SensorEvent(hits[21].time, "hit", hits[20].beacon)  # pulse 20 reported at 21's time
+    events = sorted(hits[:20] + [merged] + hits[21:], key=lambda e: e.time)
+    tracker.feed(events, events[-1].time)
+    x, y, _ = tracker.pose
+    assert tracker.restarts == 1 and math.dist((x, y), (0.7, 0.5)) < 1e-4
+
+
+def test_bac_turn_ends_on_the_angle_between_control_ticks():
+    # a perfect drive that does exactly what the wheel model says: after one spin turn the
+    # robot drives off along the bearing to its waypoint, though the turn's end falls between ticks
+    brief = table_brief(start=(0.5, 0.5, 0.0))
+    brief = dataclasses.replace(brief, task=TaskInfo("waypoints", 0.05, ((0.5 + math.cos(2.0), 0.5 + math.sin(2.0)),)))
+    bac = Bac()
+    bac.setup(brief)
+    wheels, pose, dt = Wheels(0.105, 0.5), [0.5, 0.5, 0.0], 1 / 240
+    for tick in range(20):
+        left, right = bac._guide(tuple(pose))
+        bac.tracker.command(left, right)
+        wheels.command(left, right, 0.17)
+        for k in range(48):
+            _, v, w = wheels.advance(tick * 0.2 + (k + 1) * dt)
+            pose = [pose[0] + v * math.cos(pose[2] + w * dt / 2) * dt, pose[1] + v * math.sin(pose[2] + w * dt / 2) * dt,
+                    pose[2] + w * dt]
+        bac.tracker.wheels.advance((tick + 1) * 0.2)
+        if tick > 2 and wheels.speeds[0] == wheels.speeds[1] > 0:
+            break
+    bearing = math.atan2(0.5 + math.sin(2.0) - pose[1], 0.5 + math.cos(2.0) - pose[0])
+    assert wheels.speeds[0] == wheels.speeds[1] > 0 and abs(wrap(pose[2] - bearing)) < 0.01
+
+
+def moving_hits(x0, y0, heading, v, beam0, omega, duration):
+    """Exact pulse times of a robot driving straight from (x0, y0) at v m/s along `heading`,
+    its beam at world angle beam0 + omega t: each crossing solved by fixed-point iteration."""
+    out, period = [], 2 * math.pi / omega
+    for k in range(int(duration / period) + 1):
+        for b, (bx, by) in ARRAYS.items():
+            t = k * period
+            for _ in range(60):
+                px, py = x0 + v * math.cos(heading) * t, y0 + v * math.sin(heading) * t
+                t = k * period + (math.atan2(by - py, bx - px) - beam0 - k * 2 * math.pi) % (2 * math.pi) / omega
+            if t < duration:
+                out.append(SensorEvent(t, "hit", b))
+    return sorted(out, key=lambda e: e.time)
+
+
+def test_tracker_takes_the_heading_from_the_direction_of_travel():
+    # the announced heading is 1 rad wrong (a robot put down askew): driving straight, the
+    # filtered positions go where the robot goes, and Bac's heading from them corrects it
+    tracker = HitTracker(table_brief(start=(0.5, 0.5, 1.3)))
+    hits = moving_hits(0.5, 0.5, 0.3, 0.1, 0.7, 81.0, 3.0)
+    tracker.command(0.1, 0.1)
+    tracker.wheels.speeds = (0.1, 0.1)  # already at speed, as the hits assume
+    for k in range(15):
+        now = 0.2 * (k + 1)
+        tracker.feed([e for e in hits if now - 0.2 < e.time <= now], now)
+        tracker.command(0.1, 0.1)
+    x, y, h = tracker.pose
+    assert tracker.restarts == 1  # the heading restarted once from the direction of travel
+    assert abs(wrap(h - 0.3)) < 0.03 and math.dist((x, y), (0.5 + 0.3 * math.cos(0.3), 0.5 + 0.3 * math.sin(0.3))) < 0.002
+
+
+def test_tracker_restarts_when_the_closed_form_fixes_contradict_it():
+    # 5 cm off with the lost rule out of play (lost_after beyond the window): the filter takes
+    # the pulses with a wrong laser phase, but a revolution of Bac-checked fixes says otherwise
+    tracker = HitTracker(table_brief(start=(0.75, 0.5, 0.0)), lost_after=17)
+    hits = standing_hits(0.7, 0.5, 0.3, 81.0, 6)
+    tracker.feed(hits, hits[-1].time)
+    x, y, _ = tracker.pose
+    assert tracker.restarts == 1 and math.dist((x, y), (0.7, 0.5)) < 1e-4

@@ -6,6 +6,7 @@ REFERENCE: dict[str, str] = {
     "starter": "robots.controllers.starter:Starter",
     "best": "robots.controllers.best:Best",
     "bac": "robots.controllers.bac:Bac",
+    "bac-seed": "robots.controllers.bac:BacSeed",
     "vannoy": "robots.controllers.vannoy:Vannoy",
     "ubersetzig": "robots.controllers.ubersetzig:Ubersetzig",
     "simi": "robots.controllers.simi:Simi",

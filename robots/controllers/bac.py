@@ -1,4 +1,16 @@
-"""Bac, Grift & Menezes 2011: the corner-array table, as the paper describes it.
+"""Bac, Grift & Menezes 2011: the corner-array table.
+
+`Bac` (ref:bac) is the paper's guidance on a fused pose: the toolkit's HitTracker (an EKF of
+every labelled pulse and the commanded wheels, with Bac's revolution checks to restart it)
+gives the pose at every control tick, heading included. Guidance as the paper's: a 0.05 rad
+dead band (drive straight), a pivot turn (one wheel held) for 0.05-0.3 rad, a spin turn
+(wheels opposite) above 0.3 rad, the next waypoint when close. A turn is commanded so that it
+ends on the right angle: for each control period the wheel speeds are solved (on the nominal
+ramped wheel model) so that this period plus the ramp back to straight driving turn exactly
+the remaining angle; a turn longer than a period is driven at full rate until its last period.
+The heading that enters the dead band is the one the robot will have once its wheels settle.
+
+`BacSeed` (ref:bac-seed) is the paper's method alone, kept to reproduce its figures:
 
 Localization: revolutions from one array to the next pass of the same array (there is no
 index); the durations between pulses give the angles; a revolution whose time differs from
@@ -18,14 +30,25 @@ import math
 
 from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.angles import BeaconRevolutions, Revolution
+from robots.toolkit.motion import heading_change
 from robots.toolkit.solvers import bac, total
 from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
 CRUISE = 0.10  # m/s: "an average velocity of 0.10 m/s, with a peak velocity of 0.14 m/s"
+# m/s: the fused controller's straight-line speed, the line run's "peak velocity of the robot was 0.17 m/s"
+PEAK = 0.17
+CREEP = 0.03  # m/s: the slowest straight-line speed, well above the servos' dead band
+SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BOE-bot)
+SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
+# the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
+PASSED = 0.9  # a waypoint behind the robot counts as passed within this fraction of the task radius
 
 
-class Bac(Controller):
+class BacSeed(Controller):
+    """The paper's localization and guidance, as published."""
+
     def setup(self, brief: Brief) -> None:
         self.brief = brief
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
@@ -136,3 +159,97 @@ class Bac(Controller):
         self.steady_from = float("inf")
         self.last_for_heading = None
         return command
+
+
+class Bac(Controller):
+    """The paper's guidance (dead band, pivot and spin turns) on the HitTracker's fused pose."""
+
+    def setup(self, brief: Brief) -> None:
+        self.brief = brief
+        self.tracker = HitTracker(brief)
+        self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
+        self.target = 0
+        self.turning: int | None = None  # +-1 pivot, +-2 spin: the turn in progress, if any
+
+    def step(self, observation: Observation) -> Command:
+        self.tracker.feed(observation.events, observation.time)
+        pose = self.tracker.pose
+        left, right = self._guide(pose) if pose is not None else (0.0, 0.0)
+        self.tracker.command(left, right)
+        return Command(left, right, estimate=pose)
+
+    def _guide(self, pose: tuple[float, float, float]) -> tuple[float, float]:
+        x, y, h = pose
+        within = SWITCH * self.brief.task.radius
+        self.target = next_waypoint(self.path, self.target, x, y, within)
+        while self.target < len(self.path) and self._passed(x, y, h):
+            self.target += 1
+        if self.target >= len(self.path):
+            self.turning = None
+            return 0.0, 0.0
+        tx, ty = self.path[self.target]
+        error = wrap(math.atan2(ty - y, tx - x) - h)  # the turn still to make, from now
+        if self.turning is not None and abs(self.turning) == 1 and abs(error) > SPIN:
+            self.turning = int(math.copysign(2, error))  # a pivot that fell behind becomes a spin
+        cruise = self._speed(x, y, h, within)
+        # what driving straight on still turns, as the wheels settle
+        settling = heading_change(self.tracker.wheels, [(0.0, cruise, cruise)], self.brief.robot.max_wheel_speed)
+        if self.turning is None:
+            left = wrap(error - settling)
+            near = math.dist((x, y), (tx, ty)) < 2 * within  # where a small offset is a large angle
+            if abs(left) <= DEAD_BAND or (near and abs(left) <= SPIN):
+                return cruise, cruise
+            self.turning = int(math.copysign(1 if abs(left) <= SPIN else 2, left))
+        return self._turn(error, cruise)
+
+    def _turn(self, error: float, cruise: float) -> tuple[float, float]:
+        """The wheel command of the turn in progress for this control period. Its strength s
+        (0..1) is solved so that this period plus the ramp back to driving straight at `cruise`
+        turns exactly `error` (rad, from now) on the nominal wheel model; a turn longer than
+        that goes at full strength and is solved again at the next tick."""
+        mode, wheels, top = self.turning, self.tracker.wheels, self.brief.robot.max_wheel_speed
+        period = self.brief.control_period
+
+        def command(s: float) -> tuple[float, float]:
+            if abs(mode) == 1:  # pivot: the inner wheel slows to a halt at s = 1
+                inner, outer = cruise * (1 - s), cruise
+            else:  # spin: wheels opposite at equal speed
+                inner, outer = -SPIN_SPEED * s, SPIN_SPEED * s
+            return (inner, outer) if mode > 0 else (outer, inner)
+
+        def turned(s: float) -> float:  # signed along the turn's direction
+            return math.copysign(1, mode) * heading_change(wheels, [(period, *command(s)), (0.0, cruise, cruise)], top)
+
+        want = math.copysign(1, mode) * error
+        if turned(1.0) <= want:
+            return command(1.0)
+        self.turning = None  # the turn ends within this period and the ramp back to straight
+        lo, hi = 0.0, 1.0
+        if turned(lo) >= want:
+            return command(lo)
+        for _ in range(30):
+            mid = (lo + hi) / 2
+            lo, hi = (mid, hi) if turned(mid) < want else (lo, mid)
+        return command((lo + hi) / 2)
+
+    def _passed(self, x: float, y: float, h: float) -> bool:
+        """A waypoint just missed: inside the task radius (with a margin for the estimate's
+        error) and already behind the robot; circling back for it would only loop."""
+        tx, ty = self.path[self.target]
+        close = math.dist((x, y), (tx, ty)) < PASSED * self.brief.task.radius
+        return close and abs(wrap(math.atan2(ty - y, tx - x) - h)) > math.pi / 2
+
+    def _speed(self, x: float, y: float, h: float, within: float) -> float:
+        """Straight-line speed: the peak, but slowing into a waypoint where a spin turn follows
+        (the paper's robot turned on the spot), so that it arrives slowly and does not
+        overshoot the corner by a control period's travel."""
+        k = self.target
+        if k + 1 >= len(self.path):
+            return PEAK
+        (tx, ty), (nx, ny) = self.path[k], self.path[k + 1]
+        if abs(wrap(math.atan2(ny - ty, nx - tx) - h)) <= SPIN:
+            return PEAK
+        brake = 0.8 * self.brief.robot.max_wheel_accel  # a margin below the drive's limit: slip and latency
+        ahead = sum(self.tracker.wheels.speeds) / 2 * self.brief.control_period  # before the next command
+        room = max(0.0, math.dist((x, y), (tx, ty)) - within - ahead)
+        return min(PEAK, max(CREEP, math.sqrt(2 * brake * room)))

@@ -1,11 +1,13 @@
 """Osentoski: three lights in a line; a turret samples brightness 120 times a turn.
 
 From each scan: keep the samples clearly brighter than the scan's typical value (0 = bright), find
-the local minima, refine each by a parabola through its neighbours; with exactly three peaks,
+the local minima, refine each by a parabola through the logarithm of the light in it and
+its neighbours (exact for a Gaussian beam profile); with exactly three peaks,
 the middle one in counter-clockwise order is the middle light, and the angles between it and
 the outer ones give the position by the law of sines. The heading follows from the middle
 light's bearing. A scan that does not show three clear peaks (near a light, lights merging
-from afar, a shaky servo) is skipped, as the seed's robot had to.
+from afar, a shaky servo) is skipped, as the seed's robot had to. The robot stands still, so
+the reported pose is the mean of all its fixes.
 """
 
 from __future__ import annotations
@@ -29,8 +31,11 @@ def peaks(samples: tuple[int, ...]) -> list[float]:
     for k in range(n):
         a, b, c = samples[k - 1], samples[k], samples[(k + 1) % n]
         if b < threshold and b <= a and b < c:
-            curve = a - 2 * b + c
-            offset = 0.5 * (a - c) / curve if curve > 0 else 0.0  # vertex of the parabola
+            # a beam of Gaussian profile: the log of the light (1 - sample / 255) is a parabola,
+            # so the vertex through the log of three samples is exact where nothing saturates
+            la, lb, lc = (math.log(max(1e-3, 1.0 - v / 255.0)) for v in (a, b, c))
+            curve = 2 * lb - la - lc
+            offset = 0.5 * (lc - la) / curve if curve > 0 else 0.0
             found.append(((k + offset) * 2 * math.pi / n) % (2 * math.pi))
     return found
 
@@ -53,6 +58,7 @@ class Osentoski(Controller):
                 self.axis = (ux, uy)
                 break
         self.pose: tuple[float, float, float] | None = None
+        self.fixes = 0
 
     def fix(self, samples: tuple[int, ...]) -> tuple[float, float, float] | None:
         found = peaks(samples)
@@ -79,5 +85,16 @@ class Osentoski(Controller):
             if e.kind == "scan":
                 pose = self.fix(e.samples)
                 if pose is not None:
-                    self.pose = pose
+                    self._fuse(pose)
         return Command(0.0, 0.0, estimate=self.pose)
+
+    def _fuse(self, fix: tuple[float, float, float]) -> None:
+        """The robot never moves, so the Kalman filter of its pose is the running mean of the
+        fixes (zero process noise): each scan's brightness noise averages out."""
+        self.fixes += 1
+        if self.pose is None:
+            self.pose = fix
+            return
+        k = 1.0 / self.fixes
+        x, y, h = self.pose
+        self.pose = (x + k * (fix[0] - x), y + k * (fix[1] - y), math.remainder(h + k * math.remainder(fix[2] - h, 2 * math.pi), 2 * math.pi))

@@ -20,10 +20,7 @@ class Simi(StopAndScan):
         if len(seen) < 3:
             return None
         xmin, ymin, xmax, ymax = self.brief.field
-        guess = self.pose or ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
+        guess = self.tracker.pose or ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
         ids = sorted(seen)
         fix = newton([self.beacons[b] for b in ids], [seen[b] for b in ids], guess)
         return (fix.x, fix.y, fix.heading) if fix.ok else None
-
-    def _believable(self, pose: tuple[float, float, float]) -> bool:
-        return True  # labelled detectors and an encoder: no association to get wrong

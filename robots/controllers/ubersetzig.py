@@ -13,6 +13,8 @@ from robots.toolkit.solvers import wall
 
 
 class Ubersetzig(StopAndScan):
+    BEARING_SIGMA = 2 * math.pi / 256 / math.sqrt(12)  # "256 divisions in a complete circle": a uniform step
+
     def setup(self, brief) -> None:
         super().setup(brief)
         # the wall frame: origin at the middle target, y along the targets, x into the field

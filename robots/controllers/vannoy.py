@@ -16,7 +16,8 @@ class Vannoy(StopAndScan):
             return None
         rel = self.relative(rev)
         xmin, ymin, xmax, ymax = self.brief.field
-        reference = self.pose[:2] if self.pose else ((xmin + xmax) / 2, (ymin + ymax) / 2)
+        pose = self.tracker.pose
+        reference = pose[:2] if pose else ((xmin + xmax) / 2, (ymin + ymax) / 2)
         assoc = by_sectors(rel, self.beacons, reference)
         if assoc.ambiguous:
             return None  # Vannoy: "the robot would have to move ... to resolve the problem"

@@ -25,11 +25,14 @@ class BearingEKF:
 
     def __init__(self, x: float, y: float, heading: float, phase: float, rate: float,
                  var_xy: float, var_heading: float, var_sum: float, var_rate: float,
-                 q_xy: float = 1e-4, q_heading: float = 3e-3, wobble: float = 0.005, wobble_time: float = 1.0):
+                 q_xy: float = 1e-4, q_heading: float = 3e-3, q_drift: float = 0.0,
+                 wobble: float = 0.005, wobble_time: float = 1.0):
         """`rate` is the laser's nominal spin rate; its true rate wanders around it by a relative
         `wobble` with correlation time `wobble_time` (a mean-reverting process). Tying the rate
         to its nominal value is what lets the filter tell a robot that does not turn as
-        commanded (a collision) from a laser that spins a little faster."""
+        commanded (a collision) from a laser that spins a little faster. Process noise: `q_xy`
+        m^2 per metre moved, `q_heading` rad^2 per radian turned (slip in turns) and `q_drift`
+        rad^2 per metre driven (wheels that do not match: a straight command curves)."""
         self.nominal = rate
         self.wobble_var = (wobble * rate) ** 2
         self.wobble_time = wobble_time
@@ -39,7 +42,7 @@ class BearingEKF:
         var_phase = var_heading if var_heading > var_sum else var_sum
         self.P = np.diag([var_xy, var_xy, var_heading, var_phase, var_rate])
         self.P[2, 3] = self.P[3, 2] = cov_hp
-        self.q = (q_xy, q_heading)
+        self.q = (q_xy, q_heading, q_drift)
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -59,9 +62,10 @@ class BearingEKF:
         F[1, 2] = v * math.cos(mid) * dt
         F[3, 4] = dt
         F[4, 4] = a
-        q_xy, q_h = self.q
+        q_xy, q_h, q_d = self.q
         moving = abs(v) + abs(w) * 0.05
-        Q = np.diag([q_xy * moving * dt + 1e-12, q_xy * moving * dt + 1e-12, q_h * abs(w) * dt + 1e-12,
+        Q = np.diag([q_xy * moving * dt + 1e-12, q_xy * moving * dt + 1e-12,
+                     (q_h * abs(w) + q_d * abs(v)) * dt + 1e-12,
                      1e-12, self.wobble_var * (1 - a * a)])
         self.P = F @ self.P @ F.T + Q
 

@@ -39,3 +39,24 @@ class Wheels:
             ends.append(end)
         self.time, self.speeds = time, (ends[0], ends[1])
         return dt, (means[0] + means[1]) / 2, (means[1] - means[0]) / self.track
+
+    def copy(self) -> "Wheels":
+        """An independent copy, to try commands on without touching this one."""
+        out = Wheels(self.track, self.accel, self.time)
+        out.speeds, out.target = self.speeds, self.target
+        return out
+
+
+def heading_change(wheels: Wheels, plan: list[tuple[float, float, float]], top: float) -> float:
+    """How far (rad) the robot turns if, from the wheels' state now, it is commanded
+    `plan` = [(duration, left, right), ...] in turn, the last held until the wheels settle.
+    Exact for the ramped model: each wheel's mean speed over an interval is known in closed form."""
+    w = wheels.copy()
+    turned = 0.0
+    for k, (duration, left, right) in enumerate(plan):
+        w.command(left, right, top)
+        if k == len(plan) - 1:  # hold the last command until both wheels reach it
+            duration = max(abs(s - g) for s, g in zip(w.speeds, w.target)) / w.accel + 1e-9
+        dt, _, rate = w.advance(w.time + duration)
+        turned += rate * dt
+    return turned

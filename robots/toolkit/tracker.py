@@ -1,0 +1,229 @@
+"""A robot's pose from its laser events and its own wheel commands, kept at every instant.
+
+The EKF of robots.toolkit.ekf predicts with the wheel speeds the controller commanded (the
+nominal ramped model of robots.toolkit.motion: the team cannot know its drive's true gains)
+and takes each event at its own time, so the pose is exact at the control tick, not at the
+last fix. A labelled hit says the beam points at that beacon; an encoder-latched angle says
+where it pointed relative to the robot; an index click says it points straight ahead; an
+unlabelled hit is taken as the beacon whose predicted bearing is nearest. Outliers go at
+three levels:
+- two hits at one instant are Bac's merged pulse ("the measured duration of any pulse was
+  added to the next pulse duration"): both are dropped;
+- the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
+  merged pulse at another time, a pulse from a turning laser that the model does not follow);
+- when hits keep failing the gate (half of the last `window` or more: the robot was pushed,
+  or slipped more than the filter allows), or when every closed-form fix for over a
+  revolution, the robot not turning, disagrees with the filter by more than 25 mm plus a revolution's travel (a filter that explains the
+  pulses with a wrong laser phase and position), the tracker restarts from a closed-form fix. For labelled hits that is the
+  fix of the last revolution that passes
+  Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
+  130 ms time-out (scaled to the laser's rate); its time must agree with the laser's period within its smallest pulse
+  duration ("The algorithm selected the smallest pulse duration ... as a difference
+  tolerance"); three of the four arrays are enough ("the system uses the remaining three
+  pulses"). A fix with four arrays must also be self-consistent. Hardware without labels
+  brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule between index clicks.
+The heading is checked as Bac measured it, "by evaluating two consecutive positions": on a
+straight run, once the filtered position has moved `track_check` (m), the direction of travel
+must agree with the filtered heading within `heading_check` (rad), or the heading restarts
+from it (a robot held by a wall or another robot turns less than it was told, and the laser's
+own rate cannot tell that from a robot that turns).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, deque
+
+from typing import Callable
+
+from robots.api import Brief, SensorEvent
+from robots.toolkit.ekf import BearingEKF
+from robots.toolkit.motion import Wheels
+from robots.toolkit.solvers import least_squares
+from robots.toolkit.steering import wrap
+
+# "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
+# same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
+TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
+STEADY_TURN = 0.3  # rad/s: turning slower, a closed-form fix may check the filter
+FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
+
+
+# A closed-form fix from an event and those before it: (x, y, the beam's world angle now,
+# the heading if the hardware tells it, else None), or None.
+FirstFix = Callable[[SensorEvent], "tuple[float, float, float, float | None] | None"]
+
+
+class HitTracker:
+    """The pose (x, y, heading) of one robot from its laser events and wheel commands.
+
+    `bearing_sigma` is one hit's bearing noise (rad), `gate` the EKF gate (standard
+    deviations); when `lost_after` of the last `window` hits failed the gate, it restarts;
+    `q_heading` (rad^2 per rad turned) and `q_drift` (rad^2 per m driven) say how far the
+    drive may stray from its commands in heading. `first_fix` replaces the labelled
+    revolution fix for starts and restarts."""
+
+    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
+                 window: int = 16, q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
+                 track_check: float = 0.02, heading_check: float = 0.5, first_fix: FirstFix | None = None):
+        self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
+        self.omega = brief.laser.angular_velocity
+        self.period = 2 * math.pi / abs(self.omega)
+        self.time_out = TIME_OUT_TURNS * self.period
+        self.top = brief.robot.max_wheel_speed
+        self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
+        self.var, self.gate, self.lost_after = bearing_sigma ** 2, gate, lost_after
+        self.q = dict(q_xy=q_xy, q_heading=q_heading, q_drift=q_drift)
+        self.turn_rate = 0.0  # the robot's own turn rate (rad/s) over the last prediction
+        self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
+        self.verdicts: deque[bool] = deque(maxlen=window)  # the last hits: did they pass the gate?
+        self.restarts = 0
+        # a closed-form fix this far from the filter is a disagreement (a fix averages a
+        # revolution's motion, so the margin grows by one revolution's travel at top speed)
+        self.fix_check = 0.025 + self.top * self.period
+        self.disagree_since: float | None = None  # since when every closed-form fix disagrees
+        self.track_check, self.heading_check = track_check, heading_check
+        self.first_fix = first_fix or self._labelled_fix
+        self.run_from: tuple[float, float] | None = None  # where the current straight run began
+        self.ekf: BearingEKF | None = None
+        if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
+            x, y, h = brief.start
+            self.ekf = self._filter(x, y, h, 0.0, var_xy=1e-6, var_heading=1e-4, var_sum=10.0)
+
+    @property
+    def pose(self) -> tuple[float, float, float] | None:
+        """The pose now (at the time of the last `feed`), or None before the first fix."""
+        return self.ekf.pose if self.ekf else None
+
+    def command(self, left: float, right: float) -> None:
+        """The wheel command just sent to the drive (m/s), effective now."""
+        straight = left == right > 0 and self.wheels.speeds[0] == self.wheels.speeds[1]
+        if not straight or self.ekf is None:
+            self.run_from = None
+        elif self.run_from is None:
+            self.run_from = self.ekf.pose[:2]
+        self.wheels.command(left, right, self.top)
+
+    def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent], now: float) -> None:
+        """Take one control period's events (in time order) and carry the pose to `now`."""
+        at = Counter(e.time for e in events if e.kind == "hit")
+        for e in events:
+            if e.kind == "hit" and at[e.time] > 1:
+                continue  # a merged pulse: two arrays reported at one instant
+            if e.kind not in ("hit", "index") or (e.beacon is not None and e.beacon not in self.beacons):
+                continue
+            self._advance(e.time)
+            self._event(e)
+        self._advance(now)
+        self._check_heading()
+
+    def _check_heading(self) -> None:
+        """Bac's heading from consecutive positions, as a check on the filter's heading."""
+        if self.run_from is None or self.ekf is None:
+            return
+        x, y, h = self.ekf.pose
+        if math.dist((x, y), self.run_from) <= self.track_check:
+            return
+        travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
+        if abs(wrap(travel - h)) > self.heading_check:  # keep the beam's world angle, turn the heading
+            self.ekf = self._filter(x, y, travel, wrap(h + self.ekf.s[3] - travel), var_xy=float(self.ekf.P[0, 0]),
+                                    var_heading=0.05, var_sum=1e-4)
+            self.restarts += 1
+        self.run_from = (x, y)
+
+    def _filter(self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float,
+                var_sum: float) -> BearingEKF:
+        return BearingEKF(x, y, heading, phase, self.omega, var_xy=var_xy, var_heading=var_heading,
+                          var_sum=var_sum, var_rate=(0.005 * self.omega) ** 2, **self.q)
+
+    def _advance(self, time: float) -> None:
+        dt, v, w = self.wheels.advance(time)
+        if dt > 0:
+            self.turn_rate = w
+        if self.ekf:
+            self.ekf.predict(dt, v, w)
+
+    def _event(self, e: SensorEvent) -> None:
+        if e.kind == "hit" and e.beacon is not None:
+            self.recent.append((e.time, e.beacon))
+            while self.recent[0][0] < e.time - 2 * self.time_out:
+                self.recent.pop(0)
+        lost = self.ekf is None or not self._update(e)
+        fix = self.first_fix(e)
+        if fix is None:
+            return
+        if lost:
+            self.restart(*fix)
+        elif abs(self.turn_rate) > STEADY_TURN or math.dist(fix[:2], self.ekf.pose[:2]) <= self.fix_check:
+            self.disagree_since = None  # agreed, or turning: the laser lags its motor, fixes are poor
+        elif self.disagree_since is None:
+            self.disagree_since = e.time
+        elif e.time - self.disagree_since > self.period:
+            # every fix far off for over a revolution: not one bad pulse shared by a few
+            # overlapping revolutions, but a filter that is wrong
+            self.restart(*fix)
+
+    def _update(self, e: SensorEvent) -> bool:
+        """The EKF update for one event; False once the filter is lost."""
+        ekf = self.ekf
+        if e.kind == "index":
+            ekf.index(self.var, self.gate)
+            return True  # a click is no evidence of being lost or not
+        if e.beacon is None:  # unlabelled: the beacon the beam should be pointing at
+            beacon = min(self.beacons, key=lambda k: abs(ekf.predicted_bearing(*self.beacons[k])))
+        else:
+            beacon = e.beacon
+        bx, by = self.beacons[beacon]
+        ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
+            ekf.hit(bx, by, self.var, self.gate)
+        self.verdicts.append(ok)
+        return ok or self.verdicts.count(False) < self.lost_after
+
+    def restart(self, x: float, y: float, beam: float, heading: float | None = None) -> None:
+        """(Re)start the filter at (x, y) with the beam's world angle `beam` now, and the
+        heading if known; otherwise the last heading (or 0) with a wide variance, for the
+        motion to correct."""
+        if heading is not None:
+            self.ekf = self._filter(x, y, heading, wrap(beam - heading), var_xy=1e-4, var_heading=1e-3, var_sum=1e-4)
+        elif self.ekf is None:  # nothing known of the heading yet
+            self.ekf = self._filter(x, y, 0.0, beam, var_xy=1e-4, var_heading=10.0, var_sum=1e-4)
+        else:  # lost: keep the heading, but let the next metres of motion correct it
+            h = self.ekf.pose[2]
+            self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
+            self.restarts += 1
+        self.verdicts.clear()
+        self.disagree_since = None
+
+    def _labelled_fix(self, e: SensorEvent) -> tuple[float, float, float, None] | None:
+        if e.kind != "hit" or e.beacon is None or not self.recent:
+            return None
+        fix = self.revolution_fix()
+        return None if fix is None else (*fix, None)
+
+    def revolution_fix(self) -> tuple[float, float, float] | None:
+        """(x, y, beam world angle now) from the revolution that the newest hit closes, or None
+        if it fails Bac's checks."""
+        end, closing = self.recent[-1]
+        before = [k for k, (t, b) in enumerate(self.recent[:-1]) if b == closing]
+        if not before:
+            return None
+        begin = before[-1]
+        duration = end - self.recent[begin][0]
+        rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
+        if duration > self.time_out:
+            return None  # a pulse of the closing array itself went missing
+        hits = self.recent[begin + 1:]
+        times = [self.recent[begin][0]] + [t for t, _ in hits]
+        smallest = min(b - a for a, b in zip(times, times[1:]))
+        if abs(duration - 2 * math.pi / rate) > smallest or len({b for _, b in hits}) != len(hits) or len(hits) < 3:
+            return None
+        sign = math.copysign(1.0, self.omega + self.turn_rate)
+        points = [self.beacons[b] for _, b in hits]
+        bearings = [sign * rate * (t - end) for t, _ in hits]  # relative to the beam now
+        fix = least_squares(points, bearings, sigma=1e-3)
+        if not fix.ok:
+            return None
+        if len(hits) > 3 and max(abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a))
+                                 for (bx, by), a in zip(points, bearings)) > FIT_RESIDUAL:
+            return None
+        return fix.x, fix.y, fix.heading
