@@ -17,6 +17,7 @@ $(VENV)/bin/python:
 
 $(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
 	$(PY) -m pip install --quiet --upgrade pip
+	rm -rf build  # setuptools' staging folder would keep modules that have moved or gone
 	$(PY) -m pip install --quiet '.[test,dask,rl]'
 	touch $@
 

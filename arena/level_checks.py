@@ -20,7 +20,7 @@ from arena.level import Level, Obstacle, Pose, RobotModel
 
 MAX_BYTES = 1 << 20  # a level is a page of YAML; a megabyte is already absurd
 MAX_DEPTH = 16  # nested mappings and lists; the deepest built-in level nests 4
-MAX_NODES = 200_000  # YAML events (scalars, mappings, lists) in the whole file
+MAX_NODES = 200_000  # values (scalars, mappings, lists) in the whole file
 # Beacons a fix needs: every solver of robots/toolkit/solvers.py works from three bearings
 # (ToTal, circle intersection, Newton, Bac's corner table with three of four arrays, the wall
 # targets, the lights' law of sines); with fewer, no position can be computed at all.
@@ -39,46 +39,28 @@ class Problem:
 
 
 def text_problem(data: bytes) -> Problem | None:
-    """Size and nesting limits, checked on the YAML event stream (PyYAML's parser is iterative,
-    so this cannot exhaust the stack the way composing a 10 000-deep list would). Aliases count
-    as the values they repeat, so a few lines of nested aliases ("billion laughs") cannot
-    expand into millions of values or levels."""
+    """Size, nesting and alias limits, checked on the YAML event stream before anything is
+    composed (PyYAML's parser is iterative, so a 10 000-deep list cannot exhaust the stack here
+    the way composing it would). Aliases are refused outright: no level needs one, and a few
+    lines of nested aliases ("billion laughs") would expand into millions of values."""
     if len(data) > MAX_BYTES:
         return Problem("(file)", f"{len(data)} bytes; a level file may have at most {MAX_BYTES}")
-    stack: list[list] = []  # per open mapping or list: [anchor, values in it so far, height]
-    anchored: dict[str, tuple[int, int]] = {}  # anchor -> (values, height) of what it names
-    finished = 0  # values of the document's finished top nodes
-    deep = f"nested more than {MAX_DEPTH} levels deep"
+    depth = values = 0
     try:
         for event in yaml.parse(data.decode("utf-8", errors="replace"), Loader=yaml.SafeLoader):
             line = event.start_mark.line + 1
+            if isinstance(event, yaml.AliasEvent):
+                return Problem("(yaml)", f"aliases (*{event.anchor}) are not allowed in levels", line)
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-                if len(stack) >= MAX_DEPTH:
-                    return Problem("(yaml)", deep, line)
-                stack.append([event.anchor, 1, 1])
-                continue
-            if isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-                anchor, values, height = stack.pop()
-                item = (values, height)
-            elif isinstance(event, yaml.AliasEvent):
-                if any(entry[0] == event.anchor for entry in stack):
-                    return Problem("(yaml)", f"the alias *{event.anchor} repeats a value that contains it", line)
-                anchor, item = None, anchored.get(event.anchor, (1, 0))
-                if len(stack) + item[1] > MAX_DEPTH:
-                    return Problem("(yaml)", deep, line)
-            elif isinstance(event, yaml.ScalarEvent):
-                anchor, item = event.anchor, (1, 0)
-            else:
-                continue
-            if anchor:
-                anchored[anchor] = item
-            if stack:
-                stack[-1][1] += item[0]
-                stack[-1][2] = max(stack[-1][2], item[1] + 1)
-            else:
-                finished += item[0]
-            if finished + sum(entry[1] for entry in stack) > MAX_NODES:
-                return Problem("(yaml)", f"more than {MAX_NODES} values (an alias counts as all it repeats)", line)
+                depth += 1
+                if depth > MAX_DEPTH:
+                    return Problem("(yaml)", f"nested deeper than {MAX_DEPTH} levels", line)
+            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                depth -= 1
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent, yaml.ScalarEvent)):
+                values += 1
+                if values > MAX_NODES:
+                    return Problem("(yaml)", f"more than {MAX_NODES} values", line)
     except yaml.YAMLError:
         return None  # malformed YAML: the loader's composer reports it with its line
     return None

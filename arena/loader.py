@@ -306,39 +306,6 @@ def load_level(path: str | Path, display: str | None = None) -> Level:
 
 
 MAX_LEVEL_BYTES = level_checks.MAX_BYTES
-MAX_YAML_DEPTH = level_checks.MAX_DEPTH
-
-
-class _BoundedLoader(yaml.SafeLoader):
-    """Safe YAML that refuses aliases (no alias bomb can expand) and deep nesting."""
-
-    def __init__(self, stream: str):
-        super().__init__(stream)
-        self.depth = 0
-
-    def compose_node(self, parent, index):  # noqa: ANN001 - PyYAML's signature
-        if self.check_event(yaml.events.AliasEvent):
-            mark = self.peek_event().start_mark
-            raise yaml.composer.ComposerError(None, None, "aliases (*name) are not allowed in levels", mark)
-        self.depth += 1
-        try:
-            if self.depth > MAX_YAML_DEPTH:
-                raise yaml.composer.ComposerError(None, None, f"nested deeper than {MAX_YAML_DEPTH} levels",
-                                                  self.peek_event().start_mark)
-            return super().compose_node(parent, index)
-        finally:
-            self.depth -= 1
-
-
-def _compose(text: str) -> yaml.Node | None:
-    """The YAML node tree of `text`, bounded (see `_BoundedLoader`)."""
-    loader = _BoundedLoader(text)
-    try:
-        return loader.get_single_node()
-    finally:
-        loader.dispose()
-
-
 def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     """Parse and validate level YAML bytes; `source` names the file in errors. With `base`, the
     level file's folder, the checks that concern a contest rather than the physics run too:
@@ -351,7 +318,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         raise LevelError(source, problem.line, problem.key, problem.message)
     try:
         text = data.decode("utf-8")
-        root = _compose(text)
+        root = yaml.compose(text, Loader=yaml.SafeLoader)  # bounded: text_problem ran first
     except UnicodeDecodeError as e:
         raise LevelError(source, None, "(file)", f"not UTF-8 text ({e.reason})") from None
     except yaml.YAMLError as e:

@@ -9,6 +9,7 @@ plus a potential-based shaping term (docs/rl.md).
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,7 @@ from robots.api import Command
 from robots.controllers.idle import Idle
 
 AGENT_SPEC = "ref:idle"  # what the replay header names for an agent slot (its answers come from the agent)
+AGENT_HASH = "sha256:" + hashlib.sha256(AGENT_SPEC.encode()).hexdigest()  # no code ships for an agent
 
 
 @dataclass(frozen=True)
@@ -85,7 +87,7 @@ class AgentSession:
     def reset(self, seed: int) -> dict[int, np.ndarray]:
         """Start a new match with `seed`; return each agent's first observation."""
         self.close()
-        teams = [self.others[s] if s in self.others else Team(f"agent{s}", Idle, AGENT_SPEC)
+        teams = [self.others[s] if s in self.others else Team(f"agent{s}", AGENT_SPEC, AGENT_HASH, factory=Idle)
                  for s in range(len(self.level.robots))]
         self.match = Match(self.level, teams, seed=seed, replay=self.replay, ideal=self.ideal, isolate=False)
         self.match.begin()

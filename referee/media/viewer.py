@@ -17,7 +17,7 @@ from arena import draw
 from arena.level import Level
 from arena.loader import LevelError, load_level, parse_level
 from referee.media import render
-from referee.match.loop import scoring
+from referee.match import scoring
 from referee.errors import UserError
 from referee.records.replay import load
 from referee.match.tasks import TaskTracker
