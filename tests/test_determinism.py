@@ -8,7 +8,7 @@ from referee.match.loop import run_match
 from referee.records.replay import load
 from referee.sandbox.teams import resolve
 import levels
-from conftest import run_cli
+from helpers import run_cli
 
 
 def test_two_processes_give_identical_bytes(tmp_path):

@@ -14,10 +14,9 @@ from arena.rng import RandomTree
 from arena.world import World
 from referee.match.loop import Match, run_match
 from referee.sandbox.teams import resolve
-from conftest import MINI_LEVEL
+from helpers import MINI_LEVEL, edited
 
-BIG = MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [4.0, 4.0]").replace(
-    "start: [0.5, 0.5, 0]", "start: [2.0, 2.0, 0]")
+BIG = edited(MINI_LEVEL, {"field.size": [4.0, 4.0], "robots.0.start": [2.0, 2.0, 0]})
 
 
 def world(text=BIG):
@@ -91,16 +90,8 @@ def test_robot_cannot_leave_through_a_wall():
     assert w.pose(0).x > f.xmax - m.length / 2 - 0.01  # it got there and stopped
 
 
-PUSH = BIG.replace("""robots:
-  - model: boe-bot
-    start: [2.0, 2.0, 0]
-    start_known: true
-""", """robots:
-  - model: generic
-    start: [1.0, 2.0, 0]
-  - model: boe-bot
-    start: [1.6, 2.0, 0]
-""")
+PUSH = edited(BIG, {"robots": [{"model": "generic", "start": [1.0, 2.0, 0]},
+                               {"model": "boe-bot", "start": [1.6, 2.0, 0]}]})
 
 
 def penetration(a, b):
@@ -135,7 +126,7 @@ def test_heavy_robot_pushes_a_light_one_and_they_never_overlap():
 
 
 def test_equal_robots_stall_head_on():
-    text = PUSH.replace("model: generic", "model: boe-bot")
+    text = edited(PUSH, {"robots.0.model": "boe-bot"})
     w = world(text)
     w.command(0, 0.17, 0.17)
     w.command(1, -0.17, -0.17)
@@ -144,9 +135,9 @@ def test_equal_robots_stall_head_on():
 
 
 def test_box_and_circle_obstacles_stop_a_robot():
-    for obstacle, face in (("{kind: box, center: [3.0, 2.0], size: [0.2, 1.0], angle: 0}", 2.9),
-                           ("{kind: circle, center: [3.0, 2.0], radius: 0.1}", 2.9)):
-        w = world(BIG.replace("beacons:", f"obstacles:\n  - {obstacle}\nbeacons:"))
+    for obstacle, face in (({"kind": "box", "center": [3.0, 2.0], "size": [0.2, 1.0], "angle": 0}, 2.9),
+                           ({"kind": "circle", "center": [3.0, 2.0], "radius": 0.1}, 2.9)):
+        w = world(edited(BIG, {"obstacles": [obstacle]}))
         w.command(0, 0.17, 0.17)
         run(w, 15.0)  # 2.5 m of travel if nothing were in the way
         front = w.pose(0).x + w.level.robots[0].model.length / 2
@@ -160,8 +151,7 @@ PERFECT = {f.name: 0.0 for f in dataclasses.fields(DriveErrors)}
 
 def erring(seed=1, text=BIG, **errors):
     """A world whose robot 0 has exactly the given drive errors (the rest zero), seeded."""
-    spec = ", ".join(f"{k}: {v}" for k, v in {**PERFECT, **errors}.items())
-    text = text.replace("    start_known: true\n", f"    start_known: true\n    drive: {{{spec}}}\n", 1)
+    text = edited(text, {"robots.0.drive": {**PERFECT, **errors}})
     return World(parse_level(text.encode(), "test.yaml"), RandomTree(seed))
 
 

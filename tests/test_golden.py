@@ -12,19 +12,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-import levels
-from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.records.replay import BEHAVIOUR, VERSION
 from referee.sandbox.teams import resolve
+from helpers import variant
 
 GOLDEN = Path(__file__).parent / "golden" / "replay.json"
 
 
 def content_hash() -> str:
     """sha256 of the decompressed replay of a 6 s four-robot race with sensing noise."""
-    text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 6")
-    level = parse_level(text.encode(), "levels/asabe-race.yaml")
+    level = variant("asabe-race", "levels/asabe-race.yaml", time_limit=6)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "golden.replay"
         run_match(level, [resolve("ref:best"), resolve("ref:bac"), resolve("ref:dead-reckoning"),

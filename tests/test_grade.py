@@ -12,7 +12,7 @@ import time
 import pytest
 
 from referee.contest.grade import interval
-from conftest import run_cli
+from helpers import run_cli
 
 ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet",
         "--secret", "a shared secret"]  # one secret: journals compared across runs draw the same noise

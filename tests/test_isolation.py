@@ -9,13 +9,14 @@ import textwrap
 import pytest
 
 import levels
-from arena.loader import load_level, parse_level
+from arena.loader import load_level
 from referee.records.canonical import dumps
 from referee.match.loop import run_match
 from referee.records.replay import load
 from arena.level import ControllerLimits
 from referee.sandbox.teams import resolve
 from hostile.hostile_kit import sandboxed_processes
+from helpers import variant
 
 
 def team_file(tmp_path, body, name="team.py"):
@@ -44,8 +45,7 @@ FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overa
 
 def hostile_match(tmp_path, body, limits=FAST):
     """Slot 0 runs the hostile controller, the others reference ones."""
-    text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 30")
-    lv = parse_level(text.encode(), "race30.yaml")
+    lv = variant("asabe-race", "race30.yaml", time_limit=30)
     teams = [resolve(team_file(tmp_path, body)), resolve("ref:dead-reckoning"),
              resolve("ref:dead-reckoning"), resolve("ref:dead-reckoning")]
     return run_match(lv, teams, seed=2, limits=limits)
@@ -215,8 +215,7 @@ def test_cannot_read_the_referees_memory_or_environment(tmp_path, monkeypatch):
 def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
     # the replay goes to a folder the controller could read; it looks for it every step
     replay = shared_dir / "match.replay"
-    lv = parse_level(levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 10").encode(),
-                     "race10.yaml")
+    lv = variant("asabe-race", "race10.yaml", time_limit=10)
     snoop = team_file(tmp_path, f"""
         class Snoop(Controller):
             def step(self, obs):
@@ -242,8 +241,7 @@ def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
 def test_output_flood_is_capped_and_reported(tmp_path):
     logs = tmp_path / "logs"
     logs.mkdir()
-    lv = parse_level(levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 10").encode(),
-                     "race10.yaml")
+    lv = variant("asabe-race", "race10.yaml", time_limit=10)
     flood = team_file(tmp_path, """
         class Flood(Controller):
             def step(self, obs):

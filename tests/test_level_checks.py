@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from arena.loader import LevelError, load_level
-from conftest import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, run_cli
 
 
 def base() -> dict:

@@ -3,7 +3,7 @@
 import pytest
 
 from arena.loader import LevelError, parse_level
-from conftest import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, run_cli
 
 
 def line_of(text: str, needle: str) -> int:

@@ -7,7 +7,7 @@ import pytest
 
 import levels
 from arena.loader import load_level
-from conftest import run_cli
+from helpers import run_cli
 
 FT, IN = 0.3048, 0.0254
 ALL = ["asabe", "asabe-race", "bac-line", "bac-static", "osentoski", "simi", "ubersetzig", "vannoy"]

@@ -10,7 +10,7 @@ import levels
 from arena.loader import load_level
 from referee.media import accuracy_map as am
 from robots.toolkit.solvers import least_squares
-from conftest import run_cli
+from helpers import run_cli
 
 
 @pytest.mark.parametrize("name,points", [("asabe", [(0.9, 0.6), (0.3, 0.25), (1.6, 1.0)]),

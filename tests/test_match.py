@@ -10,22 +10,12 @@ from referee.errors import UserError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.loading import load_class
-from conftest import MINI_LEVEL
+from helpers import MINI_LEVEL, edited
 
-TWO = MINI_LEVEL.replace("""robots:
-  - model: boe-bot
-    start: [0.5, 0.5, 0]
-    start_known: true
-""", """robots:
-  - model: boe-bot
-    start: [0.5, 0.25, 0]
-    start_known: true
-    path: [[1.0, 0.25], [1.5, 0.25]]
-  - model: boe-bot
-    start: [0.5, 0.75, 0]
-    start_known: true
-    path: [[1.0, 0.75], [1.5, 0.75]]
-""").replace("  path: [[1.0, 0.5], [1.5, 0.5]]\n", "").replace("time_limit: 4", "time_limit: 12")
+TWO = edited(MINI_LEVEL, {
+    "robots": [{"model": "boe-bot", "start": [0.5, 0.25, 0], "start_known": True, "path": [[1.0, 0.25], [1.5, 0.25]]},
+               {"model": "boe-bot", "start": [0.5, 0.75, 0], "start_known": True, "path": [[1.0, 0.75], [1.5, 0.75]]}],
+    "task.path": None, "time_limit": 12})
 
 
 def level(text=MINI_LEVEL):
@@ -147,7 +137,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
                 return Command(0.0, 0.0)
     """)
     team = resolve(t)
-    run_match(level(MINI_LEVEL.replace("start_known: true", "start_known: false")), [team], isolate=False)
+    run_match(level(edited(MINI_LEVEL, {"robots.0.start_known": False})), [team], isolate=False)
     brief = __import__(load_class(team.spec).__module__).BRIEFS[0]
     assert brief.start is None
     text = repr(brief)
@@ -156,7 +146,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
 
 def test_waypoint_task_ends_match_when_done():
     # a perfect drive (ideal), so blind dead reckoning surely reaches both waypoints
-    result = run_match(level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 12")), [resolve("ref:dead-reckoning")],
+    result = run_match(level(edited(MINI_LEVEL, {"time_limit": 12})), [resolve("ref:dead-reckoning")],
                        ideal=True)
     r = result["robots"][0]
     assert r["task"]["reached"] == 2 and r["score"]["task"] == 100.0

@@ -12,7 +12,7 @@ from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 import levels
-from conftest import run_cli
+from helpers import edited, run_cli
 
 RECORDER = """
     import json
@@ -74,6 +74,6 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
 
 
 def test_shared_crosstalk_level_runs(tmp_path, write_level):
-    text = levels.path("asabe-race").read_text().replace("crosstalk: coded", "crosstalk: shared")
+    text = edited("asabe-race", {"beacons.crosstalk": "shared"})
     result = run_match(load_level(write_level(text)), [resolve("ref:dead-reckoning")] * 4)
     assert len(result["robots"]) == 4

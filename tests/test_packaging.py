@@ -7,7 +7,7 @@ from pathlib import Path
 
 import levels
 import robots
-from conftest import run_cli
+from helpers import run_cli
 
 
 def test_levels_ship_inside_the_package():

@@ -10,7 +10,7 @@ import yaml
 import levels
 from arena.draw import color
 from arena.loader import parse_level
-from conftest import run_cli
+from helpers import run_cli
 from referee.match.loop import run_match
 from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
 from referee.records.replay import load

@@ -75,7 +75,7 @@ def test_watch_plays_a_replay_and_a_live_match_headless(replay):
 
 
 def test_bad_replays_and_arguments_are_one_line_errors(replay, tmp_path):
-    from conftest import run_cli
+    from helpers import run_cli
     cut = tmp_path / "cut.replay"
     cut.write_bytes(replay.read_bytes()[: len(replay.read_bytes()) // 2])
     (tmp_path / "text.replay").write_text("not a replay")

@@ -8,7 +8,7 @@ import pytest
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
-from conftest import MINI_LEVEL
+from helpers import MINI_LEVEL
 
 
 def level(text):

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from conftest import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, run_cli
 
 BOMB = "".join([
     "name: bomb\n",

@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import run_cli
+from helpers import run_cli
 
 
 def test_new_kit_and_its_readme_commands_work(shared_dir):

@@ -21,7 +21,7 @@ import pytest
 import levels
 from arena.draw import BEACON, Painter, color
 from arena.loader import parse_level
-from conftest import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, run_cli
 from referee.match.loop import run_match
 from referee.media.render import Scenes
 from referee.records.replay import load
