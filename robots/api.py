@@ -124,7 +124,13 @@ class Command:
 
 
 class Controller:
-    """Base class of a team's controller. Override `setup` and `step`."""
+    """Base class of a team's controller. Override `setup` and `step`.
+
+    `api_version` is the controller API the class was written for; the controller process
+    reports it when it has loaded the class, and a referee that speaks another version refuses
+    the team in one line instead of failing on some later message."""
+
+    api_version: int = API_VERSION
 
     def setup(self, brief: Brief) -> None:
         """Called once before the match with what the team may know."""

@@ -4,7 +4,7 @@ Frames are a 4-byte big-endian length and a UTF-8 JSON object of at most `MAX_FR
 Every message carries `"v": 1` and a `type`:
 
 referee -> controller: `setup` {brief}, `step` {obs}, `stop`
-controller -> referee: `loaded`, `ready`, `command` {tick, command}, `fault` {kind, message}
+controller -> referee: `loaded` {api}, `ready`, `command` {tick, command}, `fault` {kind, message}
 
 Decoding is typed (msgspec): every message has a fixed schema, every number must be finite
 and within `LIMIT`, every list and text has a length bound, and unknown fields are refused.
@@ -24,7 +24,7 @@ from typing import Annotated, Any, BinaryIO, Literal, Union
 import msgspec
 
 from robots.api import (
-    BeaconInfo, Brief, Command, Drawing, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo,
+    API_VERSION, BeaconInfo, Brief, Command, Drawing, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo,
 )
 
 PROTOCOL_VERSION = 1
@@ -135,7 +135,7 @@ class _Stop(_Message, tag="stop"):
 
 
 class _Loaded(_Message, tag="loaded"):
-    pass
+    api: Annotated[int, msgspec.Meta(ge=0, le=1 << 30)]  # the controller API the team's class speaks
 
 
 class _Ready(_Message, tag="ready"):
@@ -213,6 +213,13 @@ def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
         raise ProtocolError(f"{what}: nested too deeply") from None
     except Exception as e:  # noqa: BLE001 - a team's bytes must raise nothing else
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
+
+
+def api_problem(version: object) -> str | None:
+    """Why a controller that speaks API `version` cannot play under this referee, or None."""
+    if version == API_VERSION and type(version) is int:
+        return None
+    return f"the team's controller speaks API version {version}, this referee speaks {API_VERSION}"
 
 
 def parse(data: bytes) -> dict:

@@ -100,7 +100,9 @@ def main(argv: list[str] | None = None) -> int:
     except BaseException as e:  # anything else the team's module does while it loads
         _fault(out, "load", "loading", e)
         return 1
-    protocol.write(out, {"type": "loaded"})  # from here on an exit is the controller's, not its loading's
+    api = getattr(cls, "api_version", None)
+    protocol.write(out, {"type": "loaded", "api": api if isinstance(api, int) and not isinstance(api, bool) else -1})
+    # from here on an exit is the controller's, not its loading's
     controller = None
     while True:
         msg = protocol.read(inp)

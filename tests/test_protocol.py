@@ -282,3 +282,23 @@ def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
     assert numpy["robots"][0]["final_pose"] == plain["robots"][0]["final_pose"]
     assert numpy["robots"][0]["localization"] == plain["robots"][0]["localization"]
     assert numpy["robots"][0]["localization"]["fraction"] == 1.0
+
+
+@pytest.mark.parametrize("isolate", [True, False])
+def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, isolate):
+    team = tmp_path / "future.py"
+    team.write_text(textwrap.dedent("""
+        from robots.api import Command, Controller
+
+        class Future(Controller):
+            api_version = 2  # written for a referee that does not exist yet
+
+            def step(self, obs):
+                return Command(0.1, 0.1)
+    """))
+    level = parse_level(levels.path("bac-static").read_bytes(), "levels/bac-static.yaml")
+    result = run_match(level, [resolve(str(team))], isolate=isolate)
+    (fault,) = result["robots"][0]["faults"]
+    assert fault["kind"] == "load" and fault["tick"] == 0
+    assert fault["message"] == "the team's controller speaks API version 2, this referee speaks 1"
+    assert result["robots"][0]["stopped"]

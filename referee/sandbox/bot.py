@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from referee.sandbox.teams import Team
 from robots.api import Brief, Command, Observation
 from robots.loading import LoadError, is_file_spec, load_class
-from robots.protocol import ProtocolError, command_from, command_problem, to_plain
+from robots.protocol import ProtocolError, api_problem, command_from, command_problem, to_plain
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,9 @@ class InProcessBot:
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
             return Fault(0, 0.0, "load", str(e))
+        problem = api_problem(getattr(cls, "api_version", None))
+        if problem:
+            return Fault(0, 0.0, "load", problem)
         try:
             self.controller = cls()
             self.controller.setup(brief)

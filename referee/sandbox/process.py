@@ -221,6 +221,10 @@ class ProcessBot:
         reply = self._receive(self.limits.setup_time)
         if isinstance(reply, dict) and reply["type"] == "loaded":
             self.loaded = True
+            problem = protocol.api_problem(reply["api"])
+            if problem:
+                self.close()
+                return Fault(0, 0.0, "load", problem)
             reply = self._receive(deadline - time.monotonic())
         if isinstance(reply, dict) and reply["type"] == "ready" and self.loaded:
             return None
