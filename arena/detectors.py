@@ -24,7 +24,7 @@ IDEAL_OVERRIDES: dict[str, float] = {
     "range": math.inf, "max_incidence": math.pi / 2, "clock_hz": 0.0,
     "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
     "beam_diameter": 0.0, "beam_divergence": 0.0, "aperture": 0.0, "trigger_fraction": 0.0,
-    "rise_time": 0.0, "acceptance": math.inf, "spin_coupling": 0.0, "spin_time": 0.0, "placement_error": 0.0,
+    "rise_time": 0.0, "acceptance": math.inf, "light_noise": 0.0, "spin_coupling": 0.0, "spin_time": 0.0, "placement_error": 0.0,
 }
 
 
@@ -83,6 +83,8 @@ def visible(kind: str, c: Crossings, facing: np.ndarray, p: Mapping[str, float])
     if kind == "sensor_array":
         return np.ones(len(c), dtype=bool)  # its incidence falloff is the optics' `acceptance`
     if kind == "flash_detector":
+        if p.get("light_noise", 0.0) > 0:  # a soft limit: the optics decide, sweep by sweep
+            return np.ones(len(c), dtype=bool)
         return inc <= flash_limit(c.distance, p)
     raise ValueError(kind)
 

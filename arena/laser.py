@@ -63,8 +63,13 @@ class Crossings:
         return Crossings(*(getattr(self, f)[mask] for f in self.__dataclass_fields__))
 
 
-def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossings:
+def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray,
+                   beam_offset: np.ndarray | None = None) -> Crossings:
     """All times at which a robot's beam points exactly at a beacon at (bx, by), unsorted.
+
+    `beam_offset` (per robot, m, + = to the beam's left) is how far the beam line passes beside
+    the spin axis: it meets a beacon at range r when its direction is the bearing minus
+    asin(offset / r), which shifts every crossing by an amount that depends on the range.
 
     d = wrap(beam - bearing) changes by well under pi per step (the loader bounds the beam's
     turn per step), so the beam passes a beacon in step k exactly when d changes sign there
@@ -73,7 +78,12 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossing
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi  # beam world angle (n+1, R)
-    d = wrap_angle(a[:, :, None] - np.arctan2(dy, dx))
+    off = np.zeros(traj.x.shape[1]) if beam_offset is None else beam_offset
+    lateral = off.any()
+    d = a[:, :, None] - np.arctan2(dy, dx)
+    if lateral:
+        d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
+    d = wrap_angle(d)
     d0, d1 = d[:-1], d[1:]
     passes = ((d0 < 0) & (d1 >= 0)) | ((d0 > 0) & (d1 <= 0))
     passes &= np.abs(d1 - d0) < np.pi
@@ -87,10 +97,17 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray) -> Crossing
     change -= start
     ddx, ddy, da, dphi = change.T
     a0, phi0 = start[:, 2], start[:, 3]
+    o = off[robot]
     for _ in range(NEWTON_ITERATIONS):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy
-        f = wrap_angle(a0 + s * da - np.arctan2(ey, ex))
-        slope = da - (ey * ddx - ex * ddy) / (ex * ex + ey * ey)  # d(beam - bearing)/ds
+        r2 = ex * ex + ey * ey
+        f = a0 + s * da - np.arctan2(ey, ex)
+        slope = da - (ey * ddx - ex * ddy) / r2  # d(beam - bearing)/ds
+        if lateral:  # + asin(o / r), and its derivative through r
+            r = np.sqrt(r2)
+            f += np.arcsin(np.clip(o / r, -1.0, 1.0))
+            slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
+        f = wrap_angle(f)
         s = np.clip(s - f / np.where(slope == 0.0, 1.0, slope), 0.0, 1.0)
     ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey

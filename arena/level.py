@@ -92,6 +92,9 @@ class Laser:
 
     angular_velocity: float
     index: bool
+    # how far the beam passes beside the spin axis (m, + = to the beam's left): a laser module
+    # clamped beside a motor shaft is never exactly on it; a team is not told (0 when ideal)
+    beam_offset: float = 0.0
 
     @property
     def period(self) -> float:

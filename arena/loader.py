@@ -50,6 +50,7 @@ OPTICS_PARAMS: dict[str, tuple[str, float]] = {
     "trigger_fraction": ("number", 0.0),  # fraction of the beam's power that fires the comparator
     "rise_time": ("number", 0.0),  # s the light must stay above the threshold
     "acceptance": ("angle", math.inf),  # incidence at which the detector's response halves
+    "light_noise": ("number", 0.0),  # std of ln(light reaching the detector), sweep to sweep
 }
 BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
     "reflector": {
@@ -257,6 +258,10 @@ def _length(ctx: _Ctx, node: _Node, key: str) -> float:
     return _positive(ctx, node, key) * ctx.scale
 
 
+def _length_signed(ctx: _Ctx, node: _Node, key: str) -> float:
+    return _number(ctx, node, key) * ctx.scale
+
+
 def _point(ctx: _Ctx, node: _Node, key: str) -> tuple[float, float]:
     x, y = _numbers(ctx, node, key, 2, "a point [x, y]")
     return (x * ctx.scale, y * ctx.scale)
@@ -357,7 +362,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) \
         if top.has("obstacles") else ()
     beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items", "crosstalk")), fld)
-    default_laser = _laser(top.sub("laser", ("angular_velocity", "index")))
+    default_laser = _laser(top.sub("laser", ("angular_velocity", "index", "beam_offset")))
     task_map = top.sub("task", ("kind", "radius", "path", "goal"))
     task, shared_path = _task(ctx, task_map, fld)
 
@@ -573,7 +578,8 @@ def _laser(m: _Map) -> Laser:
     w = m.req("angular_velocity", _number)
     if w == 0:
         raise m.ctx.fail(m.raw("angular_velocity").line, m.key("angular_velocity"), "must not be zero")
-    return Laser(angular_velocity=w, index=m.opt("index", _flag, False))
+    return Laser(angular_velocity=w, index=m.opt("index", _flag, False),
+                 beam_offset=m.opt("beam_offset", _length_signed, 0.0))
 
 
 def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
@@ -639,7 +645,7 @@ def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_las
             if not fld.contains(*corner):
                 raise ctx.fail(line, m.key("start"), f"the {model_name} footprint at this start pose "
                                                      "reaches outside the field")
-    laser = _laser(m.sub("laser", ("angular_velocity", "index"))) if m.has("laser") else default_laser
+    laser = _laser(m.sub("laser", ("angular_velocity", "index", "beam_offset"))) if m.has("laser") else default_laser
     path = shared_path
     if m.has("path"):
         if task.kind not in ("waypoints", "race"):

@@ -16,7 +16,7 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena.laser import TWO_PI, Trajectory, find_crossings, find_phase_marks, segment_hits_circles, wrap_angle
+from arena.laser import TWO_PI, Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_circles, wrap_angle
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
@@ -45,6 +45,7 @@ class Sensing:
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
+        self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
         self.direction = np.sign(self.omega)
         self.index = np.array([r.laser.index for r in robots])
         # what each robot puts in the laser plane: a circle at its centre (mast, laser housing)
@@ -162,7 +163,7 @@ class Sensing:
     # ---- beam-beacon hits -----------------------------------------------------------------
 
     def _hits(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
-        c = find_crossings(traj, self.bx, self.by)
+        c = find_crossings(traj, self.bx, self.by, self.beam_offset)
         if len(c):
             keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
             keep &= det.visible(self.kind, c, self.facing, self.params)
@@ -171,7 +172,7 @@ class Sensing:
         times = c.t
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            ok, offset = det.optics(c, inc, det.sensitivity(self.kind, c, inc, p), p)
+            ok, offset = det.optics(c, inc, det.sensitivity(self.kind, c, inc, p) * self._fluctuation(c), p)
             c = c.take(np.nonzero(ok)[0])
             times = c.t + offset[ok]
         window = (traj.t[0], traj.t[-1])
@@ -202,6 +203,18 @@ class Sensing:
         if self.kind in ("reflector", "sensor_array") and p["false_rate"] > 0:
             for r in range(self.n):
                 self._false_returns(traj, r, out[r])
+
+    def _fluctuation(self, c: Crossings) -> np.ndarray:
+        """How much of its usual light each sweep brings the detector: log-normal with std
+        `light_noise` of its logarithm (1 when there is none). Near a detector's limit the
+        light hovers at the threshold, so such sweeps fire late or not at all."""
+        sigma = self.params.get("light_noise", 0.0)
+        out = np.ones(len(c))
+        if sigma > 0:
+            for r in np.unique(c.robot):
+                mine = np.nonzero(c.robot == r)[0]
+                out[mine] = np.exp(sigma * self.rng["detector"][r].normal(size=len(mine)))
+        return out
 
     def _false_returns(self, traj: Trajectory, r: int, events: list[det.Detection]) -> None:
         """Spurious pulses (shiny surfaces, stray light, electrical noise): a Poisson process in

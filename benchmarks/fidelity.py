@@ -245,7 +245,7 @@ def simi(folder: Path, seeds: list[int]) -> list[Row]:
     for seed in seeds:
         pos, got = 0.0, 0
         for x, y in SIMI_POSITIONS:
-            r = play(variant("simi", time_limit=1, robot={"start": [x, y, 0]}), ["ref:simi"], seed,
+            r = play(variant("simi", time_limit=3, robot={"start": [x, y, 0]}), ["ref:simi"], seed,
                      folder).result["robots"][0]["localization"]
             if r["fraction"] > 0:
                 got += 1
@@ -253,7 +253,7 @@ def simi(folder: Path, seeds: list[int]) -> list[Row]:
         hdg = 0.0
         for x, y in SIMI_TURNS:
             for turn in (45, 90, -45, -90):
-                r = play(variant("simi", time_limit=1, robot={"start": [x, y, turn]}), ["ref:simi"], seed,
+                r = play(variant("simi", time_limit=3, robot={"start": [x, y, turn]}), ["ref:simi"], seed,
                          folder).result["robots"][0]["localization"]
                 if r["fraction"] > 0:
                     hdg = max(hdg, r["heading_max"])

@@ -7,6 +7,8 @@ import pytest
 
 from test_laser import ONE, TWO, hits, make, sense
 
+IN = 0.0254  # m
+
 
 def bearing_from(world, slot, beacon_id):
     s = world.level.robots[slot].start
@@ -374,26 +376,50 @@ def seed_limit_deg(range_in):
     return 44.0 + (27.0 - 44.0) * (r - 12.0) / 72.0
 
 
-def test_simi_detects_wherever_the_seeds_limits_allow():
-    import levels
-    from arena.loader import parse_level
+def simi_at(x, y):
+    from helpers import variant
+    return variant("simi", "simi.yaml", robots__0__start=[x, y, 0])
+
+
+def test_simi_sees_all_three_detectors_at_every_position_of_the_seed():
+    """The seed localized all 40 positions of its Appendix F: each gets all three detectors
+    within two seconds, though at five of them one detector is past the seed's stated limit
+    (by 0.5-5.5 deg): the limit is where detection becomes unreliable, not a wall."""
     from arena.world import World
-    text = levels.path("simi").read_text()
-    detectors = {"1": (129.75, -10.0), "2": (10.0, -10.0), "3": (69.875, -113.7065)}
-    centre = (69.875, -44.5688)  # "approximately aligned with the center of the triangle"
-    full = 0
     for x, y in SIMI_POSITIONS:
-        level = parse_level(text.replace("start: [57.497, -57.818, 0]", f"start: [{x}, {y}, 0]").encode(), "simi.yaml")
-        (events,), _ = sense(World(level), 0.1, ideal=False, every=12)
-        seen = {e.beacon for e in hits(events)}
-        for name, (dx, dy) in detectors.items():
-            facing = math.atan2(centre[1] - dy, centre[0] - dx)
-            inc = abs(math.degrees(math.remainder(math.atan2(y - dy, x - dx) - facing, 2 * math.pi)))
-            limit = seed_limit_deg(math.dist((x, y), (dx, dy)))
-            if abs(inc - limit) > 0.2:  # (the surveying error moves a detector by < 0.042 in)
-                assert (name in seen) == (inc < limit), ((x, y), name, inc, limit)
-        full += seen == set(detectors)
-        (ideal,), _ = sense(World(level), 0.1, ideal=True, every=12)
-        assert {e.beacon for e in hits(ideal)} == set(detectors)
-    # at 5 of the seed's positions, one detector is beyond the seed's stated limit, by 0.5-5.5 deg
-    assert full >= 35
+        (events,), _ = sense(World(simi_at(x, y)), 2.0, ideal=False, every=12)
+        assert {e.beacon for e in hits(events)} == {"1", "2", "3"}, (x, y)
+
+
+def test_simi_detection_rate_past_the_limit_follows_the_light_statistics():
+    """Past the stated limit a sweep fires only when the sweep's light (log-normal, std
+    `light_noise` of its log) lifts the response over the comparator's threshold; the rate
+    measured over 600 sweeps matches that probability within binomial error."""
+    from statistics import NormalDist
+    from arena.world import World
+    x, y = 93.465, -82.116  # detector 1 sees the laser 33.3 deg off its axis at 6.7 ft (limit 27.8)
+    level = simi_at(x, y)
+    p = level.beacons.params
+    dx, dy = 129.75 * IN, -10.0 * IN
+    r = math.dist((x * IN, y * IN), (dx, dy))
+    facing = math.atan2(-44.5688 * IN - dy, 69.875 * IN - dx)
+    inc = abs(math.remainder(math.atan2(y * IN - dy, x * IN - dx) - facing, 2 * math.pi))
+    limit = math.radians(seed_limit_deg(r / IN))
+    w = p["beam_diameter"] + p["beam_divergence"] * r
+    share = lambda angle: min(1.0, p["aperture"] * math.cos(angle) / w)  # noqa: E731
+    s_limit = min(1.0, p["trigger_fraction"] / share(limit))
+    light = s_limit ** ((inc / limit) ** 2) * share(inc)  # the median sweep's share of the beam
+    expected = 1 - NormalDist().cdf(math.log(p["trigger_fraction"] / light) / p["light_noise"])
+    (events,), _ = sense(World(level), 20.0, ideal=False, every=12)
+    sweeps = 20.0 * level.robots[0].laser.angular_velocity / (2 * math.pi)
+    rate = len(hits(events, "1")) / sweeps
+    assert 0.01 < expected < 0.5
+    assert abs(rate - expected) < 4 * math.sqrt(expected * (1 - expected) / sweeps), (rate, expected)
+
+
+def test_simi_detects_every_sweep_well_inside_its_limits():
+    from arena.world import World
+    (events,), _ = sense(World(simi_at(57.46535, -58.11582)), 2.0, ideal=False, every=12)
+    sweeps = 2.0 * 30.0
+    for name in "123":
+        assert len(hits(events, name)) >= sweeps - 1, name

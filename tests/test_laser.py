@@ -226,3 +226,26 @@ def test_first_order_closed_form_matches_the_recursion():
             y = a * y + drive[k]
             want.append(y.copy())
         assert np.allclose(first_order(a, y0, drive), want, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("omega", [20.0, -81.0])
+def test_a_beam_beside_the_axis_meets_each_beacon_earlier_by_its_range(omega):
+    """A beam passing d beside the spin axis (to its left) is tangent to a circle of radius d:
+    it meets a beacon at range R when its direction is the bearing minus asin(d / R), so each
+    crossing moves by asin(d / R) / |omega| (earlier when spinning counter-clockwise)."""
+    from helpers import edited
+    d = 0.01
+    text = TABLE.format(kind="sensor_array", omega=omega, robots=ONE, params="  params: {clock_hz: 0}", obstacles="")
+    w = World(parse_level(edited(text, {"laser.beam_offset": d}).encode(), "t.yaml"))
+    (events,), _ = sense(w, 3.0, ideal=False)
+    start = w.level.robots[0].start
+    spin = math.copysign(1, omega)
+    for b in w.level.beacons.items:
+        r = math.hypot(b.x - start.x, b.y - start.y)
+        direction = math.atan2(b.y - start.y, b.x - start.x) - math.asin(d / r)
+        first = ((direction - start.heading) * spin) % (2 * math.pi) / abs(omega)
+        got = hits(events, b.id)[0].time
+        assert got == pytest.approx(first, abs=1e-7)
+    (ideal,), _ = sense(World(parse_level(edited(text, {"laser.beam_offset": d}).encode(), "t.yaml")), 3.0)
+    centred = [e.time for e in hits(ideal)]
+    assert [e.time for e in hits(events)] != pytest.approx(centred, abs=1e-7)  # ideal hardware has no offset

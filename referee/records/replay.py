@@ -31,7 +31,7 @@ from referee.errors import ReplayError
 from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
-BEHAVIOUR = 7  # bump when a change alters simulation results (the golden-replay test says so)
+BEHAVIOUR = 8  # bump when a change alters simulation results (the golden-replay test says so)
 MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
 
 _Text = Annotated[str, msgspec.Meta(max_length=4096)]

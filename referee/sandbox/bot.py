@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from referee.sandbox.teams import Team
-from robots.api import Brief, Command, Observation
+from robots.api import API_VERSION, Brief, Command, Observation
 from robots.loading import LoadError, is_file_spec, load_class
 from robots.protocol import ProtocolError, api_problem, command_from, command_problem, to_plain
 
@@ -52,7 +52,7 @@ class InProcessBot:
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
             return Fault(0, 0.0, "load", str(e))
-        problem = api_problem(getattr(cls, "api_version", None))
+        problem = api_problem(getattr(cls, "api_version", API_VERSION))
         if problem:
             return Fault(0, 0.0, "load", problem)
         try:
