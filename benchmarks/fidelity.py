@@ -196,7 +196,11 @@ def asabe(folder: Path, seeds: list[int]) -> list[Row]:
     ratio = [a["localization"]["position_rms"] / b["localization"]["position_rms"] for a, b in zip(laser, blind)]
     better = [a["score"]["total"] > b["score"]["total"] for a, b in zip(laser, blind)]
     hdg = [math.degrees(r["localization"]["heading_rms"]) for r in laser]
+    drift = [1000 * b["localization"]["position_rms"] for b in blind]
     return [
+        Row("ASABE: blind dead reckoning (ref:dead-reckoning) position RMS",
+            f'{BAC}: "this is no guarantee that the robot will follow a perfectly straight line"',
+            "drifts", fmt_range(drift, "mm", 0), "tens of cm: 100-1500 mm", all(100 <= d <= 1500 for d in drift)),
         Row("Bac fig. 8: the 'ASABE' letters, ref:bac (waypoints reached)",
             f'{BAC}: "the robot followed the \'ASABE\' path reasonably well"',
             f"{n} of {n}", " / ".join(f"{k}" for k in reached) + f" of {n}",
@@ -241,8 +245,10 @@ SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.4
 
 
 def simi(folder: Path, seeds: list[int]) -> list[Row]:
-    worst_pos, fixed, worst_hdg = [], [], []
+    worst_pos, fixed, worst_hdg, start = [], [], [], []
     for seed in seeds:
+        start.append(1000 * play(level_named("simi"), ["ref:simi"], seed, folder).result["robots"][0]
+                     ["localization"]["position_max"])
         pos, got = 0.0, 0
         for x, y in SIMI_POSITIONS:
             r = play(variant("simi", time_limit=3, robot={"start": [x, y, 0]}), ["ref:simi"], seed,
@@ -262,6 +268,9 @@ def simi(folder: Path, seeds: list[int]) -> list[Row]:
         worst_hdg.append(math.degrees(hdg))
     n = len(SIMI_POSITIONS)
     return [
+        Row("Simi: the level's own match, robot at the measured start, worst position error",
+            f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"',
+            "0.298 in = 7.6 mm", fmt_range(start, "mm"), "2.5-15 mm", all(2.5 <= v <= 15 for v in start)),
         Row("Simi: positions of Appendix F that get a fix", f'{SIMI}: Appendix F, 40 tile positions', f"{n} of {n}",
             " / ".join(str(k) for k in fixed) + f" of {n}", f"all {n}", all(k == n for k in fixed)),
         Row("Simi: worst position error over the 40 positions",
