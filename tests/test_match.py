@@ -39,10 +39,11 @@ def test_exception_in_step_stops_that_robot_only(tmp_path, isolate):
     """)
     result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")], isolate=isolate)
     r0, r1 = result["robots"]
-    assert r0["faults"] == [{"tick": 3, "time": pytest.approx(0.15), "kind": "exception",
-                             "message": "in step: RuntimeError: boom second line"}]
+    (fault,) = r0.faults  # the typed result; the same fields by their JSON names below
+    assert (fault.tick, fault.kind, fault.message) == (3, "exception", "in step: RuntimeError: boom second line")
+    assert fault.time == pytest.approx(0.15)
     assert r0["stopped"] and not r1["faults"]
-    assert r1["task"]["reached"] == 2  # the other robot finished its path
+    assert r1.task.reached == r1["task"]["reached"] == 2  # the other robot finished its path
     assert result["end_reason"] == "task_complete"
     # the faulted robot stopped where it was (it had driven 3 ticks, then ramped down)
     assert 0.5 < r0["final_pose"][0] < 0.56

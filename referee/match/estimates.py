@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from arena.level import Pose
+from referee.records.results import Localization
 
 
 class EstimateStats:
@@ -34,14 +35,13 @@ class EstimateStats:
         """Fraction of control ticks that carried an estimate."""
         return self.estimated / self.ticks if self.ticks else 0.0
 
-    def summary(self) -> dict:
+    def summary(self) -> Localization:
+        """The accumulated errors as the robot's localization record."""
         n = self.estimated
-        return {
-            "ticks": self.ticks,
-            "estimates": n,
-            "fraction": self.fraction,
-            "position_rms": math.sqrt(self.pos_sq / n) if n else None,
-            "position_max": self.pos_max if n else None,
-            "heading_rms": math.sqrt(self.hdg_sq / n) if n else None,
-            "heading_max": self.hdg_max if n else None,
-        }
+        return Localization(
+            ticks=self.ticks, estimates=n, fraction=self.fraction,
+            position_rms=math.sqrt(self.pos_sq / n) if n else None,
+            position_max=self.pos_max if n else None,
+            heading_rms=math.sqrt(self.hdg_sq / n) if n else None,
+            heading_max=self.hdg_max if n else None,
+        )

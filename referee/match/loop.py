@@ -23,6 +23,7 @@ from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot
 from referee.match.estimates import EstimateStats
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
 from referee.records.replay import ReplayWriter
 from referee.match.rules import Rules
 from referee.match.scoring import score
@@ -30,7 +31,6 @@ from referee.match.tasks import TaskTracker
 from referee.sandbox.teams import Team
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
-RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 2
 NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
                              overage_bank=float("inf"), max_skips=1 << 62, memory=0, log_bytes=0)
 
@@ -192,7 +192,7 @@ class Match:
             if obs is not None:
                 self.answer(slot, self.bots[slot].step(obs))
 
-    def run(self) -> dict:
+    def run(self) -> MatchResult:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
             self.begin()
@@ -244,7 +244,7 @@ class Match:
                 self.ended = True
                 return
 
-    def end(self) -> dict:
+    def end(self) -> MatchResult:
         """Finish the rules, write the replay's last records, and return the result."""
         world = self.world
         self.rules.finish(world)
@@ -252,45 +252,38 @@ class Match:
         if self.writer:
             for slot in range(len(self.teams)):
                 for foul in self.rules.fouls[slot]:
-                    self.writer.record("foul", r=slot, **foul.to_dict())
+                    self.writer.record("foul", r=slot, **foul.to_record().to_dict())
                 for fault in self.faults[slot]:
-                    self.writer.record("fault", r=slot, **fault.to_dict())
+                    self.writer.record("fault", r=slot, **fault.to_record().to_dict())
             self.writer.close(result)
         return result
 
-    def _result(self) -> dict:
+    def _result(self) -> MatchResult:
         robots = []
         for slot, team in enumerate(self.teams):
             pose = self.world.pose(slot)
             stats = self.estimates[slot]
-            robots.append({
-                "slot": slot,
-                "team": team.label,
-                "score": score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
-                "task": self.tracker.summary(slot),
-                "localization": stats.summary(),
-                "fouls": [f.to_dict() for f in self.rules.fouls[slot]],
-                "faults": [f.to_dict() for f in self.faults[slot]],
-                "stopped": self.stopped[slot],
-                "final_pose": [pose.x, pose.y, pose.heading],
-            })
-        return {
-            "format": RESULT_FORMAT,
-            "version": RESULT_VERSION,
-            "software": __version__,
-            "level": {"name": self.level.name, "hash": self.level.hash},
-            "seed": self.seed,
-            "ideal": self.ideal,
-            "end_time": self.world.time,
-            "end_reason": self.end_reason,
-            "robots": robots,
-        }
+            robots.append(RobotResult(
+                slot=slot,
+                team=team.label,
+                score=score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
+                task=self.tracker.summary(slot),
+                localization=stats.summary(),
+                fouls=[f.to_record() for f in self.rules.fouls[slot]],
+                faults=[f.to_record() for f in self.faults[slot]],
+                stopped=self.stopped[slot],
+                final_pose=[pose.x, pose.y, pose.heading],
+            ))
+        return MatchResult(format=RESULT_FORMAT, version=RESULT_VERSION, software=__version__,
+                           level=LevelRef(name=self.level.name, hash=self.level.hash), seed=self.seed,
+                           ideal=self.ideal, end_time=self.world.time, end_reason=self.end_reason,
+                           robots=robots)
 
 
 def run_match(level: Level, teams: list[Team], seed: int | None = None,
               replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
               limits: ControllerLimits | None = None, logs: Path | None = None,
-              noise_key: str | None = None) -> dict:
+              noise_key: str | None = None) -> MatchResult:
     """Run one match and return its result. `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
     their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from arena.level import Level
+from referee.records.results import FoulRecord
 from arena.world import World
 
 
@@ -29,9 +30,10 @@ class Foul:
     penalty: float
     detail: dict
 
-    def to_dict(self) -> dict:
-        return {"kind": self.kind, "tick": self.tick, "time": self.time, "place": list(self.place),
-                "penalty": self.penalty, **self.detail}
+    def to_record(self) -> FoulRecord:
+        """The foul as it appears in the result and the replay."""
+        return FoulRecord(kind=self.kind, tick=self.tick, time=self.time, place=list(self.place),
+                          penalty=self.penalty, **self.detail)
 
 
 class Rules:

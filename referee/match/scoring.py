@@ -13,6 +13,7 @@ from __future__ import annotations
 from referee.match.estimates import EstimateStats
 from referee.match.rules import Foul
 from referee.match.tasks import TaskTracker
+from referee.records.results import Score
 
 TASK_POINTS, TIME_POINTS, LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS = 100.0, 20.0, 25.0, 100.0
 RMS_SCALE = 0.010  # m: an RMS error of 10 mm halves the localization points
@@ -31,7 +32,7 @@ def quality(fraction: float, position_rms: float) -> float:
     return fraction / (1.0 + position_rms / RMS_SCALE)
 
 
-def score(tracker: TaskTracker, slot: int, stats: EstimateStats, fouls: list[Foul], time_limit: float) -> dict:
+def score(tracker: TaskTracker, slot: int, stats: EstimateStats, fouls: list[Foul], time_limit: float) -> Score:
     """The score breakdown of one robot."""
     localize = tracker.kind == "localize"
     task = 0.0 if localize else TASK_POINTS * tracker.progress(slot)
@@ -39,5 +40,4 @@ def score(tracker: TaskTracker, slot: int, stats: EstimateStats, fouls: list[Fou
     time = TIME_POINTS * (1.0 - finished / time_limit) if finished is not None and not localize else 0.0
     loc = (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * localization_quality(stats)
     penalties = sum(f.penalty for f in fouls)
-    return {"task": task, "time": time, "localization": loc, "penalties": penalties,
-            "total": task + time + loc - penalties}
+    return Score(task=task, time=time, localization=loc, penalties=penalties, total=task + time + loc - penalties)

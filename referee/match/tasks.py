@@ -8,7 +8,10 @@ from __future__ import annotations
 import math
 
 from arena.level import Level, Pose
+from msgspec import UNSET, UnsetType
+
 from referee.match.rules import Polyline
+from referee.records.results import CrossTrack, TaskProgress
 
 
 class TaskTracker:
@@ -67,16 +70,19 @@ class TaskTracker:
             return max(0.0, 1.0 - self.final_distance[slot] / self.start_distance[slot]) if self.start_distance[slot] else 0.0
         return self.next[slot] / len(targets) if targets else 0.0
 
-    def summary(self, slot: int) -> dict:
-        out: dict = {"kind": self.kind, "finished": self.finished[slot]}
+    def summary(self, slot: int) -> TaskProgress:
+        """Robot `slot`'s progress as its result record."""
+        finished = self.finished[slot]
         targets = self.targets(slot)
         if self.kind in ("waypoints", "race"):
-            out.update(reached=self.next[slot], total=len(targets), reached_at=self.reached_at[slot])
             dev = self.deviation[slot]
+            cross: CrossTrack | UnsetType = UNSET
             if dev:
                 mean = sum(dev) / len(dev)
                 std = math.sqrt(sum((d - mean) ** 2 for d in dev) / len(dev))
-                out["cross_track_mm"] = {"mean": 1000 * mean, "std": 1000 * std, "max": 1000 * max(dev)}
-        elif self.kind == "goto":
-            out.update(final_distance=self.final_distance[slot])
-        return out
+                cross = CrossTrack(mean=1000 * mean, std=1000 * std, max=1000 * max(dev))
+            return TaskProgress(kind=self.kind, finished=finished, reached=self.next[slot], total=len(targets),
+                                reached_at=list(self.reached_at[slot]), cross_track_mm=cross)
+        if self.kind == "goto":
+            return TaskProgress(kind=self.kind, finished=finished, final_distance=self.final_distance[slot])
+        return TaskProgress(kind=self.kind, finished=finished)

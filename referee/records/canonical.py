@@ -6,11 +6,15 @@ import json
 import math
 from typing import Any
 
+import msgspec
+
 DECIMALS = 9  # nanometres, nanoradians, nanoseconds: far below any simulated effect
 
 
 def tidy(obj: Any) -> Any:
     """Round floats to DECIMALS places, turn non-finite floats into None, tuples into lists."""
+    if isinstance(obj, msgspec.Struct):  # a typed record: its plain data
+        return tidy(msgspec.to_builtins(obj))
     if isinstance(obj, float):
         return round(obj, DECIMALS) if math.isfinite(obj) else None
     if isinstance(obj, dict):

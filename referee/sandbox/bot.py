@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from referee.sandbox.teams import Team
+from referee.records.results import FaultRecord
 from robots.api import API_VERSION, Brief, Command, Observation
 from robots.loading import LoadError, is_file_spec, load_class
 from robots.protocol import ProtocolError, api_problem, command_from, command_problem, to_plain
@@ -27,8 +28,9 @@ class Fault:
     message: str
     fatal: bool = True
 
-    def to_dict(self) -> dict:
-        return {"tick": self.tick, "time": self.time, "kind": self.kind, "message": self.message}
+    def to_record(self) -> FaultRecord:
+        """The fault as it appears in the result and the replay."""
+        return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message)
 
 
 def one_line(e: BaseException) -> str:
