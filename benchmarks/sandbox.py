@@ -45,7 +45,7 @@ def _bare(sandboxed: bool) -> float:
     if sandboxed:
         for fd in launch.pass_fds:
             os.close(fd)
-        sandbox.init_pid(launch.info, timeout=0)
+        kernel.init_pid(launch.info, timeout=0)
     return took
 
 
