@@ -38,15 +38,16 @@ def load_class(spec: str) -> type[Controller]:
         path, _, cls = spec.partition(".py")
         return _from_file(Path(path + ".py"), cls.lstrip(":"), spec)
     if ":" not in spec:
-        return _from_module(_entry_point(spec), spec)
+        return _from_module(entry_point(spec), spec)
     return _from_module(spec, spec)
 
 
 ENTRY_POINT_GROUP = "laserarena.controllers"
 
 
-def _entry_point(name: str) -> str:
-    """`module:Class` of an installed package's controller, declared in its entry points."""
+def entry_point(name: str) -> str:
+    """`module:Class` of an installed package's controller, declared in its entry points (read
+    from the package's metadata: nothing is imported); LoadError if there is none."""
     found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
     if not found:
         raise LoadError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "

@@ -6,7 +6,7 @@ import textwrap
 import pytest
 
 from arena.loader import parse_level
-from referee.errors import UserError
+from referee.errors import TeamError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.loading import load_class
@@ -170,9 +170,9 @@ def test_team_specs(tmp_path):
     assert team.code_hash == "sha256:" + hashlib.sha256(open(two, "rb").read()).hexdigest()
     assert team.files == (("team.py", (tmp_path / "team.py").resolve()),) and team.entry == "team.py:Two"
     assert load_class(team.spec).__name__ == "Two"
-    with pytest.raises(UserError, match="no such file"):
+    with pytest.raises(TeamError, match="no such file"):
         resolve(str(tmp_path / "missing.py"))
-    with pytest.raises(UserError, match="cannot find module 'no.such.module'"):
+    with pytest.raises(TeamError, match="cannot find module 'no.such.module'"):
         resolve("no.such.module:X")
     idle = resolve("robots.controllers.idle:Idle")
     assert idle.files == () and idle.entry == "robots.controllers.idle:Idle"  # robots is in every sandbox

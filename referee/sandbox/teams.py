@@ -13,13 +13,12 @@ import hashlib
 import importlib.machinery
 import sys
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
 from typing import Callable
 
-from referee.errors import UserError
+from referee.errors import TeamError
 from robots.controllers import REFERENCE
-from robots.loading import ENTRY_POINT_GROUP, is_file_spec
+from robots.loading import LoadError, entry_point, is_file_spec
 
 MAX_FILES = 2000  # what a team may ship: a package larger than this is refused in one line
 MAX_BYTES = 64 << 20
@@ -67,12 +66,12 @@ def _package_files(root: Path, spec: str) -> tuple[tuple[str, Path], ...]:
         if "__pycache__" in rel.parts or path.suffix == ".pyc":
             continue
         if path.is_symlink():
-            raise UserError(f"team {spec}: {path} is a symbolic link; a team ships plain files only")
+            raise TeamError(f"team {spec}: {path} is a symbolic link; a team ships plain files only")
         if path.is_file():
             files.append((rel.as_posix(), path))
             size += path.stat().st_size
         if len(files) > MAX_FILES or size > MAX_BYTES:
-            raise UserError(f"team {spec}: the package {root} is over {MAX_FILES} files or {MAX_BYTES >> 20} MiB")
+            raise TeamError(f"team {spec}: the package {root} is over {MAX_FILES} files or {MAX_BYTES >> 20} MiB")
     return tuple(files)
 
 
@@ -94,12 +93,11 @@ def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
 
 
 def _entry_point(name: str) -> str:
-    """`module:Class` of an installed package's controller, read from its metadata (not imported)."""
-    found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
-    if not found:
-        raise UserError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
-                        f"an installed controller (entry point group {ENTRY_POINT_GROUP})")
-    return found[0].value
+    """`module:Class` of an installed controller named `name` (from metadata, not imported)."""
+    try:
+        return entry_point(name)
+    except LoadError as e:
+        raise TeamError(str(e)) from None
 
 
 def _module_team(label: str, spec: str, target: str) -> Team:
@@ -107,7 +105,7 @@ def _module_team(label: str, spec: str, target: str) -> Team:
     module = target.partition(":")[0]
     found = find_module(module) if module else None
     if found is None:
-        raise UserError(f"team {label}: cannot find module {module!r} on the path")
+        raise TeamError(f"team {label}: cannot find module {module!r} on the path")
     source = Path(found.origin) if found.origin and Path(found.origin).is_file() else None
     top = module.split(".")[0]
     if top == BUILT_IN:
@@ -122,18 +120,18 @@ def _module_team(label: str, spec: str, target: str) -> Team:
 
 
 def resolve(spec: str) -> Team:
-    """Turn a team spec into a `Team`; raise `UserError` (one line) if its code cannot be found.
+    """Turn a team spec into a `Team`; raise `TeamError` (one line) if its code cannot be found.
     Whether the code loads is learnt only in the controller's process."""
     if spec.startswith("ref:"):
         name = spec[4:]
         if name not in REFERENCE:
-            raise UserError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
+            raise TeamError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
         return _module_team(spec, spec, REFERENCE[name])
     if is_file_spec(spec):
         path, _, rest = spec.partition(".py")
         source = Path(path + ".py")
         if not source.is_file():
-            raise UserError(f"team {spec}: no such file {source}")
+            raise TeamError(f"team {spec}: no such file {source}")
         absolute = str(source.resolve()) + rest
         return Team(source.name + rest, absolute, _file_hash(source), ((source.name, source.resolve()),),
                     source.name + rest)
