@@ -82,7 +82,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("spec")
     ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
     ap.add_argument("--log-cap", type=int, default=0, help="bytes the team may write (0: no cap)")
+    ap.add_argument("--max-procs", type=int, default=0,
+                    help="processes and threads of this user at once (0: no limit; only for a uid of its own)")
     args = ap.parse_args(argv)
+    if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
+        resource.setrlimit(resource.RLIMIT_NPROC, (args.max_procs, args.max_procs))
     if args.memory:
         resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
     if args.log_cap:  # writing past it raises SIGXFSZ: the referee reports an output flood

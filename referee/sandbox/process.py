@@ -46,6 +46,9 @@ def _warn_unsandboxed(reason: str) -> None:
     print(f"laserarena: warning: no kernel sandbox ({reason}); not enforced: {UNENFORCED}", file=sys.stderr)
 
 
+MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
+
+
 class ProcessBot:
     """A controller running in a separate process, with the InProcessBot interface.
     `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
@@ -91,6 +94,8 @@ class ProcessBot:
         env = dict(RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8",
                    PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}")
         uid = slot_uid(self.slot) if switches_users() else None
+        if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
+            limits = [*limits, "--max-procs", str(MAX_PROCS)]
         launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits],
                                 self.team.files, env, uid)
         self.info, self.in_sandbox = launch.info, True

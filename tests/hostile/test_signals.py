@@ -65,3 +65,28 @@ def test_ptrace_reaches_nothing(tmp_path):
                 return Command(0.05, 0.05)
     """)
     assert_contained(result, words="contained: traced [] peeked 0")
+
+
+def test_a_fork_bomb_stops_at_the_slots_process_limit(tmp_path):
+    # forks until the kernel refuses; every child sleeps. The slot's own uid has a process
+    # limit, its PID namespace takes every child down with it at the end
+    result = hostile_match(tmp_path, """
+        import time
+
+        class Bomb(Controller):
+            def step(self, obs):
+                if obs.tick == 3:
+                    children = 0
+                    try:
+                        while children < 100_000:
+                            if os.fork() == 0:
+                                time.sleep(600)
+                                os._exit(0)
+                            children += 1
+                    except OSError as e:
+                        raise RuntimeError(f"contained: fork refused after {children} children ({e.errno})")
+                    raise RuntimeError(f"LEAK: {children} children")
+                return Command(0.05, 0.05)
+    """)
+    bad = assert_contained(result)
+    assert "fork refused after" in bad["faults"][0]["message"]
