@@ -8,11 +8,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 import levels
 from arena.level import Level
 from arena.loader import parse_level
+from arena.rng import RandomTree
+from arena.sensing import Sensing
+from arena.world import World
 
 # A small valid level; tests derive variants of it with `variant`.
 MINI_LEVEL = """\
@@ -76,3 +80,61 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """Run `python -m referee ARGS` as a separate process, as a user would."""
     return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True,
                           cwd=cwd, timeout=300)
+
+
+# ---- a laser test table: four sensor arrays, one or two robots, stepped by hand ------------
+
+TABLE = """\
+name: t
+description: laser test table
+time_limit: 30
+control_period: 0.05
+field: {{size: [4.0, 3.0]}}
+{obstacles}
+beacons:
+  kind: {kind}
+  radius: 0.02
+{params}
+  items:
+    - {{id: P, at: [0.2, 0.3]}}
+    - {{id: Q, at: [3.7, 0.4]}}
+    - {{id: R, at: [3.5, 2.8]}}
+    - {{id: S, at: [0.3, 2.6]}}
+laser: {{angular_velocity: {omega}, index: true}}
+robots:
+{robots}
+task: {{kind: localize}}
+default_controller: ref:idle
+"""
+ONE = "  - {model: generic, start: [1.7, 1.2, 37]}"
+
+
+def make(kind="sensor_array", omega=20.0, robots=ONE, params="", obstacles=""):
+    text = TABLE.format(kind=kind, omega=omega, robots=robots, params=params, obstacles=obstacles)
+    return World(parse_level(text.encode(), "t.yaml"))
+
+
+def sense(world, seconds, commands=(), ideal=True, seed=1, every=12):
+    """Step the world, flushing the sensing every `every` steps; returns (events, poses)."""
+    s = Sensing(world, RandomTree(seed), ideal)
+    for slot, (left, right) in enumerate(commands):
+        world.command(slot, left, right)
+    events = [[] for _ in world.bodies]
+    poses = [[(b.position.x, b.position.y, b.angle) for b in world.bodies]]
+    for k in range(round(seconds * world.level.physics_rate)):
+        world.step()
+        s.record()
+        poses.append([(b.position.x, b.position.y, b.angle) for b in world.bodies])
+        if (k + 1) % every == 0:
+            for r, evs in enumerate(s.flush()):
+                events[r] += evs
+    for r, evs in enumerate(s.flush()):
+        events[r] += evs
+    return events, np.array(poses)
+
+
+def hits(events, beacon=None):
+    return [e for e in events if e.kind == "hit" and (beacon is None or e.beacon == beacon)]
+
+
+TWO = ONE + "\n  - {model: boe-bot, start: [0.95, 0.75, 0]}"

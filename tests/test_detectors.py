@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from test_laser import ONE, TWO, hits, make, sense
+from helpers import ONE, TWO, hits, make, sense
 
 IN = 0.0254  # m
 
