@@ -110,7 +110,9 @@ def test_cli_plot_writes_the_png_and_bad_input_is_one_line(replay, tmp_path):
     path, _ = replay
     proc = run_cli("plot", str(path), "--out", str(tmp_path / "e.png"))
     assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "e.png").stat().st_size > 0 and "0 crash.py" in proc.stdout
+    assert "0 crash.py" in proc.stdout
+    image = pygame.image.load(str(tmp_path / "e.png"))  # a real PNG of the figure's size
+    assert image.get_width() >= 400 and image.get_height() >= 300
     (tmp_path / "bad.replay").write_text("nope")
     for args in (["plot", str(tmp_path / "bad.replay")], ["plot", str(path), "--out", str(tmp_path / "no" / "e.png")]):
         proc = run_cli(*args)

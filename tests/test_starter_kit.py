@@ -1,12 +1,16 @@
 """`laserarena new` writes a kit whose README commands work; installed controllers load by name."""
 
+import json
 import re
 import shlex
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from helpers import run_cli
+from referee.records.replay import load
 
 
 def test_new_kit_and_its_readme_commands_work(shared_dir):
@@ -24,8 +28,14 @@ def test_new_kit_and_its_readme_commands_work(shared_dir):
         argv[0] = str(bindir / argv[0]) if argv[0] == "laserarena" else sys.executable
         done = subprocess.run(argv, cwd=kit, capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, (command, done.stdout[-2000:], done.stderr[-2000:])
-    assert (kit / "result.json").exists() and (kit / "asabe.replay").exists()
-    assert (kit / "logs" / "slot0.log").exists()
+    result = json.loads((kit / "result.json").read_text())  # the bac-line run's
+    (robot,) = result["robots"]
+    assert result["level"]["name"] == "bac-line" and robot["team"] == "controller.py" and not robot["faults"]
+    assert robot["task"]["total"] == 10 and robot["localization"]["estimates"] > 0
+    replay = load(kit / "asabe.replay")  # the asabe run's, with its result and frames to its end
+    assert replay.header["level"]["name"] == "asabe" and replay.result["robots"][0]["team"] == "controller.py"
+    assert replay.frames[-1][0] == pytest.approx(replay.result["end_time"], abs=0.05)
+    assert (kit / "logs" / "slot0.log").is_file()
     # and it refuses to overwrite
     again = run_cli("new", "myteam", "--dir", str(shared_dir))
     assert again.returncode == 2 and "already exists" in again.stderr
