@@ -13,3 +13,11 @@ try:
     __version__ = metadata.version("laserarena")
 except metadata.PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0+unknown"
+
+
+def __getattr__(name: str) -> object:
+    """`referee.run_match`, imported when first used (importing `referee` loads nothing else)."""
+    if name == "run_match":
+        from referee.api import run_match
+        return run_match
+    raise AttributeError(f"module 'referee' has no attribute {name!r}")
