@@ -78,7 +78,11 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
         module_spec.loader.exec_module(module)
     except (Exception, SystemExit) as e:  # a SystemExit at import must not end the loader
         del sys.modules[name]
-        raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}") from None
+        hint = ""
+        if isinstance(e, ImportError):  # a sibling module, most likely: it was not shipped
+            hint = (" (a FILE.py team is that one file: for a team of several modules or data files, "
+                    "make its folder a package with __init__.py and give --team DIR)")
+        raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}{hint}") from None
     return _pick(module, cls, spec)
 
 
@@ -88,10 +92,12 @@ def _pick(module: object, cls: str, spec: str) -> type[Controller]:
         if not (inspect.isclass(found) and issubclass(found, Controller)):
             raise LoadError(f"team {spec}: {cls} is not a Controller class in {module.__name__}")
         return found
+    inside = module.__name__ + "."  # a package's __init__ exports the class of one of its modules
     own = [c for _, c in inspect.getmembers(module, inspect.isclass)
-           if issubclass(c, Controller) and c is not Controller and c.__module__ == module.__name__]
+           if issubclass(c, Controller) and c is not Controller
+           and (c.__module__ == module.__name__ or hasattr(module, "__path__") and c.__module__.startswith(inside))]
     if len(own) != 1:
         names = ", ".join(c.__name__ for c in own) or "none"
-        raise LoadError(f"team {spec}: name the class as FILE.py:Class "
+        raise LoadError(f"team {spec}: name the class as {spec.rpartition(':')[0] or spec}:Class "
                         f"(found {len(own)} Controller classes: {names})")
     return own[0]

@@ -8,7 +8,9 @@ a typed `Fault`, and the bot stops answering: the match goes on without it.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 from referee.sandbox.teams import Team
 from referee.records.results import FaultRecord
@@ -51,6 +53,11 @@ class InProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         try:  # the one place a team's code is imported into the referee
+            if self.team.files and not is_file_spec(self.team.entry):  # a package team: import it from its folder
+                rel, source = self.team.files[0]
+                home = str(source.parents[len(Path(rel).parts) - 1])
+                if home not in sys.path:
+                    sys.path.insert(0, home)
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
             return Fault(0, 0.0, "load", str(e))

@@ -1,8 +1,10 @@
 """Resolve a team spec from the command line into a `Team` the match can run, WITHOUT running it.
 
 A spec is `ref:NAME` (a reference controller), `path/team.py` or `path/team.py:Class`
-(a file), `package.module:Class` (anything on the path) or NAME (an installed controller's
-entry point). Resolving finds the files only: nothing of the team's is imported or executed in
+(a file: that one file is shipped, docs/controllers.md), `path/DIR` or `path/DIR:Class` (a
+folder holding a Python package: all of it is shipped, its data files too, and its `__init__`
+exports the Controller or the class is named), `package.module:Class` (anything on the path)
+or NAME (an installed controller's entry point). Resolving finds the files only: nothing of the team's is imported or executed in
 the referee. The controller's own (sandboxed) process loads the code; a failure to load comes
 back from there as a `load` fault for that slot. Only `--in-process` imports a team here.
 """
@@ -119,6 +121,26 @@ def _module_team(label: str, spec: str, target: str) -> Team:
     return Team(label, spec, _file_hash(origin), ((origin.name, origin),), target)
 
 
+def label_of(path: Path) -> str:
+    """A team's name in tables and replays: its path relative to the current folder when it
+    lies under it, else its last part (never a machine's absolute path)."""
+    try:
+        return path.resolve().relative_to(Path.cwd().resolve()).as_posix()
+    except ValueError:
+        return path.name
+
+
+def _package_dir(spec: str) -> tuple[Path, str] | None:
+    """(folder, class) when `spec` is DIR or DIR:Class and DIR holds a Python package."""
+    folder, _, cls = spec.rpartition(":") if ":" in spec else (spec, "", "")
+    path = Path(folder)
+    if not path.is_dir() or not (path / "__init__.py").is_file():
+        return None
+    if not path.resolve().name.isidentifier():
+        raise TeamError(f"team {spec}: the package folder's name {path.resolve().name!r} is not a Python name")
+    return path, cls
+
+
 def resolve(spec: str) -> Team:
     """Turn a team spec into a `Team`; raise `TeamError` (one line) if its code cannot be found.
     Whether the code loads is learnt only in the controller's process."""
@@ -133,8 +155,15 @@ def resolve(spec: str) -> Team:
         if not source.is_file():
             raise TeamError(f"team {spec}: no such file {source}")
         absolute = str(source.resolve()) + rest
-        return Team(source.name + rest, absolute, _file_hash(source), ((source.name, source.resolve()),),
+        return Team(label_of(source) + rest, absolute, _file_hash(source), ((source.name, source.resolve()),),
                     source.name + rest)
+    package = _package_dir(spec)
+    if package:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
+        path, cls = package
+        root = path.resolve()
+        files = _package_files(root, spec)
+        return Team(label_of(path) + (f":{cls}" if cls else ""), f"{root}:{cls}", _tree_hash(files), files,
+                    f"{root.name}:{cls}")
     if ":" not in spec:
         return _module_team(spec, spec, _entry_point(spec))
     return _module_team(spec, spec, spec)
