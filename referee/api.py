@@ -21,6 +21,7 @@ from arena.level import Level
 from arena.loader import find_level, load_level
 from referee.errors import TeamError, UserError
 from referee.records.results import MatchResult
+from referee.sandbox.process import isolation_unavailable
 from referee.sandbox.teams import Team, resolve
 from robots.api import Controller
 
@@ -161,7 +162,8 @@ def run_match(level: str | Path | Level, teams: list[str | type] | None = None, 
     folder = Path(tempfile.mkdtemp(prefix="laserarena-api-"))
     try:
         folder.chmod(0o755)  # the controller, another user, reads the shipped source
-        resolved = [resolve(t) if isinstance(t, str) else _class_team(t, isolate, folder) for t in given]
+        ship = isolate and isolation_unavailable() is None  # else the match warns and runs them here
+        resolved = [resolve(t) if isinstance(t, str) else _class_team(t, ship, folder) for t in given]
         if logs is not None:
             Path(logs).mkdir(parents=True, exist_ok=True)
         return run(lv, resolved, seed=seed, replay=replay, ideal=ideal, isolate=isolate,

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import signal
 import sys
 import traceback
@@ -77,6 +76,19 @@ def _flooded(signum: int, frame: object) -> None:
     os._exit(128 + signal.SIGXFSZ)  # the shell's (and bwrap's) word for "killed by SIGXFSZ"
 
 
+def _limit(name: str, value: int, what: str) -> bool:
+    """Set resource limit `name` to `value`; where this system has no such limit (Windows has
+    no `resource`, macOS refuses RLIMIT_AS) say so in one line of the team's log and go on."""
+    try:
+        import resource
+        resource.setrlimit(getattr(resource, name), (value, value))
+        return True
+    except (ImportError, AttributeError, ValueError, OSError) as e:
+        print(f"laserarena: warning: no {what} limit on this system ({name}: {type(e).__name__}); "
+              f"the controller runs without it", file=sys.stderr)
+        return False
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="robots.runner")
     ap.add_argument("spec")
@@ -86,13 +98,13 @@ def main(argv: list[str] | None = None) -> int:
                     help="processes and threads of this user at once (0: no limit; only for a uid of its own)")
     args = ap.parse_args(argv)
     if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
-        resource.setrlimit(resource.RLIMIT_NPROC, (args.max_procs, args.max_procs))
+        _limit("RLIMIT_NPROC", args.max_procs, "process count")
     if args.memory:
-        resource.setrlimit(resource.RLIMIT_AS, (args.memory, args.memory))
-    if args.log_cap:  # writing past it raises SIGXFSZ: the referee reports an output flood
-        resource.setrlimit(resource.RLIMIT_FSIZE, (args.log_cap, args.log_cap))
-        # CPython ignores it by default, and a PID namespace's init (this process, in a sandbox)
-        # ignores it at its default action: end as if killed by it
+        _limit("RLIMIT_AS", args.memory, "memory")
+    if args.log_cap and _limit("RLIMIT_FSIZE", args.log_cap, "output size"):
+        # writing past it raises SIGXFSZ: the referee reports an output flood. CPython ignores
+        # it by default, and a PID namespace's init (this process, in a sandbox) ignores it at
+        # its default action: end as if killed by it
         signal.signal(signal.SIGXFSZ, _flooded)
     raw_in, out = _private_channel()
     inp = _reader(raw_in)

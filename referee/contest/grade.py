@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import csv
 import ctypes
-import fcntl
 import hashlib
 import hmac
 import io
@@ -136,7 +135,10 @@ class Journal:
         except OSError as e:
             raise UserError(f"{path}: cannot open the journal: {e.strerror or e}") from None
         try:
+            import fcntl  # POSIX only: without it (Windows) two runs on one journal are not kept apart
             fcntl.flock(self.lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:
+            print(f"laserarena: warning: {path}: no file locks here; run one grading per journal", file=sys.stderr)
         except BlockingIOError:
             raise UserError(f"{path}: another grading run is using this journal") from None
         try:
@@ -279,6 +281,8 @@ def _worker_init(parent: int) -> None:
     controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_stop)
+    if not sys.platform.startswith("linux"):
+        return  # no parent-death signal elsewhere: the pool's own shutdown ends the workers
     libc = ctypes.CDLL(None, use_errno=True)
     if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
         raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")

@@ -10,6 +10,7 @@ time limit, or as soon as every robot has finished its task or been stopped by a
 from __future__ import annotations
 
 import dataclasses
+import sys
 from pathlib import Path
 from typing import Protocol
 
@@ -21,7 +22,7 @@ from arena.world import World
 from referee import __version__
 from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot
+from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.match.estimates import EstimateStats
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
 from referee.records.replay import ReplayWriter
@@ -120,6 +121,11 @@ class Match:
         self.world = World(level, None if ideal else tree)
         self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
+        reason = isolation_unavailable() if isolate else None
+        if reason:  # said once per match, in one line; the match still runs
+            print(f"laserarena: warning: controllers run in this process ({reason}): nothing isolates them",
+                  file=sys.stderr)
+            isolate = False
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
         self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate

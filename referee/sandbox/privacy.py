@@ -9,9 +9,9 @@ from __future__ import annotations
 import ctypes
 import functools
 import os
-import pwd
 import shutil
 import stat
+import sys
 from pathlib import Path
 
 from referee.errors import UserError
@@ -23,18 +23,26 @@ UNPRIVILEGED_USER = "nobody"
 def make_undumpable() -> bool:
     """Mark this process non-dumpable, so no same-user process can read its memory or
     environment through /proc or ptrace. Returns whether it worked (Linux only)."""
+    if not sys.platform.startswith("linux"):
+        return False
     try:
         return ctypes.CDLL(None, use_errno=True).prctl(PR_SET_DUMPABLE, 0, 0, 0, 0) == 0
-    except (OSError, AttributeError):
+    except (OSError, AttributeError, TypeError):
         return False
 
 
-def drop_to() -> pwd.struct_passwd | None:
+def is_root() -> bool:
+    """Whether this process runs as root (never on a system without POSIX users)."""
+    return getattr(os, "geteuid", lambda: -1)() == 0
+
+
+def drop_to() -> "pwd.struct_passwd | None":
     """The user controllers run as without a kernel sandbox: `nobody` when the referee is root,
     else None (same user). None too where root cannot become `nobody` (a container's user
     namespace that maps root alone): `cannot_drop` then says so."""
-    if os.geteuid() != 0:
+    if not is_root():
         return None
+    import pwd  # POSIX only: reached as root alone
     try:
         user = pwd.getpwnam(UNPRIVILEGED_USER)
     except KeyError:
@@ -45,12 +53,13 @@ def drop_to() -> pwd.struct_passwd | None:
 
 def switches_users() -> bool:
     """Whether controllers run as other users than the referee: root, able to become them."""
-    return os.geteuid() == 0 and not cannot_drop()
+    return is_root() and not cannot_drop()
 
 
 @functools.cache
 def cannot_drop() -> bool:
     """Whether this root process is unable to start a process as `nobody` (tried once)."""
+    import pwd
     user = pwd.getpwnam(UNPRIVILEGED_USER)
     pid = os.fork()
     if pid == 0:  # the child only tries, and ends at once

@@ -26,7 +26,7 @@ import robots
 from arena.level import ControllerLimits
 from referee.sandbox import kernel
 from referee.sandbox.bot import Fault
-from referee.sandbox.privacy import check_readable_by_others, drop_to, share_team_files, slot_uid, switches_users
+from referee.sandbox.privacy import check_readable_by_others, drop_to, is_root, share_team_files, slot_uid, switches_users
 from referee.sandbox.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
@@ -44,6 +44,12 @@ UNENFORCED = ("controllers share one uid and see each other's processes, the fil
 def _warn_unsandboxed(reason: str) -> None:
     """Say once per process what is not enforced without a kernel sandbox."""
     print(f"laserarena: warning: no kernel sandbox ({reason}); not enforced: {UNENFORCED}", file=sys.stderr)
+
+
+def isolation_unavailable() -> str | None:
+    """Why controllers cannot run in processes of their own here (None: they can). The
+    protocol waits on pipes with select(), which Windows offers for sockets only."""
+    return "Windows has no select() on pipes" if sys.platform == "win32" else None
 
 
 MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
@@ -75,7 +81,7 @@ class ProcessBot:
         reason = kernel.unavailable() if self.sandboxed else None
         if reason:
             _warn_unsandboxed(reason + ("; controllers run as root: root cannot become nobody here"
-                                        if os.geteuid() == 0 and drop_to() is None else ""))
+                                        if is_root() and drop_to() is None else ""))
         # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
         stderr = open(self.log, "wb") if self.log else tempfile.TemporaryFile()
         limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
