@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from arena.errors import LaserArenaError
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141  # docs/cli.md
 
 
 class UserError(LaserArenaError):

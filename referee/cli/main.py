@@ -9,10 +9,11 @@ import argparse
 import os
 import signal
 import sys
-
-import numpy as np
 import time
 from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
 
 import levels
 from arena.level import Level
@@ -20,7 +21,7 @@ from arena.loader import find_level, load_level
 from referee import __version__
 from referee.records.canonical import dumps
 from arena.errors import LaserArenaError
-from referee.errors import EXIT_INTERRUPTED, UserError
+from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
@@ -51,8 +52,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UserError(f"{level.name} has {len(level.robots)} robot slot(s); got {len(specs)} --team")
     specs += [level.default_controller] * (len(level.robots) - len(specs))
     teams = [resolve(s) for s in specs]
+    if args.seed is not None and args.seed < 0:
+        raise UserError(f"--seed {args.seed}: a seed is a whole number >= 0")
+    if args.replay == "-":
+        raise UserError("--replay -: a replay is binary; give a file")
     for path in (args.json, args.replay):
-        if path and not Path(path).resolve().parent.is_dir():
+        if path and path != "-" and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
     if args.logs:
         Path(args.logs).mkdir(parents=True, exist_ok=True)
@@ -63,10 +68,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
     if given and len(unloadable) == len(given):  # nothing the user asked for could run
         raise UserError("; ".join(unloadable))
-    if args.json:
+    if args.json == "-":  # the JSON is the output; the table goes to stderr
+        print(dumps(result))
+    elif args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
-        print(table(result))
+        print(table(result), file=sys.stderr if args.json == "-" else sys.stdout)
     return 0
 
 
@@ -129,6 +136,11 @@ def cmd_render(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {html}: open it in a web browser")
     if args.out and args.out != html:
+        suffix = Path(args.out).suffix.lower()
+        if suffix not in ("", ".mp4"):
+            raise UserError(f"--out {args.out}: expected a folder (PNG frames), FILE.mp4 or FILE.html, not {suffix}")
+        if not Path(args.out).resolve().parent.is_dir():
+            raise UserError(f"--out {args.out}: the folder does not exist")
         n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
                    end=args.to, quiet=args.quiet)
         if not args.quiet:
@@ -188,8 +200,16 @@ def cmd_new(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors on one line (no usage block) and exit code 2, like every other
+    bad input; `--help` still shows the usage."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="laserarena", description="LaserArena: spinning-laser beacon "
+    p = _Parser(prog="laserarena", description="LaserArena: spinning-laser beacon "
                                 "navigation contests, simulated and refereed.")
     p.add_argument("--version", action="version", version=f"laserarena {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -199,7 +219,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--team", action="append", metavar="T",
                    help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class")
     s.add_argument("--seed", type=int, help="match seed (default: the level's)")
-    s.add_argument("--json", metavar="OUT", help="write the result JSON here")
+    s.add_argument("--json", metavar="OUT", help="write the result JSON here (- for stdout; the table then goes to stderr)")
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
     s.add_argument("--ideal", action="store_true",
                    help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors")
@@ -297,3 +317,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("laserarena: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # the reader went away (`laserarena levels | head -1`): stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout at exit
+        return EXIT_PIPE

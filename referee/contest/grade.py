@@ -307,12 +307,20 @@ def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[J
     pool.shutdown(wait=True)
 
 
+SCHEDULER_TIMEOUT = "10s"  # a scheduler that does not answer by then is a bad --scheduler
+
+
 def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Iterator[tuple[Job, str, float]]:
     try:
         from dask.distributed import Client, as_completed as dask_completed
     except ImportError:
         raise UserError("--scheduler needs Dask: pip install 'laserarena[dask]'") from None
-    with Client(scheduler) as client:
+    try:
+        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise UserError(f"--scheduler {scheduler}: cannot reach the Dask scheduler "
+                        f"({' '.join(str(e).split()) or type(e).__name__})") from None
+    with client:
         futures = [client.submit(play, j, replay_dir, pure=False) for j in todo]
         for f in dask_completed(futures):
             yield f.result()

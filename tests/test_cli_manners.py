@@ -1,0 +1,57 @@
+"""The command line's manners: `-` for stdout, a closed pipe and bad arguments end quietly in
+one line with the documented exit codes (docs/cli.md), team labels relative to here."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from helpers import MINI_LEVEL, run_cli
+from referee.errors import EXIT_BAD_INPUT, EXIT_PIPE
+
+
+def test_closed_pipe_ends_quietly():
+    proc = subprocess.Popen([sys.executable, "-m", "referee", "levels"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before the first line (`| head -0`)
+    _, err = proc.communicate(timeout=60)
+    assert err == b"" and proc.returncode == EXIT_PIPE
+
+
+def test_json_to_stdout_table_to_stderr(shared_dir):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    out = run_cli("run", "level.yaml", "--json", "-", "--team", "ref:idle", cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    result = json.loads(out.stdout)
+    assert result["level"]["name"] == "mini" and result["robots"][0]["team"] == "ref:idle"
+    assert out.stderr.startswith("mini  seed 3") and "ref:idle" in out.stderr
+
+
+@pytest.mark.parametrize("args,words", [
+    (["run", "bac-line", "--seed", "-3"], "--seed -3"),
+    (["run", "bac-line", "--seed", "three"], "--seed: invalid int value"),
+    (["run", "bac-line", "--json", "no/such/folder/r.json"], "the folder does not exist"),
+    (["render", "x.replay", "--out", "x.avi"], "not .avi"),
+    (["render", "x.replay", "--out", "no/such/folder/x.mp4"], "the folder does not exist"),
+    (["grade", "bac-line", "--team", "ref:idle", "--seeds", "1", "--scheduler", "tcp://127.0.0.1:1",
+      "--db", "g.sqlite"], "cannot reach the Dask scheduler"),
+])
+def test_argument_errors_are_one_line_exit_2(tmp_path, args, words):
+    out = run_cli(*args, cwd=tmp_path)
+    assert out.returncode == EXIT_BAD_INPUT
+    assert len(out.stderr.strip().splitlines()) == 1 and words in out.stderr, out.stderr
+
+
+def test_team_label_is_relative_to_here(shared_dir):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / "bots").mkdir(mode=0o755)
+    (shared_dir / "bots" / "bot.py").write_text("from robots.api import Command, Controller\n"
+                                                "class Bot(Controller):\n    def step(self, obs):\n"
+                                                "        return Command(0.0, 0.0)\n")
+    (shared_dir / "bots" / "bot.py").chmod(0o644)
+    out = run_cli("run", "level.yaml", "--team", str(shared_dir / "bots" / "bot.py"), "--json", "-", cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["robots"][0]["team"] == "bots/bot.py"
