@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import signal
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import NoReturn
@@ -61,9 +63,15 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError(f"{path}: the folder does not exist")
     if args.logs:
         Path(args.logs).mkdir(parents=True, exist_ok=True)
-    result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
-                       isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
-                       logs=Path(args.logs) if args.logs else None)
+    scratch = Path(tempfile.mkdtemp(prefix="laserarena-logs-")) if not args.logs else None
+    try:
+        result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
+                           isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
+                           logs=Path(args.logs) if args.logs else scratch)
+        logs = _failed_logs(result, Path(args.logs) if args.logs else None, scratch)
+    finally:
+        if scratch:
+            shutil.rmtree(scratch, ignore_errors=True)
     given = result["robots"][:len(args.team or [])]
     unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
     if given and len(unloadable) == len(given):  # nothing the user asked for could run
@@ -73,8 +81,33 @@ def cmd_run(args: argparse.Namespace) -> int:
     elif args.json:
         Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
     if not args.quiet:
-        print(table(result), file=sys.stderr if args.json == "-" else sys.stdout)
+        print(table(result, logs), file=sys.stderr if args.json == "-" else sys.stdout)
     return 0
+
+
+FAILED_LOGS = Path("laserarena-logs")  # where a failed slot's output is kept when --logs is not given
+
+
+def _failed_logs(result: dict, given: Path | None, scratch: Path | None) -> dict[int, str]:
+    """The log of each slot that faulted, by slot: in the --logs folder, else copied from the
+    scratch folder to ./laserarena-logs/slotN.log (the other slots' logs are not kept)."""
+    failed = [r["slot"] for r in result["robots"] if r["faults"]]
+    if given is not None:
+        return {slot: str(given / f"slot{slot}.log") for slot in failed}
+    kept = {}
+    for slot in failed:
+        source = scratch / f"slot{slot}.log"
+        if not source.is_file():  # in-process: the output went to this terminal
+            continue
+        try:
+            FAILED_LOGS.mkdir(exist_ok=True)
+            shutil.copyfile(source, FAILED_LOGS / source.name)
+        except OSError as e:
+            print(f"laserarena: warning: cannot keep slot {slot}'s log in {FAILED_LOGS}: {e.strerror or e}",
+                  file=sys.stderr)
+            continue
+        kept[slot] = str(FAILED_LOGS / source.name)
+    return kept
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
@@ -226,7 +259,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--in-process", action="store_true",
                    help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
                         "runs with the referee's rights (never for grading); same results within budget")
-    s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
+    s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log); without it, "
+                   "a failed slot's output is kept in laserarena-logs/slotN.log")
     s.add_argument("--no-limits", action="store_true",
                    help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")

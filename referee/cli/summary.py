@@ -24,8 +24,12 @@ def _progress(task: dict) -> str:
     return text + (f" in {task['finished']:.2f} s" if task["finished"] is not None else "")
 
 
-def table(result: dict) -> str:
-    """A fixed-width table: one row per robot with score, progress and localization error."""
+FAULT_WIDTH = 100  # a fault's message under the table, cut to this many characters
+
+
+def table(result: dict, logs: dict[int, str] | None = None) -> str:
+    """A fixed-width table: one row per robot with score, progress and localization error;
+    under it each fault's message on one line, and where the faulted slot's log is (`logs`)."""
     head = (f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
             f"({result['end_reason'].replace('_', ' ')})")
     cols = ("slot", "team", "score", "task", "pos rms mm", "pos max mm", "hdg rms deg", "hdg max deg",
@@ -40,4 +44,9 @@ def table(result: dict) -> str:
                      _deg(loc["heading_max"]), f"{100 * loc['fraction']:.0f}", fouls, faults))
     widths = [max(len(row[i]) for row in rows) for i in range(len(cols))]
     lines = [head] + ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
+    for r in result["robots"]:
+        for f in r["faults"]:
+            lines.append(f"slot {r['slot']} {safe(f['kind'], 20)} at {f['time']:.2f} s: {safe(f['message'], FAULT_WIDTH)}")
+        if r["faults"] and logs and r["slot"] in logs:
+            lines.append(f"slot {r['slot']} log: {safe(logs[r['slot']], 200)}")
     return "\n".join(lines)

@@ -118,12 +118,14 @@ class FoulRecord(Record, frozen=True):
 
 
 class FaultRecord(Record, frozen=True):
-    """A controller fault: control tick, time, kind and a one-line message."""
+    """A controller fault: control tick, time, kind, a one-line message and, when the team's
+    log holds one, the tail of its traceback."""
 
     tick: int
     time: float
     kind: str
     message: str
+    traceback: str | UnsetType = UNSET
 
 
 class RobotResult(Record, frozen=True):

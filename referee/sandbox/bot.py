@@ -9,6 +9,7 @@ a typed `Fault`, and the bot stops answering: the match goes on without it.
 from __future__ import annotations
 
 import sys
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,10 +30,31 @@ class Fault:
     kind: str  # load | exception | bad_command | memory | crash | timeout | output_flood | protocol | skipped_tick
     message: str
     fatal: bool = True
+    traceback: str | None = None  # the tail of the team's traceback, from its log, when there is one
 
     def to_record(self) -> FaultRecord:
         """The fault as it appears in the result and the replay."""
-        return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message)
+        if self.traceback is None:
+            return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message)
+        return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message,
+                           traceback=self.traceback)
+
+
+TRACEBACK_LINES, TRACEBACK_BYTES = 12, 8192
+
+
+def traceback_tail(log: str) -> str | None:
+    """The last traceback in a team's log, cut to its last TRACEBACK_LINES lines, or None."""
+    start = log.rfind("Traceback (most recent call last):")
+    if start < 0:
+        return None
+    lines = log[start:].rstrip().splitlines()
+    ours = [i for i, line in enumerate(lines) if line.startswith("  File ") and any(
+        f"{p}\"" in line.replace("\\", "/") for p in ("robots/runner.py", "referee/sandbox/bot.py"))]
+    body = lines[ours[-1] + 1:] if ours else lines[1:]  # the team's frames: not the call site's
+    while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
+        body = body[1:]
+    return "\n".join(lines[:1] + body[-(TRACEBACK_LINES - 1):])
 
 
 def one_line(e: BaseException) -> str:
@@ -68,14 +90,16 @@ class InProcessBot:
             self.controller = cls()
             self.controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
-            return Fault(0, 0.0, "exception", f"in setup: {one_line(e)}")
+            return Fault(0, 0.0, "exception", f"in setup: {one_line(e)}",
+                         traceback=traceback_tail(traceback.format_exc()))
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
-            return Fault(obs.tick, obs.time, "exception", f"in step: {one_line(e)}")
+            return Fault(obs.tick, obs.time, "exception", f"in step: {one_line(e)}",
+                         traceback=traceback_tail(traceback.format_exc()))
         problem = command_problem(cmd)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)

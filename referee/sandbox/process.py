@@ -25,7 +25,7 @@ from pathlib import Path
 import robots
 from arena.level import ControllerLimits
 from referee.sandbox import kernel
-from referee.sandbox.bot import Fault
+from referee.sandbox.bot import TRACEBACK_BYTES, Fault, traceback_tail
 from referee.sandbox.privacy import check_readable_by_others, drop_to, is_root, share_team_files, slot_uid, switches_users
 from referee.sandbox.teams import Team
 from robots import protocol
@@ -75,6 +75,7 @@ class ProcessBot:
         self.loaded = False  # the controller process has loaded the team's code
         self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
+        self.log_file = None  # the team's output, as the controller writes it
         self.in_sandbox = False
 
     def _spawn(self) -> None:
@@ -83,15 +84,13 @@ class ProcessBot:
             _warn_unsandboxed(reason + ("; controllers run as root: root cannot become nobody here"
                                         if is_root() and drop_to() is None else ""))
         # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
-        stderr = open(self.log, "wb") if self.log else tempfile.TemporaryFile()
+        stderr = open(self.log, "w+b") if self.log else tempfile.TemporaryFile()
         limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
-        try:
-            if self.sandboxed and not reason:
-                self._spawn_sandboxed(limits, stderr)
-            else:
-                self._spawn_plain(limits, stderr)
-        finally:
-            stderr.close()
+        self.log_file = stderr  # kept open: a fault's traceback is read back from it
+        if self.sandboxed and not reason:
+            self._spawn_sandboxed(limits, stderr)
+        else:
+            self._spawn_plain(limits, stderr)
 
     def _spawn_sandboxed(self, limits: list[str], stderr) -> None:
         entry = self.team.entry
@@ -201,8 +200,21 @@ class ProcessBot:
                        else f"in {where}: no answer within {self.limits.setup_time:g} s")
         else:
             kind, message = "protocol", f"in {where}: {self.problem or 'malformed message'}"
+        tail = self._traceback()
         self.close()
-        return Fault(tick, t, kind, message)
+        return Fault(tick, t, kind, message, traceback=tail)
+
+    def _traceback(self) -> str | None:
+        """The tail of the last traceback in the team's log (read without moving the offset the
+        controller writes at), its sandbox folder left out so results stay byte-identical."""
+        if self.log_file is None or self.log_file.closed:
+            return None
+        fd = self.log_file.fileno()
+        size = os.fstat(fd).st_size
+        text = os.pread(fd, TRACEBACK_BYTES, max(0, size - TRACEBACK_BYTES)).decode("utf-8", "replace")
+        if self.folder is not None:
+            text = text.replace(self.folder.name + os.sep, "")
+        return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
 
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
@@ -332,3 +344,6 @@ class ProcessBot:
                 pass
         if self.folder is not None:
             self.folder.cleanup()
+            self.folder = None
+        if self.log_file is not None:
+            self.log_file.close()

@@ -1,0 +1,53 @@
+"""A team can act on its faults: the console shows each fault's message and where the failed
+slot's log is kept (laserarena-logs/ by default), the result JSON has the traceback's tail."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from helpers import MINI_LEVEL, run_cli
+
+BOOM = '''from robots.api import Command, Controller
+
+
+def deep(n):
+    return 1 / n
+
+
+class Boom(Controller):
+    def step(self, obs):
+        if obs.tick == 3:
+            deep(0)
+        return Command(0.0, 0.0)
+'''
+
+
+@pytest.mark.parametrize("extra", [[], ["--in-process"]])
+def test_fault_message_log_and_traceback(shared_dir, extra):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / "boom.py").write_text(BOOM)
+    (shared_dir / "boom.py").chmod(0o644)
+    out = run_cli("run", "level.yaml", "--team", "boom.py", "--json", "r.json", *extra, cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    fault = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"][0]
+    # the mini level's control period is 0.05 s: tick 3 is at 0.15 s
+    assert (fault["kind"], fault["tick"], fault["time"]) == ("exception", 3, pytest.approx(0.15))
+    assert fault["message"] == "in step: ZeroDivisionError: division by zero"
+    tb = fault["traceback"].splitlines()
+    assert tb[0] == "Traceback (most recent call last):" and tb[-1] == "ZeroDivisionError: division by zero"
+    assert tb[1].endswith('boom.py", line 11, in step') and tb[3].endswith('boom.py", line 5, in deep')
+    assert "slot 0 exception at 0.15 s: in step: ZeroDivisionError: division by zero" in out.stdout
+    log = shared_dir / "laserarena-logs" / "slot0.log"
+    if extra:  # in-process: the team's output went to the referee's own stderr, no log to keep
+        assert not log.exists() and "slot 0 log:" not in out.stdout
+    else:
+        assert "slot 0 log: laserarena-logs/slot0.log" in out.stdout
+        assert log.read_text().rstrip().endswith("ZeroDivisionError: division by zero")
+
+
+def test_a_clean_run_keeps_no_logs(shared_dir):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    out = run_cli("run", "level.yaml", "--team", "ref:idle", cwd=shared_dir)
+    assert out.returncode == 0 and not (shared_dir / "laserarena-logs").exists()
