@@ -323,7 +323,7 @@ def _bad_real(v: object) -> bool:
 
 def command_problem(cmd: object) -> str | None:
     """Why `cmd` is not a usable Command (wrong type, numbers not finite or out of range,
-    malformed drawings), or None if it is. The same judgement on either side of the
+    debug not a sequence), or None if it is; give it `sendable(cmd)`. The same judgement on either side of the
     protocol, and for a controller in the referee's own process; it never raises."""
     if not isinstance(cmd, Command):
         return f"step() returned {type(cmd).__name__}, not Command"
@@ -337,19 +337,51 @@ def command_problem(cmd: object) -> str | None:
         return f"Command.estimate must be None or three finite numbers within +-{LIMIT:g}, got {_show(est)}"
     if not isinstance(cmd.debug, (tuple, list)):
         return f"Command.debug must be a tuple of Drawing, got {_show(cmd.debug)}"
-    for i, g in enumerate(cmd.debug):
-        if not isinstance(g, Drawing):
-            return f"Command.debug[{i}] must be a Drawing, got {_show(g)}"
-        if not (isinstance(g.kind, str) and isinstance(g.text, str) and not _bad_real(g.radius)
-                and isinstance(g.points, (tuple, list))
-                and all(isinstance(p, (tuple, list)) and len(p) == 2 and not any(map(_bad_real, p))
-                        for p in g.points)
-                and isinstance(g.color, (tuple, list)) and len(g.color) == 3
-                and all(isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c <= 255
-                        for c in g.color)):
-            return (f"Command.debug[{i}] must have text kind and text, finite points (x, y), "
-                    f"a finite radius and an RGB color of 0..255")
+    return None  # drawings are judged one by one (`drawing_problem`): a bad one is dropped, not fatal
+
+
+DRAWING_KINDS = ("point", "line", "circle", "text")
+DROPPED = "dropped"  # the kind of a drawing the team side could not send: its text says why
+
+
+def drawing_problem(g: object) -> str | None:
+    """Why a debug drawing cannot be drawn (kind, finite coordinates, sizes), or None; the
+    referee drops such drawings with a warning in the result instead of ending the controller."""
+    if not isinstance(g, Drawing):
+        return f"not a Drawing: {_show(g)}"
+    if g.kind == DROPPED and isinstance(g.text, str):
+        return g.text or "dropped"
+    if not isinstance(g.kind, str) or g.kind not in DRAWING_KINDS:
+        return f"kind {_show(g.kind)} is not one of {', '.join(DRAWING_KINDS)}"
+    if not (isinstance(g.points, (tuple, list)) and all(
+            isinstance(p, (tuple, list)) and len(p) == 2 and not any(map(_bad_real, p)) for p in g.points)):
+        return f"a {g.kind}'s points must be finite (x, y) pairs within +-{LIMIT:g}"
+    need = 2 if g.kind == "line" else 1
+    if not need <= len(g.points) <= MAX_POINTS:
+        return f"a {g.kind} has {len(g.points)} points (from {need} to {MAX_POINTS})"
+    if _bad_real(g.radius) or g.radius < 0:
+        return f"a {g.kind}'s radius must be a finite number >= 0, got {_show(g.radius)}"
+    if not isinstance(g.text, str) or len(g.text) > MAX_TEXT:
+        return f"a {g.kind}'s text must be a str of at most {MAX_TEXT} characters"
+    if not (isinstance(g.color, (tuple, list)) and len(g.color) == 3 and all(
+            isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c <= 255 for c in g.color)):
+        return f"a {g.kind}'s color must be three integers 0..255, got {_show(g.color)}"
     return None
+
+
+def sendable(cmd: object) -> object:
+    """`cmd` with each drawing that cannot be drawn replaced by a DROPPED one naming why, and
+    drawings past MAX_DRAWINGS folded into one: what a team side sends, so the referee can warn."""
+    if not isinstance(cmd, Command) or not isinstance(cmd.debug, (tuple, list)) or not cmd.debug:
+        return cmd
+    problems = [drawing_problem(g) for g in cmd.debug[:MAX_DRAWINGS]]
+    extra = len(cmd.debug) - MAX_DRAWINGS
+    if not any(problems) and extra <= 0:
+        return cmd
+    debug = [Drawing(DROPPED, (), 0.0, p[:MAX_TEXT]) if p else g for g, p in zip(cmd.debug, problems)]
+    if extra > 0:
+        debug[-1] = Drawing(DROPPED, (), 0.0, f"{extra + 1} drawings past the {MAX_DRAWINGS - 1} a tick may have")
+    return Command(cmd.left, cmd.right, cmd.estimate, tuple(debug))
 
 
 def _show(v: object) -> str:

@@ -135,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             ok, cmd = _guarded(out, "step", lambda: controller.step(obs))
             if not ok:
                 return 1
+            cmd = protocol.sendable(cmd)  # drawings that cannot be drawn travel as warnings
             problem = protocol.command_problem(cmd)  # the same words as the referee-side check
             if problem:
                 protocol.write(out, {"type": "fault", "kind": "bad_command", "message": problem})

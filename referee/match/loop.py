@@ -24,13 +24,14 @@ from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.match.estimates import EstimateStats
-from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
 from referee.records.replay import ReplayWriter
 from referee.match.rules import Rules
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
 from referee.sandbox.teams import Team
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
+from robots.protocol import drawing_problem
 
 NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
                              overage_bank=float("inf"), max_skips=1 << 62, memory=0, log_bytes=0)
@@ -133,6 +134,7 @@ class Match:
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
+        self.dropped: list[dict[str, tuple[int, int]]] = [{} for _ in teams]  # drawings set aside, by reason
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
         self.rules = Rules(level)
@@ -187,11 +189,25 @@ class Match:
             return
         self.world.command(slot, float(out.left), float(out.right))
         self.estimates[slot].add(truth, out.estimate)
+        drawings = self._drawable(slot, out.debug) if out.debug else ()
         if self.writer:
             if out.estimate is not None:
                 self.writer.record("est", t=time, r=slot, e=list(out.estimate))
-            if out.debug:
-                self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in out.debug])
+            if drawings:
+                self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in drawings])
+
+    def _drawable(self, slot: int, debug: tuple) -> list:
+        """The drawings that can be drawn; the others are counted as warnings (by reason: first
+        tick, count) and never reach the replay, render or watch."""
+        kept = []
+        for g in debug:
+            problem = drawing_problem(g)
+            if problem is None:
+                kept.append(g)
+                continue
+            first, count = self.dropped[slot].get(problem, (self.world.tick // self.level.steps_per_control, 0))
+            self.dropped[slot][problem] = (first, count + 1)
+        return kept
 
     def _control_tick(self) -> None:
         for slot, obs in enumerate(self.observe()):
@@ -279,6 +295,9 @@ class Match:
                 faults=[f.to_record() for f in self.faults[slot]],
                 stopped=self.stopped[slot],
                 final_pose=[pose.x, pose.y, pose.heading],
+                **({"warnings": [WarningRecord(kind="drawing_dropped", tick=first, count=count, message=why)
+                                 for why, (first, count) in self.dropped[slot].items()]}
+                   if self.dropped[slot] else {}),
             ))
         return MatchResult(format=RESULT_FORMAT, version=RESULT_VERSION, software=__version__,
                            level=LevelRef(name=self.level.name, hash=self.level.hash), seed=self.seed,

@@ -128,6 +128,16 @@ class FaultRecord(Record, frozen=True):
     traceback: str | UnsetType = UNSET
 
 
+class WarningRecord(Record, frozen=True):
+    """Something of a team's the referee set aside without stopping it (`drawing_dropped`: a
+    debug drawing that cannot be drawn): the first tick, how many times, and why."""
+
+    kind: str
+    tick: int
+    count: int
+    message: str
+
+
 class RobotResult(Record, frozen=True):
     """One robot's result: score, task progress, localization, fouls and faults, final pose."""
 
@@ -140,6 +150,7 @@ class RobotResult(Record, frozen=True):
     faults: list[FaultRecord]
     stopped: bool
     final_pose: list[float]  # [x, y, heading]
+    warnings: list[WarningRecord] | UnsetType = UNSET  # left out when there are none
 
 
 class MatchResult(Record, frozen=True):

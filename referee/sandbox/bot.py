@@ -17,7 +17,7 @@ from referee.sandbox.teams import Team
 from referee.records.results import FaultRecord
 from robots.api import API_VERSION, Brief, Command, Observation
 from robots.loading import LoadError, is_file_spec, load_class
-from robots.protocol import ProtocolError, api_problem, command_from, command_problem, to_plain
+from robots.protocol import ProtocolError, api_problem, command_from, command_problem, sendable, to_plain
 
 
 @dataclass(frozen=True)
@@ -100,6 +100,7 @@ class InProcessBot:
         except Exception as e:
             return Fault(obs.tick, obs.time, "exception", f"in step: {one_line(e)}",
                          traceback=traceback_tail(traceback.format_exc()))
+        cmd = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(cmd)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)

@@ -301,7 +301,7 @@ class ProcessBot:
             except protocol.ProtocolError as e:
                 self.close()
                 return Fault(obs.tick, obs.time, "bad_command", str(e))
-            problem = protocol.command_problem(cmd)
+            problem = protocol.command_problem(protocol.sendable(cmd))
             if problem:
                 self.close()
                 return Fault(obs.tick, obs.time, "bad_command", problem)
