@@ -17,6 +17,10 @@ tutorial in docs/controllers.md.
 
 ## Run it
 
+`laserarena` must be on your PATH: activate the environment LaserArena is installed in
+(`. /path/to/laserarena/.venv/bin/activate`, or `pip install laserarena` into your own), or
+call it by its path (`/path/to/laserarena/.venv/bin/laserarena`).
+
 ```sh
 laserarena run bac-line --team controller.py --json result.json --logs logs
 laserarena run asabe --team controller.py --replay asabe.replay
