@@ -36,6 +36,7 @@ def test_json_to_stdout_table_to_stderr(shared_dir):
     (["run", "bac-line", "--json", "no/such/folder/r.json"], "the folder does not exist"),
     (["render", "x.replay", "--out", "x.avi"], "not .avi"),
     (["render", "x.replay", "--out", "no/such/folder/x.mp4"], "the folder does not exist"),
+    (["grade", "bac-line", "--team", "ref:idle", "--out", "no/such/folder/board.csv"], "the folder does not exist"),
     (["grade", "bac-line", "--team", "ref:idle", "--seeds", "1", "--scheduler", "tcp://127.0.0.1:1",
       "--db", "g.sqlite"], "cannot reach the Dask scheduler"),
 ])

@@ -124,8 +124,9 @@ def cmd_grade(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
     db = Path(args.db)
-    if not db.resolve().parent.is_dir():
-        raise UserError(f"{db}: the folder does not exist")
+    for path in (db, Path(args.out)):  # before any match: a leaderboard that cannot be written loses nothing
+        if not path.resolve().parent.is_dir():
+            raise UserError(f"{path}: the folder does not exist")
     given = args.secret
     if args.secret_file:
         try:
