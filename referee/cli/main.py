@@ -97,7 +97,7 @@ def _failed_logs(result: dict, given: Path | None, scratch: Path | None) -> dict
     kept = {}
     for slot in failed:
         source = scratch / f"slot{slot}.log"
-        if not source.is_file():  # in-process: the output went to this terminal
+        if not source.is_file() or not source.stat().st_size:  # in-process (output on this terminal), or silent
             continue
         try:
             FAILED_LOGS.mkdir(exist_ok=True)
