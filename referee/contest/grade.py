@@ -197,27 +197,21 @@ class Journal:
 
 
 class Progress:
-    """A one-line progress bar on stderr: matches done, rate and ETA."""
+    """A progress bar on stderr (tqdm): matches done, rate and ETA, the match just finished. It
+    shows only on a terminal and vanishes when done: a log or a pipe gets no bar lines."""
 
     def __init__(self, total: int, already: int, quiet: bool):
-        self.total, self.done, self.quiet = total, already, quiet
-        self.start = time.monotonic()
-        self.fresh = 0
+        from tqdm import tqdm
+        self.bar = tqdm(total=total, initial=already, unit="match", leave=False, file=sys.stderr,
+                        disable=quiet or not sys.stderr.isatty(), dynamic_ncols=True)
 
     def tick(self, label: str) -> None:
-        self.done += 1
-        self.fresh += 1
-        if self.quiet:
-            return
-        elapsed = time.monotonic() - self.start
-        rate = self.fresh / elapsed if elapsed > 0 else 0.0
-        left = (self.total - self.done) / rate if rate else 0.0
-        width = 24
-        filled = round(width * self.done / self.total) if self.total else width
-        bar = "#" * filled + "." * (width - filled)
-        end = "\n" if self.done == self.total or not sys.stderr.isatty() else ""
-        print(f"\r[{bar}] {self.done}/{self.total} matches  {rate * 60:.1f}/min  ETA {left:4.0f} s  "
-              f"{safe(label, 40):<40}", end=end, file=sys.stderr, flush=True)
+        self.bar.set_postfix_str(safe(label, 40), refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        """Take the bar off the terminal."""
+        self.bar.close()
 
 
 def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: str, software: str) -> list[Job]:
@@ -243,9 +237,9 @@ def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | 
     replay_dir = _replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
-    progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     if not todo:
         return journal
+    progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     if scheduler:
         results = _on_dask(todo, str(replay_dir), scheduler)
     elif workers <= 1:
@@ -257,6 +251,7 @@ def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | 
             journal.record(job, result, str(replay_dir / job.replay_name()), wall)
             progress.tick(f"{job.level} {job.team} seed {job.seed}")
     finally:
+        progress.close()
         results.close()  # a pool's workers end here, even on an interrupt
     return journal
 
