@@ -19,5 +19,6 @@ def __getattr__(name: str) -> object:
     """`referee.run_match`, imported when first used (importing `referee` loads nothing else)."""
     if name == "run_match":
         from referee.api import run_match
+
         return run_match
     raise AttributeError(f"module 'referee' has no attribute {name!r}")

@@ -41,15 +41,23 @@ def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
             lines.append(f"import {value.__name__} as {name}" if value.__name__ != name else f"import {name}")
         elif isinstance(value, (bool, int, float, str)) and ast.literal_eval(repr(value)) == value:
             lines.append(f"{name} = {value!r}")
-        elif not (inspect.isclass(value) or inspect.isfunction(value) or inspect.isbuiltin(value)) \
-                or not home or not qual or "." in qual or home == "builtins":
+        elif (
+            not (inspect.isclass(value) or inspect.isfunction(value) or inspect.isbuiltin(value))
+            or not home
+            or not qual
+            or "." in qual
+            or home == "builtins"
+        ):
             continue
         elif home != "__main__":
             lines.append(f"from {home} import {qual} as {name}")
         elif (_source_file(value) or "") != skip:
             try:
-                defined.append(inspect.cleandoc("\n" + inspect.getsource(value)) if inspect.isfunction(value)
-                               else _definition(value))
+                defined.append(
+                    inspect.cleandoc("\n" + inspect.getsource(value))
+                    if inspect.isfunction(value)
+                    else _definition(value)
+                )
             except (OSError, TypeError, SyntaxError):
                 continue  # left out: the team's code meets a NameError, reported as its fault
     return lines + defined
@@ -74,8 +82,11 @@ def _definitions(text: str) -> str:
     for node in ast.parse(text).body:
         if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             kept.append(node)
-        elif isinstance(node, (ast.Assign, ast.AnnAssign)) and node.value is not None and all(
-                isinstance(t, ast.Name) for t in getattr(node, "targets", [getattr(node, "target", None)])):
+        elif (
+            isinstance(node, (ast.Assign, ast.AnnAssign))
+            and node.value is not None
+            and all(isinstance(t, ast.Name) for t in getattr(node, "targets", [getattr(node, "target", None)]))
+        ):
             try:
                 ast.literal_eval(node.value)
             except ValueError:
@@ -107,8 +118,10 @@ def _class_source(cls: type) -> str:
     filename = _source_file(cls)
     lines = linecache.getlines(filename) if filename else []
     if not lines:
-        raise TeamError(f"team {cls.__name__}: its source cannot be found; define it in a file "
-                        f"or a notebook cell, or pass isolate=False")
+        raise TeamError(
+            f"team {cls.__name__}: its source cannot be found; define it in a file "
+            f"or a notebook cell, or pass isolate=False"
+        )
     try:
         body = _definitions("".join(lines))
     except SyntaxError as e:
@@ -121,15 +134,20 @@ def _class_team(cls: type, isolate: bool, folder: Path) -> Team:
     if not (inspect.isclass(cls) and issubclass(cls, Controller)):
         raise UserError(f"a team must be a spec string or a Controller class, got {cls!r:.80}")
     if not isolate:
-        return Team(cls.__name__, f"python:{cls.__module__}.{cls.__qualname__}", "sha256:" + hashlib.sha256(
-            f"{cls.__module__}.{cls.__qualname__}".encode()).hexdigest(), factory=cls)
+        return Team(
+            cls.__name__,
+            f"python:{cls.__module__}.{cls.__qualname__}",
+            "sha256:" + hashlib.sha256(f"{cls.__module__}.{cls.__qualname__}".encode()).hexdigest(),
+            factory=cls,
+        )
     source = _class_source(cls)
     digest = hashlib.sha256(source.encode()).hexdigest()
     path = folder / f"team_{cls.__name__.lower()}_{digest[:8]}.py"
     path.write_text(source, encoding="utf-8")
     path.chmod(0o644)
-    return Team(cls.__name__, f"{path}:{cls.__name__}", "sha256:" + digest, ((path.name, path),),
-                f"{path.name}:{cls.__name__}")
+    return Team(
+        cls.__name__, f"{path}:{cls.__name__}", "sha256:" + digest, ((path.name, path),), f"{path.name}:{cls.__name__}"
+    )
 
 
 def _level(level: str | Path | Level) -> Level:
@@ -142,9 +160,15 @@ def _level(level: str | Path | Level) -> Level:
     raise UserError(f"level must be a name, a path or a Level, got {type(level).__name__}")
 
 
-def run_match(level: str | Path | Level, teams: list[str | type] | None = None, seed: int | None = None,
-              ideal: bool = False, isolate: bool = True, replay: str | Path | None = None,
-              logs: str | Path | None = None) -> MatchResult:
+def run_match(
+    level: str | Path | Level,
+    teams: list[str | type] | None = None,
+    seed: int | None = None,
+    ideal: bool = False,
+    isolate: bool = True,
+    replay: str | Path | None = None,
+    logs: str | Path | None = None,
+) -> MatchResult:
     """Run one match and return its typed result (`r.robots[0].score.total`).
 
     `level`: a built-in name, a YAML path or a Level; `teams`: one per slot, in order, each a
@@ -152,6 +176,7 @@ def run_match(level: str | Path | Level, teams: list[str | type] | None = None, 
     class; slots left over get the level's default controller. `isolate=False` runs the
     controllers in this process (a debugger can stop in them)."""
     from referee.match.loop import run_match as run  # the match loop loads pymunk: only when called
+
     lv = _level(level)
     given = list(teams or [])
     if len(given) > len(lv.robots):
@@ -166,7 +191,14 @@ def run_match(level: str | Path | Level, teams: list[str | type] | None = None, 
         resolved = [resolve(t) if isinstance(t, str) else _class_team(t, ship, folder) for t in given]
         if logs is not None:
             Path(logs).mkdir(parents=True, exist_ok=True)
-        return run(lv, resolved, seed=seed, replay=replay, ideal=ideal, isolate=isolate,
-                   logs=Path(logs) if logs is not None else None)
+        return run(
+            lv,
+            resolved,
+            seed=seed,
+            replay=replay,
+            ideal=ideal,
+            isolate=isolate,
+            logs=Path(logs) if logs is not None else None,
+        )
     finally:
         shutil.rmtree(folder, ignore_errors=True)

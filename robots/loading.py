@@ -31,8 +31,7 @@ def load_class(spec: str) -> type[Controller]:
     if spec.startswith("ref:"):
         name = spec[4:]
         if name not in REFERENCE:
-            raise LoadError(f"team {spec}: no reference controller {name!r} "
-                            f"(have: {', '.join(sorted(REFERENCE))})")
+            raise LoadError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
         return _from_module(REFERENCE[name], spec)
     if is_file_spec(spec):
         path, _, cls = spec.partition(".py")
@@ -50,8 +49,10 @@ def entry_point(name: str) -> str:
     from the package's metadata: nothing is imported); LoadError if there is none."""
     found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
     if not found:
-        raise LoadError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
-                        f"an installed controller (entry point group {ENTRY_POINT_GROUP})")
+        raise LoadError(
+            f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
+            f"an installed controller (entry point group {ENTRY_POINT_GROUP})"
+        )
     return found[0].value
 
 
@@ -80,8 +81,10 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
         del sys.modules[name]
         hint = ""
         if isinstance(e, ImportError):  # a sibling module, most likely: it was not shipped
-            hint = (" (a FILE.py team is that one file: for a team of several modules or data files, "
-                    "make its folder a package with __init__.py and give --team DIR)")
+            hint = (
+                " (a FILE.py team is that one file: for a team of several modules or data files, "
+                "make its folder a package with __init__.py and give --team DIR)"
+            )
         raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}{hint}") from None
     return _pick(module, cls, spec)
 
@@ -93,11 +96,17 @@ def _pick(module: object, cls: str, spec: str) -> type[Controller]:
             raise LoadError(f"team {spec}: {cls} is not a Controller class in {module.__name__}")
         return found
     inside = module.__name__ + "."  # a package's __init__ exports the class of one of its modules
-    own = [c for _, c in inspect.getmembers(module, inspect.isclass)
-           if issubclass(c, Controller) and c is not Controller
-           and (c.__module__ == module.__name__ or hasattr(module, "__path__") and c.__module__.startswith(inside))]
+    own = [
+        c
+        for _, c in inspect.getmembers(module, inspect.isclass)
+        if issubclass(c, Controller)
+        and c is not Controller
+        and (c.__module__ == module.__name__ or hasattr(module, "__path__") and c.__module__.startswith(inside))
+    ]
     if len(own) != 1:
         names = ", ".join(c.__name__ for c in own) or "none"
-        raise LoadError(f"team {spec}: name the class as {spec.rpartition(':')[0] or spec}:Class "
-                        f"(found {len(own)} Controller classes: {names})")
+        raise LoadError(
+            f"team {spec}: name the class as {spec.rpartition(':')[0] or spec}:Class "
+            f"(found {len(own)} Controller classes: {names})"
+        )
     return own[0]

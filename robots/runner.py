@@ -34,6 +34,7 @@ def _private_channel() -> tuple:
 
 def _reader(stream):
     """Buffered exact reads on an unbuffered pipe."""
+
     class Exact:
         def read(self, n: int) -> bytes:
             chunks, left = [], n
@@ -44,14 +45,17 @@ def _reader(stream):
                 chunks.append(chunk)
                 left -= len(chunk)
             return b"".join(chunks)
+
     return Exact()
 
 
 def _fault(out, kind: str, where: str, e: BaseException) -> None:
     traceback.print_exc(file=sys.stderr)
     text = " ".join(str(e).split())
-    protocol.write(out, {"type": "fault", "kind": kind,
-                         "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")})
+    protocol.write(
+        out,
+        {"type": "fault", "kind": kind, "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")},
+    )
 
 
 def _built(cls, brief):
@@ -81,11 +85,15 @@ def _limit(name: str, value: int, what: str) -> bool:
     no `resource`, macOS refuses RLIMIT_AS) say so in one line of the team's log and go on."""
     try:
         import resource
+
         resource.setrlimit(getattr(resource, name), (value, value))
         return True
     except (ImportError, AttributeError, ValueError, OSError) as e:
-        print(f"laserarena: warning: no {what} limit on this system ({name}: {type(e).__name__}); "
-              f"the controller runs without it", file=sys.stderr)
+        print(
+            f"laserarena: warning: no {what} limit on this system ({name}: {type(e).__name__}); "
+            f"the controller runs without it",
+            file=sys.stderr,
+        )
         return False
 
 
@@ -94,8 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("spec")
     ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
     ap.add_argument("--log-cap", type=int, default=0, help="bytes the team may write (0: no cap)")
-    ap.add_argument("--max-procs", type=int, default=0,
-                    help="processes and threads of this user at once (0: no limit; only for a uid of its own)")
+    ap.add_argument(
+        "--max-procs",
+        type=int,
+        default=0,
+        help="processes and threads of this user at once (0: no limit; only for a uid of its own)",
+    )
     args = ap.parse_args(argv)
     if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
         _limit("RLIMIT_NPROC", args.max_procs, "process count")

@@ -14,8 +14,7 @@ from referee.errors import EXIT_BAD_INPUT, EXIT_PIPE
 
 
 def test_closed_pipe_ends_quietly():
-    proc = subprocess.Popen([sys.executable, "-m", "referee", "levels"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE)
+    proc = subprocess.Popen([sys.executable, "-m", "referee", "levels"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     proc.stdout.close()  # the reader is gone before the first line (`| head -0`)
     _, err = proc.communicate(timeout=60)
     assert err == b"" and proc.returncode == EXIT_PIPE
@@ -30,16 +29,32 @@ def test_json_to_stdout_table_to_stderr(shared_dir):
     assert out.stderr.startswith("mini  seed 3") and "ref:idle" in out.stderr
 
 
-@pytest.mark.parametrize("args,words", [
-    (["run", "bac-line", "--seed", "-3"], "--seed -3"),
-    (["run", "bac-line", "--seed", "three"], "--seed: invalid int value"),
-    (["run", "bac-line", "--json", "no/such/folder/r.json"], "the folder does not exist"),
-    (["render", "x.replay", "--out", "x.avi"], "not .avi"),
-    (["render", "x.replay", "--out", "no/such/folder/x.mp4"], "the folder does not exist"),
-    (["grade", "bac-line", "--team", "ref:idle", "--out", "no/such/folder/board.csv"], "the folder does not exist"),
-    (["grade", "bac-line", "--team", "ref:idle", "--seeds", "1", "--scheduler", "tcp://127.0.0.1:1",
-      "--db", "g.sqlite"], "cannot reach the Dask scheduler"),
-])
+@pytest.mark.parametrize(
+    "args,words",
+    [
+        (["run", "bac-line", "--seed", "-3"], "--seed -3"),
+        (["run", "bac-line", "--seed", "three"], "--seed: invalid int value"),
+        (["run", "bac-line", "--json", "no/such/folder/r.json"], "the folder does not exist"),
+        (["render", "x.replay", "--out", "x.avi"], "not .avi"),
+        (["render", "x.replay", "--out", "no/such/folder/x.mp4"], "the folder does not exist"),
+        (["grade", "bac-line", "--team", "ref:idle", "--out", "no/such/folder/board.csv"], "the folder does not exist"),
+        (
+            [
+                "grade",
+                "bac-line",
+                "--team",
+                "ref:idle",
+                "--seeds",
+                "1",
+                "--scheduler",
+                "tcp://127.0.0.1:1",
+                "--db",
+                "g.sqlite",
+            ],
+            "cannot reach the Dask scheduler",
+        ),
+    ],
+)
 def test_argument_errors_are_one_line_exit_2(tmp_path, args, words):
     out = run_cli(*args, cwd=tmp_path)
     assert out.returncode == EXIT_BAD_INPUT
@@ -49,9 +64,11 @@ def test_argument_errors_are_one_line_exit_2(tmp_path, args, words):
 def test_team_label_is_relative_to_here(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     (shared_dir / "bots").mkdir(mode=0o755)
-    (shared_dir / "bots" / "bot.py").write_text("from robots.api import Command, Controller\n"
-                                                "class Bot(Controller):\n    def step(self, obs):\n"
-                                                "        return Command(0.0, 0.0)\n")
+    (shared_dir / "bots" / "bot.py").write_text(
+        "from robots.api import Command, Controller\n"
+        "class Bot(Controller):\n    def step(self, obs):\n"
+        "        return Command(0.0, 0.0)\n"
+    )
     (shared_dir / "bots" / "bot.py").chmod(0o644)
     out = run_cli("run", "level.yaml", "--team", str(shared_dir / "bots" / "bot.py"), "--json", "-", cwd=shared_dir)
     assert out.returncode == 0, out.stderr

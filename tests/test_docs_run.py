@@ -47,7 +47,7 @@ def test_block_runs(name, lang, code):
 
 def _fenced(text: str, heading: str) -> str:
     """The first ```python block after a heading."""
-    part = text[text.index(heading):]
+    part = text[text.index(heading) :]
     return re.search(r"```python\n(.*?)```", part, re.S).group(1)
 
 
@@ -58,7 +58,12 @@ def test_controllers_tutorial_steps_1_to_3_as_written(shared_dir):
     code = "import math\n" + head + step3 + "        return" + ret + step2
     (shared_dir / "mybot.py").write_text(code)
     (shared_dir / "mybot.py").chmod(0o644)
-    out = subprocess.run([sys.executable, "-m", "referee", "run", "bac-line", "--team", "mybot.py", "--ideal",
-                          "--json", "-", "--quiet"], capture_output=True, text=True, cwd=shared_dir, timeout=300)
+    out = subprocess.run(
+        [sys.executable, "-m", "referee", "run", "bac-line", "--team", "mybot.py", "--ideal", "--json", "-", "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=shared_dir,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr
     assert '"faults":[]' in out.stdout.replace(" ", "")

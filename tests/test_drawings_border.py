@@ -11,7 +11,7 @@ import pytest
 from helpers import MINI_LEVEL, run_cli
 from referee.records.replay import load
 
-BAD = '''from robots.api import Command, Controller, Drawing
+BAD = """from robots.api import Command, Controller, Drawing
 
 
 class Scribbler(Controller):
@@ -21,7 +21,7 @@ class Scribbler(Controller):
                Drawing("line", ((1.0, 0.5),)), Drawing("circle", ((1.0, 0.5),), -1.0), "not a drawing"]
         flood = [Drawing("point", ((0.1, 0.1),))] * 300 if obs.tick == 2 else []
         return Command(0.1, 0.1, None, tuple([good] + bad + flood))
-'''
+"""
 
 
 @pytest.mark.parametrize("extra", [[], ["--in-process"]])
@@ -29,8 +29,9 @@ def test_bad_drawings_are_dropped_with_warnings(shared_dir, extra):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     (shared_dir / "bot.py").write_text(BAD)
     (shared_dir / "bot.py").chmod(0o644)
-    out = run_cli("run", "level.yaml", "--team", "bot.py", "--json", "r.json", "--replay", "r.replay", *extra,
-                  cwd=shared_dir)
+    out = run_cli(
+        "run", "level.yaml", "--team", "bot.py", "--json", "r.json", "--replay", "r.replay", *extra, cwd=shared_dir
+    )
     assert out.returncode == 0, out.stderr
     robot = json.loads((shared_dir / "r.json").read_text())["robots"][0]
     assert robot["faults"] == [] and not robot["stopped"]
@@ -44,8 +45,10 @@ def test_bad_drawings_are_dropped_with_warnings(shared_dir, extra):
     replay = load(shared_dir / "r.replay")
     kinds = {g["kind"] for d in replay.debug for g in d["d"]}
     assert kinds == {"circle", "point"}  # only what can be drawn reached the replay
-    assert run_cli("render", "r.replay", "--out", "frames", "--fps", "2", "--size", "320x240",
-                   cwd=shared_dir).returncode == 0
+    assert (
+        run_cli("render", "r.replay", "--out", "frames", "--fps", "2", "--size", "320x240", cwd=shared_dir).returncode
+        == 0
+    )
     assert len(list((shared_dir / "frames").glob("*.png"))) >= 8
     watched = run_cli("watch", "r.replay", "--frames", "3", "--size", "320x240", cwd=shared_dir)
     assert watched.returncode == 0, watched.stderr

@@ -9,7 +9,7 @@ import pytest
 
 from helpers import MINI_LEVEL, run_cli
 
-BOOM = '''from robots.api import Command, Controller
+BOOM = """from robots.api import Command, Controller
 
 
 def deep(n):
@@ -21,7 +21,7 @@ class Boom(Controller):
         if obs.tick == 3:
             deep(0)
         return Command(0.0, 0.0)
-'''
+"""
 
 
 @pytest.mark.parametrize("extra", [[], ["--in-process"]])

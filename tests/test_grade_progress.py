@@ -28,8 +28,13 @@ def test_bar_on_a_terminal_vanishes(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     leader, follower = pty.openpty()
     fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 100, 0, 0))  # a 100-column terminal
-    proc = subprocess.Popen([sys.executable, *ARGS, "--db", "t.sqlite"], cwd=shared_dir, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.DEVNULL, stderr=follower)
+    proc = subprocess.Popen(
+        [sys.executable, *ARGS, "--db", "t.sqlite"],
+        cwd=shared_dir,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=follower,
+    )
     os.close(follower)
     seen = b""
     while True:

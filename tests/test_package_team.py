@@ -62,9 +62,11 @@ def test_package_team_reads_its_modules_and_data(shared_dir, spec, extra):
 def test_file_team_importing_a_sibling_is_told_to_make_a_package(shared_dir):
     _package(shared_dir)
     (shared_dir / "helper.py").write_text("SPEED = 0.1\n")
-    (shared_dir / "bot.py").write_text("from helper import SPEED\nfrom robots.api import Command, Controller\n"
-                                       "class Bot(Controller):\n    def step(self, obs):\n"
-                                       "        return Command(SPEED, SPEED)\n")
+    (shared_dir / "bot.py").write_text(
+        "from helper import SPEED\nfrom robots.api import Command, Controller\n"
+        "class Bot(Controller):\n    def step(self, obs):\n"
+        "        return Command(SPEED, SPEED)\n"
+    )
     for p in shared_dir.glob("*.py"):
         p.chmod(0o644)
     out = run_cli("run", "level.yaml", "--team", "bot.py", cwd=shared_dir)

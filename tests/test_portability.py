@@ -9,7 +9,9 @@ import sys
 
 from helpers import MINI_LEVEL
 
-WITHOUT_POSIX = "import sys\nfor name in ('pwd', 'resource', 'fcntl', 'grp', 'termios'):\n    sys.modules[name] = None\n"
+WITHOUT_POSIX = (
+    "import sys\nfor name in ('pwd', 'resource', 'fcntl', 'grp', 'termios'):\n    sys.modules[name] = None\n"
+)
 
 
 def _python(code: str, cwd=None) -> subprocess.CompletedProcess:
@@ -17,8 +19,10 @@ def _python(code: str, cwd=None) -> subprocess.CompletedProcess:
 
 
 def test_imports_and_levels_without_posix_modules():
-    out = _python(WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grade, robots.runner\n"
-                  "from referee.cli.main import main\nraise SystemExit(main(['levels']))")
+    out = _python(
+        WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grade, robots.runner\n"
+        "from referee.cli.main import main\nraise SystemExit(main(['levels']))"
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.splitlines()[0].split()[0] == "asabe" and out.stderr == ""
 
@@ -26,24 +30,32 @@ def test_imports_and_levels_without_posix_modules():
 def test_runner_limits_missing_or_refused_are_one_line_warnings():
     missing = _python(WITHOUT_POSIX + "from robots.runner import _limit\nprint(_limit('RLIMIT_AS', 1 << 30, 'memory'))")
     assert missing.stdout.strip() == "False"
-    assert missing.stderr.strip() == ("laserarena: warning: no memory limit on this system (RLIMIT_AS: "
-                                      "ModuleNotFoundError); the controller runs without it")
+    assert missing.stderr.strip() == (
+        "laserarena: warning: no memory limit on this system (RLIMIT_AS: "
+        "ModuleNotFoundError); the controller runs without it"
+    )
     # macOS: setrlimit(RLIMIT_AS) raises ValueError
-    refused = _python("import resource\ndef refuse(*a): raise ValueError('not supported')\n"
-                      "resource.setrlimit = refuse\nfrom robots.runner import _limit\n"
-                      "print(_limit('RLIMIT_AS', 1 << 30, 'memory'))")
+    refused = _python(
+        "import resource\ndef refuse(*a): raise ValueError('not supported')\n"
+        "resource.setrlimit = refuse\nfrom robots.runner import _limit\n"
+        "print(_limit('RLIMIT_AS', 1 << 30, 'memory'))"
+    )
     assert refused.stdout.strip() == "False" and len(refused.stderr.strip().splitlines()) == 1
     assert "RLIMIT_AS: ValueError" in refused.stderr
 
 
 def test_a_match_on_windows_runs_in_process_with_one_warning(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
-    out = _python("import sys\nfrom referee import run_match\nfrom robots.api import Command, Controller\n"
-                  "class Go(Controller):\n    def step(self, obs):\n        return Command(0.1, 0.1)\n"
-                  "sys.platform = 'win32'\n"
-                  "r = run_match('level.yaml', teams=[Go], ideal=True)\n"
-                  "print(len(r.robots[0].faults), r.robots[0].final_pose[0] > 0.7)", cwd=shared_dir)
+    out = _python(
+        "import sys\nfrom referee import run_match\nfrom robots.api import Command, Controller\n"
+        "class Go(Controller):\n    def step(self, obs):\n        return Command(0.1, 0.1)\n"
+        "sys.platform = 'win32'\n"
+        "r = run_match('level.yaml', teams=[Go], ideal=True)\n"
+        "print(len(r.robots[0].faults), r.robots[0].final_pose[0] > 0.7)",
+        cwd=shared_dir,
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["0", "True"]
     assert out.stderr.strip().splitlines() == [
-        "laserarena: warning: controllers run in this process (Windows has no select() on pipes): nothing isolates them"]
+        "laserarena: warning: controllers run in this process (Windows has no select() on pipes): nothing isolates them"
+    ]

@@ -11,7 +11,7 @@ import pytest
 
 from helpers import MINI_LEVEL
 
-SCRIPT = '''
+SCRIPT = """
 import linecache, math, sys
 import numpy as np
 from referee import run_match
@@ -36,11 +36,13 @@ exec(compile(cell, "<ipython-input-1>", "exec"), globals())
 c = run_match(level, teams=[Cell], ideal=True)
 for r in (a, b, c):
     print(r.robots[0].team, len(r.robots[0].faults), *r.robots[0].final_pose, r.robots[0].score.total)
-'''
+"""
 
 
 def test_import_referee_loads_nothing_else():
-    code = "import sys, referee; print('referee.api' in sys.modules, 'pymunk' in sys.modules, callable(referee.run_match))"
+    code = (
+        "import sys, referee; print('referee.api' in sys.modules, 'pymunk' in sys.modules, callable(referee.run_match))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.split() == ["False", "False", "True"], out.stderr
 
@@ -48,8 +50,9 @@ def test_import_referee_loads_nothing_else():
 def test_classes_from_a_script_and_a_cell_run_isolated(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     (shared_dir / "match.py").write_text(SCRIPT)
-    out = subprocess.run([sys.executable, "match.py", "level.yaml"], capture_output=True, text=True,
-                         cwd=shared_dir, timeout=300)
+    out = subprocess.run(
+        [sys.executable, "match.py", "level.yaml"], capture_output=True, text=True, cwd=shared_dir, timeout=300
+    )
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
     assert [r[0] for r in rows] == ["Straight", "Straight", "Cell"]
@@ -65,6 +68,7 @@ def test_classes_from_a_script_and_a_cell_run_isolated(shared_dir):
 def test_bad_teams_and_seed_are_one_line_errors():
     from referee import run_match
     from referee.errors import TeamError, UserError
+
     with pytest.raises(UserError, match="Controller class"):
         run_match("bac-line", teams=[int])
     with pytest.raises(UserError, match="seed"):

@@ -36,8 +36,9 @@ class Fault:
         """The fault as it appears in the result and the replay."""
         if self.traceback is None:
             return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message)
-        return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message,
-                           traceback=self.traceback)
+        return FaultRecord(
+            tick=self.tick, time=self.time, kind=self.kind, message=self.message, traceback=self.traceback
+        )
 
 
 TRACEBACK_LINES, TRACEBACK_BYTES = 12, 8192
@@ -49,12 +50,16 @@ def traceback_tail(log: str) -> str | None:
     if start < 0:
         return None
     lines = log[start:].rstrip().splitlines()
-    ours = [i for i, line in enumerate(lines) if line.startswith("  File ") and any(
-        f"{p}\"" in line.replace("\\", "/") for p in ("robots/runner.py", "referee/sandbox/bot.py"))]
-    body = lines[ours[-1] + 1:] if ours else lines[1:]  # the team's frames: not the call site's
+    ours = [
+        i
+        for i, line in enumerate(lines)
+        if line.startswith("  File ")
+        and any(f'{p}"' in line.replace("\\", "/") for p in ("robots/runner.py", "referee/sandbox/bot.py"))
+    ]
+    body = lines[ours[-1] + 1 :] if ours else lines[1:]  # the team's frames: not the call site's
     while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
         body = body[1:]
-    return "\n".join(lines[:1] + body[-(TRACEBACK_LINES - 1):])
+    return "\n".join(lines[:1] + body[-(TRACEBACK_LINES - 1) :])
 
 
 def one_line(e: BaseException) -> str:
@@ -90,16 +95,22 @@ class InProcessBot:
             self.controller = cls()
             self.controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
-            return Fault(0, 0.0, "exception", f"in setup: {one_line(e)}",
-                         traceback=traceback_tail(traceback.format_exc()))
+            return Fault(
+                0, 0.0, "exception", f"in setup: {one_line(e)}", traceback=traceback_tail(traceback.format_exc())
+            )
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
-            return Fault(obs.tick, obs.time, "exception", f"in step: {one_line(e)}",
-                         traceback=traceback_tail(traceback.format_exc()))
+            return Fault(
+                obs.tick,
+                obs.time,
+                "exception",
+                f"in step: {one_line(e)}",
+                traceback=traceback_tail(traceback.format_exc()),
+            )
         cmd = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(cmd)
         if problem:
