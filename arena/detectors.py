@@ -15,7 +15,8 @@ from typing import Mapping
 
 import numpy as np
 
-from arena.laser import TWO_PI, Crossings, wrap_angle
+from arena.angles import TWO_PI, wrap_angle
+from arena.laser import Crossings
 
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import pymunk
 
+from arena.angles import wrap
 from arena.drive import DiffDrive
 from arena.level import Level, Pose
 from arena.rng import RandomTree
@@ -162,4 +163,4 @@ class World:
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
         x, y, h = self.state[3 * slot: 3 * slot + 3]
-        return Pose(x, y, math.atan2(math.sin(h), math.cos(h)))
+        return Pose(x, y, wrap(h))

@@ -33,7 +33,7 @@ def with_facing(kind, beacon_line, degrees, params=""):
     """The test table with one beacon facing `degrees`."""
     from arena.loader import parse_level
     from arena.world import World
-    from test_laser import TABLE
+    from helpers import TABLE
     text = TABLE.format(kind=kind, omega=60.0, robots=ONE, params=params, obstacles="")
     text = text.replace(beacon_line, beacon_line[:-1] + f", facing: {degrees}}}")
     return World(parse_level(text.encode(), "t.yaml"))

@@ -11,7 +11,7 @@ from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels, heading_change
-from robots.toolkit.steering import wrap
+from robots.toolkit.angles import wrap
 from robots.toolkit.tracker import HitTracker
 
 

@@ -15,7 +15,6 @@ import time
 from pathlib import Path
 
 import levels
-from arena.level import Level
 from arena.loader import find_level, load_level
 from referee import __version__
 from referee.records.canonical import dumps
@@ -24,7 +23,7 @@ from referee.errors import EXIT_INTERRUPTED, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
-from referee.sandbox.teams import resolve
+from referee.sandbox.teams import fill_slots, resolve
 from referee.terminal import safe
 
 
@@ -46,11 +45,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     level = find_level(args.level)
-    specs = list(args.team or [])
-    if len(specs) > len(level.robots):
-        raise UserError(f"{level.name} has {len(level.robots)} robot slot(s); got {len(specs)} --team")
-    specs += [level.default_controller] * (len(level.robots) - len(specs))
-    teams = [resolve(s) for s in specs]
+    teams = fill_slots(level, args.team)
     for path in (args.json, args.replay):
         if path and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")

@@ -20,7 +20,7 @@ from arena.level import Level
 from referee.gym.observation import ObservationEncoder
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
-from referee.sandbox.teams import Team, resolve
+from referee.sandbox.teams import Team, fill_slots
 from robots.api import Command
 from robots.controllers.idle import Idle
 
@@ -61,12 +61,8 @@ class AgentSession:
         if not agents or any(not 0 <= s < n for s in agents) or len(set(agents)) != len(agents):
             raise ValueError(f"{self.level.name} has robot slots 0..{n - 1}; agents {agents} do not fit")
         self.agents = tuple(agents)
-        specs = list(others or [])
         rest = [s for s in range(n) if s not in self.agents]
-        if len(specs) > len(rest):
-            raise ValueError(f"{len(specs)} other controllers for {len(rest)} non-agent slot(s)")
-        specs += [self.level.default_controller] * (len(rest) - len(specs))
-        self.others = dict(zip(rest, (resolve(s) for s in specs)))
+        self.others = dict(zip(rest, fill_slots(self.level, others, len(rest))))
         self.ideal, self.report_estimate, self.replay = ideal, report_estimate, replay
         samples = int(self.level.beacons.params.get("samples_per_turn", 0))
         self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}

@@ -12,7 +12,6 @@ layout beside it on the same colour scale.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 

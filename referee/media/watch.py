@@ -108,11 +108,9 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
     else:
         from arena.loader import find_level
         from referee.match.loop import Match
-        from referee.sandbox.teams import resolve
+        from referee.sandbox.teams import fill_slots
         level = find_level(target)
-        specs = list(teams or [])
-        specs += [level.default_controller] * (len(level.robots) - len(specs))
-        resolved = [resolve(s) for s in specs]
+        resolved = fill_slots(level, teams)
         recorder = MemoryRecorder(level, level.text, level.seed if seed is None else seed, False,
                                   [(t.label, t.spec) for t in resolved])
         match = Match(level, resolved, seed=seed, recorder=recorder)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from arena.level import Level
 from referee.errors import TeamError
 from robots.controllers import REFERENCE
 from robots.loading import LoadError, entry_point, is_file_spec
@@ -143,3 +144,14 @@ def resolve(spec: str) -> Team:
 def code_hash(spec: str) -> str:
     """The `Team.code_hash` of a spec (for replays and verification), without running anything."""
     return resolve(spec).code_hash
+
+
+def fill_slots(level: Level, specs: list[str] | None, slots: int | None = None) -> list[Team]:
+    """The teams of `slots` robot slots (all of the level's by default), in slot order: the
+    specs given, then the level's default controller for the rest; TeamError (one line) if
+    more specs are given than there are slots, or one cannot be resolved."""
+    n = len(level.robots) if slots is None else slots
+    given = list(specs or [])
+    if len(given) > n:
+        raise TeamError(f"{level.name}: {len(given)} teams for {n} robot slot(s)")
+    return [resolve(s) for s in given + [level.default_controller] * (n - len(given))]

@@ -32,7 +32,8 @@ from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.angles import BeaconRevolutions, Revolution
 from robots.toolkit.motion import heading_change
 from robots.toolkit.solvers import bac, total
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.angles import wrap
+from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad

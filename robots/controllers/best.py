@@ -17,7 +17,8 @@ from robots.api import Brief, Command, Controller, Observation, SensorEvent
 from robots.toolkit.angles import IndexRevolutions
 from robots.toolkit.associate import by_sectors
 from robots.toolkit.solvers import circles
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.angles import wrap
+from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 APPROACH = 2.0  # 1/s: the speed (m/s) is at most this times the distance (m) to the waypoint

@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.angles import wrap
+from robots.toolkit.steering import next_waypoint
 
 SUBSTEPS = 20  # integration steps per control period
 SPIN_ABOVE = 0.3  # rad: heading errors above this turn on the spot
