@@ -11,19 +11,29 @@ import dataclasses
 import hashlib
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
 import levels
-
 from arena import level_checks
 from arena.errors import LaserArenaError
 from arena.level import (
-    Beacon, Beacons, ControllerLimits, DriveErrors, Field, Laser, Level, Obstacle, Pose, RobotSlot, Rules,
+    Beacon,
+    Beacons,
+    ControllerLimits,
+    DriveErrors,
+    Field,
+    Laser,
+    Level,
+    Obstacle,
+    Pose,
+    RobotSlot,
+    Rules,
     Task,
 )
 from arena.robot_models import ROBOT_MODELS

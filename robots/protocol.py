@@ -24,7 +24,16 @@ from typing import Annotated, Any, BinaryIO, Literal, Union
 import msgspec
 
 from robots.api import (
-    API_VERSION, BeaconInfo, Brief, Command, Drawing, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo,
+    API_VERSION,
+    BeaconInfo,
+    Brief,
+    Command,
+    Drawing,
+    LaserInfo,
+    Observation,
+    RobotInfo,
+    SensorEvent,
+    TaskInfo,
 )
 
 PROTOCOL_VERSION = 1
@@ -211,7 +220,7 @@ def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
         raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
-    except Exception as e:  # noqa: BLE001 - a team's bytes must raise nothing else
+    except Exception as e:
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
 
 
@@ -243,7 +252,7 @@ def _payload(d: Any, cls: type, what: str) -> Any:
         raise _invalid(e, what) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
-    except Exception as e:  # noqa: BLE001
+    except Exception as e:
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
 
 
@@ -356,6 +365,6 @@ def _show(v: object) -> str:
     """A short, safe rendering of a team's value for a fault message."""
     try:
         text = repr(v)
-    except Exception:  # noqa: BLE001 - a team's __repr__ may raise
+    except Exception:
         text = f"<{type(v).__name__}>"
     return text[:60] + ("..." if len(text) > 60 else "")

@@ -26,11 +26,11 @@ import signal
 import sqlite3
 import sys
 import time
+from collections.abc import Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Iterable, Iterator
 
 from referee.errors import UserError
 from referee.terminal import safe
@@ -91,8 +91,8 @@ def noise_key(secret: str, level_hash: str, seed: int) -> str:
 def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     """Run one job (in a worker); return it with its canonical result JSON and wall time."""
     from arena.loader import load_level
-    from referee.records.canonical import dumps
     from referee.match.loop import run_match
+    from referee.records.canonical import dumps
     from referee.sandbox.teams import resolve
 
     start = time.perf_counter()
@@ -267,7 +267,7 @@ class _Stopped(BaseException):
     """A pool worker was told to stop (SIGTERM) in the middle of a match."""
 
 
-def _worker_stop(signum: int, frame) -> None:  # noqa: ANN001
+def _worker_stop(signum: int, frame) -> None:
     if _playing:
         raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
     os._exit(143)
@@ -305,7 +305,8 @@ def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[J
 
 def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Iterator[tuple[Job, str, float]]:
     try:
-        from dask.distributed import Client, as_completed as dask_completed
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
     except ImportError:
         raise UserError("--scheduler needs Dask: pip install 'laserarena[dask]'") from None
     with Client(scheduler) as client:

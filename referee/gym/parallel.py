@@ -37,12 +37,12 @@ class LaserArenaParallelEnv(ParallelEnv):
         self.render_mode, self.render_size = render_mode, render_size
         self._rng = np.random.default_rng()
 
-    @functools.lru_cache(maxsize=None)
+    @functools.cache
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         enc = self.session.encoders[self._slot(agent)]
         return gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
 
-    @functools.lru_cache(maxsize=None)
+    @functools.cache
     def action_space(self, agent: str) -> gymnasium.spaces.Box:
         return gymnasium.spaces.Box(-1.0, 1.0, (self.session.action_size(),), dtype=np.float32)
 

@@ -12,16 +12,14 @@ layout beside it on the same colour scale.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
-
 
 import numpy as np
 import pygame
 
 from arena import detectors as det
-from arena.draw import BEACON, BACKGROUND
+from arena.draw import BACKGROUND, BEACON
 from arena.laser import Crossings
 from arena.level import Level
 from arena.world import CAT_OBSTACLE, World

@@ -13,10 +13,10 @@ import bisect
 import math
 
 from arena.level import Level
-from referee.media.error_series import ErrorTrack
-from referee.records.replay import Replay
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS, quality
 from referee.match.tasks import TaskTracker
+from referee.media.error_series import ErrorTrack
+from referee.records.replay import Replay
 
 
 class Standings:

@@ -95,6 +95,7 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
           speed: float = 1.0, max_frames: int | None = None) -> int:
     """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
     import pygame
+
     from referee.media.render import Scenes
     from referee.records.replay import MemoryRecorder, load
 

@@ -20,9 +20,10 @@ import json
 import os
 import tempfile
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Annotated, Iterator
+from typing import IO, Annotated
 
 import msgspec
 

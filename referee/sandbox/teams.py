@@ -12,9 +12,9 @@ from __future__ import annotations
 import hashlib
 import importlib.machinery
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from referee.errors import TeamError
 from robots.controllers import REFERENCE

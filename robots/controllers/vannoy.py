@@ -3,7 +3,6 @@ heading from the click-to-first-reflection time; stop-and-scan to the charger.""
 
 from __future__ import annotations
 
-
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
 from robots.toolkit.associate import by_sectors

@@ -33,8 +33,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
-
-from typing import Callable
+from collections.abc import Callable
 
 from robots.api import Brief, SensorEvent
 from robots.toolkit.ekf import BearingEKF
