@@ -381,7 +381,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         raise ctx.fail(top.raw("robots").line, "robots", "at least one robot is required")
     robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path)
               for i, (n, k) in enumerate(robot_nodes)]
-    for r, (node, key) in zip(robots, robot_nodes):
+    for r, (node, _key) in zip(robots, robot_nodes):
         turn = (abs(r.laser.angular_velocity) + 2 * r.model.max_wheel_speed / r.model.track) / physics_rate
         if turn >= math.pi / 2:
             where = top.raw("laser") if r.laser is default_laser else node
