@@ -20,7 +20,7 @@ class Vannoy(StopAndScan):
         assoc = by_sectors(rel, self.beacons, reference)
         if assoc.ambiguous:
             return None  # Vannoy: "the robot would have to move ... to resolve the problem"
-        fix = circles([self.beacons[b] for b in assoc.ids], rel)
+        fix = circles([self.beacons[b] for b in assoc.ids if b is not None], rel)
         if not fix.ok or not (xmin <= fix.x <= xmax and ymin <= fix.y <= ymax):
             return None
         return fix.x, fix.y, fix.heading
