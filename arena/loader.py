@@ -338,9 +338,9 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         raise LevelError(source, None, "(file)", f"not UTF-8 text ({e.reason})") from None
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        reason = getattr(e, "problem", None) or str(e).splitlines()[0]
         raise LevelError(source, mark.line + 1 if mark else None, "(yaml)",
-                         f"malformed YAML: {problem}") from None
+                         f"malformed YAML: {reason}") from None
     if root is None:
         raise LevelError(source, 1, "(top)", "the file is empty")
     located = _locate(root, source)

@@ -26,7 +26,7 @@ import signal
 import sqlite3
 import sys
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Generator, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -244,6 +244,7 @@ def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | 
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     if not todo:
         return journal
+    results: Generator[tuple[Job, str, float]]  # closed below, so a pool ends on an interrupt
     if scheduler:
         results = _on_dask(todo, str(replay_dir), scheduler)
     elif workers <= 1:
@@ -286,7 +287,7 @@ def _worker_init(parent: int) -> None:
         os._exit(143)
 
 
-def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[Job, str, float]]:
+def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Generator[tuple[Job, str, float]]:
     # spawn, never fork: a forked worker would inherit the parent's state
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
                                initializer=_worker_init, initargs=(os.getpid(),))
@@ -303,7 +304,7 @@ def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[J
     pool.shutdown(wait=True)
 
 
-def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Iterator[tuple[Job, str, float]]:
+def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Generator[tuple[Job, str, float]]:
     try:
         from dask.distributed import Client
         from dask.distributed import as_completed as dask_completed

@@ -99,9 +99,15 @@ class AgentSession:
         self.fouls = {s: 0 for s in self.agents}
         return self._observe()
 
+    def _live(self) -> Match:
+        """The match in play (reset() starts one)."""
+        if self.match is None:
+            raise RuntimeError("no match in play: call reset()")
+        return self.match
+
     def _observe(self) -> dict[int, np.ndarray]:
         """The control tick's first half: deliver events, let the other slots answer."""
-        m = self.match
+        m = self._live()
         observations = m.observe()
         for slot, obs in enumerate(observations):
             if obs is None:
@@ -136,14 +142,15 @@ class AgentSession:
             self.encoders[slot].command = (left, right)
         m.advance()
         terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
-        truncated = {s: m.ended and not terminated[s] for s in self.agents}
+        truncated: dict[int, bool] = {s: m.ended and not terminated[s] for s in self.agents}
         if m.ended or all(terminated.values()):
             self.result = m.end()  # the rules' last fouls count in this last reward
             m.ended = True
             observations = {s: self.encoders[s].encode(m.world.time) for s in self.agents}
         else:
             observations = self._observe()
-        rewards, infos = {}, {}
+        rewards: dict[int, float] = {}
+        infos: dict[int, dict] = {}
         for slot in self.agents:
             rewards[slot] = self._reward(slot) + float(loc[slot])
             infos[slot] = {"progress": m.tracker.progress(slot), "time": m.world.time}
@@ -158,7 +165,7 @@ class AgentSession:
 
     def _potential(self, slot: int) -> float:
         """Task points reached so far plus the fraction of the current leg covered (shaping)."""
-        m = self.match
+        m = self._live()
         tracker = m.tracker
         if tracker.kind == "localize":
             return 0.0
@@ -175,7 +182,7 @@ class AgentSession:
         return value
 
     def _reward(self, slot: int) -> float:
-        m = self.match
+        m = self._live()
         phi = self._potential(slot)
         reward = phi - self.potential[slot]
         self.potential[slot] = phi
