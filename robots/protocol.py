@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import numbers
 import struct
-from typing import Annotated, Any, BinaryIO, Literal
+from typing import IO, Annotated, Any, Literal
 
 import msgspec
 
@@ -168,7 +168,7 @@ class ProtocolError(Exception):
 
 # ---- frames ---------------------------------------------------------------------------------
 
-def write(stream: BinaryIO, msg: dict) -> None:
+def write(stream: IO[bytes], msg: dict) -> None:
     """Send one message (plain data: dicts, lists, tuples, text, numbers; see `to_plain`)."""
     try:
         data = _ENCODER.encode({"v": PROTOCOL_VERSION, **msg})
@@ -180,7 +180,7 @@ def write(stream: BinaryIO, msg: dict) -> None:
     stream.flush()
 
 
-def read(stream: BinaryIO) -> dict | None:
+def read(stream: IO[bytes]) -> dict | None:
     """Receive one message, or None at end of stream."""
     head = stream.read(4)
     if not head:
