@@ -16,7 +16,15 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena.laser import TWO_PI, Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_circles, wrap_angle
+from arena.laser import (
+    TWO_PI,
+    Crossings,
+    Trajectory,
+    find_crossings,
+    find_phase_marks,
+    segment_hits_circles,
+    wrap_angle,
+)
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 

@@ -20,6 +20,7 @@ from arena.level import Level
 from referee.gym.observation import ObservationEncoder
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
+from referee.records.results import MatchResult
 from referee.sandbox.teams import Team, resolve
 from robots.api import Command
 from robots.controllers.idle import Idle
@@ -72,7 +73,7 @@ class AgentSession:
         self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}
         self.total_ticks = math.ceil(self.level.time_limit / self.level.control_period - 1e-9)
         self.match: Match | None = None
-        self.result: dict | None = None
+        self.result: MatchResult | None = None
 
     def action_size(self) -> int:
         """2 (wheel speeds), or 5 with a pose estimate; every component is in -1..1."""

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from arena.level import Level
-from referee.records.results import FoulRecord
 from arena.world import World
+from referee.records.results import FoulRecord
 
 
 @dataclass(frozen=True)

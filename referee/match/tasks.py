@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from arena.level import Level, Pose
 from msgspec import UNSET, UnsetType
 
+from arena.level import Level, Pose
 from referee.match.rules import Polyline
 from referee.records.results import CrossTrack, TaskProgress
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from referee.sandbox.teams import Team
 from referee.records.results import FaultRecord
+from referee.sandbox.teams import Team
 from robots.api import API_VERSION, Brief, Command, Controller, Observation
 from robots.loading import LoadError, is_file_spec, load_class
 from robots.protocol import ProtocolError, api_problem, command_from, command_problem, to_plain
