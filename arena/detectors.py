@@ -10,8 +10,8 @@ are listed in docs/sensors.md; `ideal` turns every noise and failure source off.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

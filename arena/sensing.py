@@ -157,8 +157,8 @@ class Sensing:
         if self.has_obstacles:
             space = self.world.space
             for i in np.nonzero(~blocked)[0]:
-                hit = space.segment_query_first((px[i], py[i]), (qx[i], qy[i]), 0.0, self.obstacle_filter)
-                blocked[i] = hit is not None
+                first = space.segment_query_first((px[i], py[i]), (qx[i], qy[i]), 0.0, self.obstacle_filter)
+                blocked[i] = first is not None
         return blocked
 
     # ---- beam-beacon hits -----------------------------------------------------------------

@@ -4,8 +4,17 @@ Imports nothing from `arena` or `referee`: this package is what runs inside a te
 """
 
 from robots.api import (
-    API_VERSION, BeaconInfo, Brief, Command, Controller, Drawing, LaserInfo, Observation,
-    RobotInfo, SensorEvent, TaskInfo,
+    API_VERSION,
+    BeaconInfo,
+    Brief,
+    Command,
+    Controller,
+    Drawing,
+    LaserInfo,
+    Observation,
+    RobotInfo,
+    SensorEvent,
+    TaskInfo,
 )
 
 __all__ = ["API_VERSION", "BeaconInfo", "Brief", "Command", "Controller", "Drawing", "LaserInfo",

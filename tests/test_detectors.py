@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from helpers import ONE, TWO, hits, make, sense
 
 IN = 0.0254  # m
@@ -396,6 +395,7 @@ def test_simi_detection_rate_past_the_limit_follows_the_light_statistics():
     `light_noise` of its log) lifts the response over the comparator's threshold; the rate
     measured over 600 sweeps matches that probability within binomial error."""
     from statistics import NormalDist
+
     from arena.world import World
     x, y = 93.465, -82.116  # detector 1 sees the laser 33.3 deg off its axis at 6.7 ft (limit 27.8)
     level = simi_at(x, y)

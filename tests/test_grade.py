@@ -10,9 +10,9 @@ import sys
 import time
 
 import pytest
+from helpers import run_cli
 
 from referee.contest.grade import interval
-from helpers import run_cli
 
 ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet",
         "--secret", "a shared secret"]  # one secret: journals compared across runs draw the same noise
@@ -209,6 +209,7 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
     import hashlib
     import hmac
     import stat
+
     from referee.records.replay import load
     assert run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1").returncode == 0
     db = tmp_path / "r.sqlite"

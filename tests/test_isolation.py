@@ -7,16 +7,16 @@ import sys
 import textwrap
 
 import pytest
+from helpers import variant
+from hostile.hostile_kit import sandboxed_processes
 
 import levels
-from arena.loader import load_level
-from referee.records.canonical import dumps
-from referee.match.loop import run_match
-from referee.records.replay import load
 from arena.level import ControllerLimits
+from arena.loader import load_level
+from referee.match.loop import run_match
+from referee.records.canonical import dumps
+from referee.records.replay import load
 from referee.sandbox.teams import resolve
-from hostile.hostile_kit import sandboxed_processes
-from helpers import variant
 
 
 def team_file(tmp_path, body, name="team.py"):

@@ -9,20 +9,20 @@ import argparse
 import os
 import signal
 import sys
-
-import numpy as np
 import time
 from pathlib import Path
 
+import numpy as np
+
 import levels
+from arena.errors import LaserArenaError
 from arena.loader import find_level, load_level
 from referee import __version__
-from referee.records.canonical import dumps
-from arena.errors import LaserArenaError
-from referee.errors import EXIT_INTERRUPTED, UserError
-from referee.match.loop import NO_LIMITS, run_match
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
+from referee.errors import EXIT_INTERRUPTED, UserError
+from referee.match.loop import NO_LIMITS, run_match
+from referee.records.canonical import dumps
 from referee.sandbox.teams import fill_slots, resolve
 from referee.terminal import safe
 

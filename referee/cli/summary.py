@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from referee.records.results import MatchResult
 from referee.terminal import safe
 
 
@@ -24,7 +25,7 @@ def _progress(task: dict) -> str:
     return text + (f" in {task['finished']:.2f} s" if task["finished"] is not None else "")
 
 
-def table(result: dict) -> str:
+def table(result: MatchResult) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error."""
     head = (f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
             f"({result['end_reason'].replace('_', ' ')})")

@@ -13,8 +13,12 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from referee.errors import UserError
+
+if TYPE_CHECKING:  # pygame is imported where the viewer opens its window
+    import pygame
 
 KEYS_HELP = "space pause   <- -> step/seek   up/down speed   click timeline to seek   h help   q quit"
 KEYS = (
@@ -40,7 +44,7 @@ class Viewer:
         self.t, self.paused = 0.0, False
         self.help_left = HELP_SECONDS  # s of wall time the start-up help still shows
         self.help_pinned = False
-        self.help_rect = None  # where the help was last drawn
+        self.help_rect: pygame.Rect | None = None  # where the help was last drawn
 
     @property
     def help_shown(self) -> bool:
@@ -95,6 +99,7 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
           speed: float = 1.0, max_frames: int | None = None) -> int:
     """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
     import pygame
+
     from referee.media.render import Scenes
     from referee.records.replay import MemoryRecorder, load
 

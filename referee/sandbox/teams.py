@@ -12,12 +12,13 @@ from __future__ import annotations
 import hashlib
 import importlib.machinery
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from arena.level import Level
 from referee.errors import TeamError
+from robots.api import Controller
 from robots.controllers import REFERENCE
 from robots.loading import LoadError, entry_point, is_file_spec
 
@@ -42,7 +43,7 @@ class Team:
     code_hash: str
     files: tuple[tuple[str, Path], ...] = ()
     entry: str = ""
-    factory: Callable[[], object] | None = None
+    factory: Callable[[], Controller] | None = None
 
 
 def _file_hash(path: Path) -> str:
@@ -113,9 +114,13 @@ def _module_team(label: str, spec: str, target: str) -> Team:
         return Team(label, spec, _file_hash(source) if source else "sha256:" + hashlib.sha256(spec.encode()).hexdigest(),
                     (), target)
     top_spec = find_module(top)
+    if top_spec is None:
+        raise TeamError(f"team {label}: cannot find package {top!r} on the path")
     if top_spec.submodule_search_locations:  # a package: ship all of it
         files = _package_files(Path(list(top_spec.submodule_search_locations)[0]), label)
         return Team(label, spec, _tree_hash(files), files, target)
+    if top_spec.origin is None:
+        raise TeamError(f"team {label}: module {top!r} has no file to ship")
     origin = Path(top_spec.origin)
     return Team(label, spec, _file_hash(origin), ((origin.name, origin),), target)
 

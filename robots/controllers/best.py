@@ -48,7 +48,7 @@ class Best(Controller):
             assoc = by_sectors([a % (2 * math.pi) for a in rel], self.beacons, ref)
             if assoc.ambiguous:
                 continue
-            fix = circles([self.beacons[b] for b in assoc.ids], rel)
+            fix = circles([self.beacons[b] for b in assoc.ids if b is not None], rel)
             if fix.ok:  # at the click the beam points straight ahead: its world angle is the heading
                 return fix.x, fix.y, fix.heading, fix.heading
         return None

@@ -8,11 +8,18 @@ from pathlib import Path
 import pytest
 
 import referee.match.scoring
-from hostile.hostile_kit import (HONEST, assert_contained, assert_others_unharmed, hostile_match, laserarena, short_race,
-                         team_file)
+from hostile.hostile_kit import (
+    HONEST,
+    assert_contained,
+    assert_others_unharmed,
+    hostile_match,
+    laserarena,
+    short_race,
+    team_file,
+)
 from referee.match.loop import run_match
-from referee.sandbox.teams import resolve
 from referee.match.verify import verify
+from referee.sandbox.teams import resolve
 
 # module-level code that, run anywhere, leaves a mark and rewrites the scoring
 SUBVERT = """
