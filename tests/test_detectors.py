@@ -30,9 +30,10 @@ def test_reflector_range_limit_and_unlabelled_returns():
 
 def with_facing(kind, beacon_line, degrees, params=""):
     """The test table with one beacon facing `degrees`."""
+    from helpers import TABLE
+
     from arena.loader import parse_level
     from arena.world import World
-    from helpers import TABLE
     text = TABLE.format(kind=kind, omega=60.0, robots=ONE, params=params, obstacles="")
     text = text.replace(beacon_line, beacon_line[:-1] + f", facing: {degrees}}}")
     return World(parse_level(text.encode(), "t.yaml"))

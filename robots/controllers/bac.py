@@ -29,10 +29,9 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation
-from robots.toolkit.angles import BeaconRevolutions, Revolution
+from robots.toolkit.angles import BeaconRevolutions, Revolution, wrap
 from robots.toolkit.motion import heading_change
 from robots.toolkit.solvers import bac, total
-from robots.toolkit.angles import wrap
 from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 

@@ -14,10 +14,9 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation, SensorEvent
-from robots.toolkit.angles import IndexRevolutions
+from robots.toolkit.angles import IndexRevolutions, wrap
 from robots.toolkit.associate import by_sectors
 from robots.toolkit.solvers import circles
-from robots.toolkit.angles import wrap
 from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 

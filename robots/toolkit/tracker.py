@@ -36,10 +36,10 @@ from collections import Counter, deque
 from collections.abc import Callable
 
 from robots.api import Brief, SensorEvent
+from robots.toolkit.angles import wrap
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels
 from robots.toolkit.solvers import least_squares
-from robots.toolkit.angles import wrap
 
 # "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
 # same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
