@@ -27,11 +27,11 @@ demo: $(VENV)/.installed
 	$(VENV)/bin/laserarena render out/demo.replay --out out/demo.mp4 --fps 15
 	$(VENV)/bin/laserarena verify out/demo.replay
 
-# Lint and types (settings in pyproject.toml). FORMAT=1 also checks `ruff format`.
+# Lint, format and types (settings in pyproject.toml).
 LINT_PATHS := arena robots referee levels tests benchmarks
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check $(LINT_PATHS)
-	$(if $(filter 1,$(FORMAT)),$(VENV)/bin/ruff format --check $(LINT_PATHS))
+	$(VENV)/bin/ruff format --check $(LINT_PATHS)
 	$(VENV)/bin/mypy
 
 test: lint

@@ -20,12 +20,29 @@ from arena.laser import Crossings
 
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {
-    "timing_noise": 0.0, "wobble": 0.0, "false_rate": 0.0, "merge_rate": 0.0,
-    "brightness_noise": 0.0, "servo_jitter": 0.0, "quantization": 0, "counts_per_turn": 0,
-    "range": math.inf, "max_incidence": math.pi / 2, "clock_hz": 0.0,
-    "near_incidence": math.pi / 2, "far_incidence": math.pi / 2,
-    "beam_diameter": 0.0, "beam_divergence": 0.0, "aperture": 0.0, "trigger_fraction": 0.0,
-    "rise_time": 0.0, "acceptance": math.inf, "light_noise": 0.0, "spin_coupling": 0.0, "spin_time": 0.0, "placement_error": 0.0,
+    "timing_noise": 0.0,
+    "wobble": 0.0,
+    "false_rate": 0.0,
+    "merge_rate": 0.0,
+    "brightness_noise": 0.0,
+    "servo_jitter": 0.0,
+    "quantization": 0,
+    "counts_per_turn": 0,
+    "range": math.inf,
+    "max_incidence": math.pi / 2,
+    "clock_hz": 0.0,
+    "near_incidence": math.pi / 2,
+    "far_incidence": math.pi / 2,
+    "beam_diameter": 0.0,
+    "beam_divergence": 0.0,
+    "aperture": 0.0,
+    "trigger_fraction": 0.0,
+    "rise_time": 0.0,
+    "acceptance": math.inf,
+    "light_noise": 0.0,
+    "spin_coupling": 0.0,
+    "spin_time": 0.0,
+    "placement_error": 0.0,
 }
 
 
@@ -115,7 +132,7 @@ def sensitivity(kind: str, c: Crossings, inc: np.ndarray, p: Mapping[str, float]
             s_limit = np.minimum(1.0, p["trigger_fraction"] / np.where(w > a, a / w, 1.0))
             return np.where(limit > 0, s_limit ** ((inc / limit) ** 2), 0.0)
     acc = p.get("acceptance", math.inf)
-    return np.exp2(-(inc / acc) ** 2) if math.isfinite(acc) else np.ones(len(inc))
+    return np.exp2(-((inc / acc) ** 2)) if math.isfinite(acc) else np.ones(len(inc))
 
 
 def spot_width(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
@@ -157,8 +174,7 @@ def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
     return rel
 
 
-def jitter(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator,
-           window: tuple[float, float]) -> np.ndarray:
+def jitter(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator, window: tuple[float, float]) -> np.ndarray:
     """Gaussian timing noise of the detector, kept inside the batch `window` (no event is
     reported before the previous tick or after the one that delivers it)."""
     if p.get("timing_noise", 0.0) > 0:
@@ -186,15 +202,19 @@ def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray
     a counter-based hash, so a revolution's draw does not depend on which control period its
     pulses fall in."""
     with np.errstate(over="ignore"):
-        z = (np.uint64(key) + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-             + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03))
+        z = (
+            np.uint64(key)
+            + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+            + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03)
+        )
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
         z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     return z ^ (z >> np.uint64(31))
 
 
-def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray,
-                       n_beacons: int, rate: float, key: int) -> np.ndarray:
+def merge_measurements(
+    times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray, n_beacons: int, rate: float, key: int
+) -> np.ndarray:
     """Bac's hardware error: "occasionally the measured duration of any pulse was added to the
     next pulse duration. If, for example, pulse T_1 and T_2 read 15 and 20 ms, respectively,
     T_2 was occasionally processed as 35 ms" ("about 3.4% of all incoming measurements").
@@ -207,7 +227,7 @@ def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray,
     if rate <= 0 or len(times) < 2:
         return times
     h = revolution_hash(key, robot, turn)
-    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0 ** -53 < rate  # the high 53 bits
+    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0**-53 < rate  # the high 53 bits
     victim = (h & np.uint64(0x7FF)).astype(np.int64) % n_beacons == beacon  # the low 11
     has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
     hit = np.nonzero(merged & victim & has_pred)[0]
@@ -216,8 +236,7 @@ def merge_measurements(times: np.ndarray, robot: np.ndarray, beacon: np.ndarray,
     return out
 
 
-def brightness(delta: np.ndarray, distance: np.ndarray, visible_: np.ndarray,
-               p: Mapping[str, float]) -> np.ndarray:
+def brightness(delta: np.ndarray, distance: np.ndarray, visible_: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     """Osentoski's turret photoresistor on the 0 (bright) .. 255 (dark) scale, before noise.
 
     Each visible light adds a Gaussian beam profile (FWHM `beam_width`) around its bearing,

@@ -14,8 +14,12 @@ from arena.level import Level
 
 PALETTE = [(230, 80, 60), (60, 140, 230), (60, 180, 90), (220, 170, 40), (170, 90, 210), (40, 190, 190)]
 BACKGROUND, FIELD, WALL, OBSTACLE = (24, 26, 30), (236, 232, 220), (70, 70, 76), (120, 110, 100)
-BEACON = {"reflector": (210, 40, 40), "sensor_array": (30, 90, 200), "flash_detector": (200, 120, 20),
-          "light": (250, 210, 40)}
+BEACON = {
+    "reflector": (210, 40, 40),
+    "sensor_array": (30, 90, 200),
+    "flash_detector": (200, 120, 20),
+    "light": (250, 210, 40),
+}
 HUD_HEIGHT = 56  # the least: a title line, one line per robot, the timeline
 HUD_TEXT, OVERLAY, OVERLAY_TEXT = (235, 235, 235), (16, 18, 24), (250, 250, 250)
 
@@ -88,8 +92,9 @@ class Painter:
                     pygame.draw.circle(surface, _mix(color(slot), FIELD, 0.3), p, self.px + 2)
         for r in scene.robots:
             if len(r.trail) > 1:
-                pygame.draw.lines(surface, _mix(color(r.slot), FIELD, 0.35), False,
-                                  [self.to_screen(*p) for p in r.trail], self.px)
+                pygame.draw.lines(
+                    surface, _mix(color(r.slot), FIELD, 0.35), False, [self.to_screen(*p) for p in r.trail], self.px
+                )
         for slot, x0, y0, x1, y1 in scene.beams:
             pygame.draw.line(surface, color(slot), self.to_screen(x0, y0), self.to_screen(x1, y1), self.px)
             pygame.draw.circle(surface, color(slot), self.to_screen(x1, y1), self.px + 3)
@@ -129,17 +134,29 @@ class Painter:
             elif kind == "flash_detector":
                 pygame.draw.polygon(surface, c, [(cx, cy - r), (cx + r, cy), (cx, cy + r), (cx - r, cy)])
             else:  # a reflector: a triangle pointing where it faces
-                pygame.draw.polygon(surface, c, [(cx + fx * r * 1.4, cy + fy * r * 1.4),
-                                                 (cx - fy * r - fx * r * 0.6, cy + fx * r - fy * r * 0.6),
-                                                 (cx + fy * r - fx * r * 0.6, cy - fx * r - fy * r * 0.6)])
+                pygame.draw.polygon(
+                    surface,
+                    c,
+                    [
+                        (cx + fx * r * 1.4, cy + fy * r * 1.4),
+                        (cx - fy * r - fx * r * 0.6, cy + fx * r - fy * r * 0.6),
+                        (cx + fy * r - fx * r * 0.6, cy - fx * r - fy * r * 0.6),
+                    ],
+                )
             label = self.small.render(b.id, True, (40, 40, 40))
             surface.blit(label, (cx + r + 2, cy - r - 2))
 
     def _box(self, x: float, y: float, h: float, length: float, width: float) -> list[tuple[int, int]]:
         c, s = math.cos(h), math.sin(h)
-        return [self.to_screen(x + c * dx - s * dy, y + s * dx + c * dy)
-                for dx, dy in ((length / 2, width / 2), (-length / 2, width / 2),
-                               (-length / 2, -width / 2), (length / 2, -width / 2))]
+        return [
+            self.to_screen(x + c * dx - s * dy, y + s * dx + c * dy)
+            for dx, dy in (
+                (length / 2, width / 2),
+                (-length / 2, width / 2),
+                (-length / 2, -width / 2),
+                (length / 2, -width / 2),
+            )
+        ]
 
     def _robot(self, surface: pygame.Surface, r: RobotView) -> None:
         body = color(r.slot) if not r.stopped else (130, 130, 130)
@@ -171,7 +188,7 @@ class Painter:
     def _hud(self, surface: pygame.Surface, scene: Scene) -> None:
         w, _ = self.size
         pygame.draw.rect(surface, (40, 42, 48), (0, 0, w, self.hud_height))
-        for i, line in enumerate(scene.hud[:1 + len(self.level.robots)]):
+        for i, line in enumerate(scene.hud[: 1 + len(self.level.robots)]):
             c = HUD_TEXT if i == 0 else _mix(color(i - 1), HUD_TEXT, 0.45)  # a robot's line in its colour
             surface.blit(self.font.render(line, True, c), (10, 6 + i * self.line))
         if scene.timeline:
@@ -185,8 +202,9 @@ class Painter:
             pygame.draw.circle(surface, (250, 250, 250), (10 + (w - 20) * min(now, span) / span, y), 5)
 
 
-def help_box(surface: pygame.Surface, title: str, rows: tuple[tuple[str, str], ...],
-             font: pygame.font.Font) -> pygame.Rect:
+def help_box(
+    surface: pygame.Surface, title: str, rows: tuple[tuple[str, str], ...], font: pygame.font.Font
+) -> pygame.Rect:
     """A dark box in the middle of the surface: a title, then (key, what it does) rows in two
     columns (the viewer's key help). Returns where it was drawn."""
     head = font.render(title, True, OVERLAY_TEXT)
@@ -194,8 +212,9 @@ def help_box(surface: pygame.Surface, title: str, rows: tuple[tuple[str, str], .
     texts = [font.render(t, True, OVERLAY_TEXT) for _, t in rows]
     column = max(k.get_width() for k in keys) + 24
     line = font.get_linesize() + 4
-    box = pygame.Rect(0, 0, max(head.get_width(), column + max(t.get_width() for t in texts)) + 40,
-                      line * (len(rows) + 1) + 36)
+    box = pygame.Rect(
+        0, 0, max(head.get_width(), column + max(t.get_width() for t in texts)) + 40, line * (len(rows) + 1) + 36
+    )
     box.center = surface.get_rect().center
     shade = pygame.Surface(box.size, pygame.SRCALPHA)
     shade.fill((*OVERLAY, 225))

@@ -58,8 +58,15 @@ class DiffDrive:
     """Wheel state and the control body that carries it into the physics every `dt` s; with
     the match's random `tree`, robot `slot`'s drive errors, else a perfect drive."""
 
-    def __init__(self, space: pymunk.Space, body: pymunk.Body, model: RobotModel, dt: float,
-                 tree: RandomTree | None = None, slot: int = 0):
+    def __init__(
+        self,
+        space: pymunk.Space,
+        body: pymunk.Body,
+        model: RobotModel,
+        dt: float,
+        tree: RandomTree | None = None,
+        slot: int = 0,
+    ):
         self.model = model
         self.body = body
         self.dt = dt

@@ -34,9 +34,11 @@ class Trajectory:
 
     def pose_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
         """Interpolated (x, y, h) at fraction `s` of step `step` for robots `robot`."""
+
         def lerp(a: np.ndarray) -> np.ndarray:
             a0 = a[step, robot]
             return a0 + s * (a[step + 1, robot] - a0)
+
         return lerp(self.x), lerp(self.y), lerp(self.h)
 
 
@@ -64,8 +66,9 @@ class Crossings:
         return Crossings(*(getattr(self, f)[mask] for f in self.__dataclass_fields__))
 
 
-def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray,
-                   beam_offset: np.ndarray | None = None) -> Crossings:
+def find_crossings(
+    traj: Trajectory, bx: np.ndarray, by: np.ndarray, beam_offset: np.ndarray | None = None
+) -> Crossings:
     """All times at which a robot's beam points exactly at a beacon at (bx, by), unsorted.
 
     `beam_offset` (per robot, m, + = to the beam's left) is how far the beam line passes beside
@@ -113,10 +116,19 @@ def find_crossings(traj: Trajectory, bx: np.ndarray, by: np.ndarray,
     ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey
     dt = traj.t[step + 1] - traj.t[step]
-    return Crossings(robot=robot, beacon=beacon, step=step, s=s, t=traj.t[step] + s * dt,
-                     x=bx[beacon] - ex, y=by[beacon] - ey, phi=phi0 + s * dphi,
-                     beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt, distance=np.sqrt(d2),
-                     bearing=np.arctan2(ey, ex))
+    return Crossings(
+        robot=robot,
+        beacon=beacon,
+        step=step,
+        s=s,
+        t=traj.t[step] + s * dt,
+        x=bx[beacon] - ex,
+        y=by[beacon] - ey,
+        phi=phi0 + s * dphi,
+        beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt,
+        distance=np.sqrt(d2),
+        bearing=np.arctan2(ey, ex),
+    )
 
 
 def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -142,8 +154,9 @@ def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> 
     return robot[order], step[order], s[order], t[order], signed[order]
 
 
-def segment_hits_circles(px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray,
-                         cx: np.ndarray, cy: np.ndarray, radius: np.ndarray) -> np.ndarray:
+def segment_hits_circles(
+    px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray, cx: np.ndarray, cy: np.ndarray, radius: np.ndarray
+) -> np.ndarray:
     """Whether segments P-Q pass within `radius` of centres C (closed discs); elementwise."""
     ux, uy = qx - px, qy - py
     length2 = ux * ux + uy * uy

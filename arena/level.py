@@ -181,9 +181,20 @@ class Rules:
 
     speed_limit: float = 0.0  # m/s; 0 = none
     min_impulse: float = 0.02  # N s: lighter touches are not collisions
-    penalties: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({
-        "robot_collision": 2.0, "wall_collision": 1.0, "obstacle_collision": 1.0, "beacon_collision": 5.0,
-        "leave_field": 10.0, "speeding": 1.0, "skipped_tick": 0.5, "fault": 25.0}))
+    penalties: Mapping[str, float] = field(
+        default_factory=lambda: MappingProxyType(
+            {
+                "robot_collision": 2.0,
+                "wall_collision": 1.0,
+                "obstacle_collision": 1.0,
+                "beacon_collision": 5.0,
+                "leave_field": 10.0,
+                "speeding": 1.0,
+                "skipped_tick": 0.5,
+                "fault": 25.0,
+            }
+        )
+    )
 
 
 @dataclass(frozen=True)

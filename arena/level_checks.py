@@ -95,8 +95,12 @@ def convex_problem(points: tuple[tuple[float, float], ...]) -> str | None:
 def footprint(model: RobotModel, pose: Pose) -> list[tuple[float, float]]:
     """The corners of a robot's body at `pose`, counter-clockwise."""
     c, s = math.cos(pose.heading), math.sin(pose.heading)
-    half = ((model.length / 2, model.width / 2), (-model.length / 2, model.width / 2),
-            (-model.length / 2, -model.width / 2), (model.length / 2, -model.width / 2))
+    half = (
+        (model.length / 2, model.width / 2),
+        (-model.length / 2, model.width / 2),
+        (-model.length / 2, -model.width / 2),
+        (model.length / 2, -model.width / 2),
+    )
     return [(pose.x + c * dx - s * dy, pose.y + s * dx + c * dy) for dx, dy in half]
 
 
@@ -160,8 +164,10 @@ def beacon_count_problem(level: Level) -> Problem | None:
     need = MIN_BEACONS[level.beacons.kind]
     have = len(level.beacons.items)
     if have < need:
-        return Problem("beacons.items", f"{have} {level.beacons.kind} beacon(s); a position fix from bearings "
-                                        f"needs at least {need}")
+        return Problem(
+            "beacons.items",
+            f"{have} {level.beacons.kind} beacon(s); a position fix from bearings needs at least {need}",
+        )
     return None
 
 
@@ -172,6 +178,7 @@ def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
     controller's entry point. Returns (the spec with a file made absolute, problem or None)."""
     from robots.controllers import REFERENCE
     from robots.loading import ENTRY_POINT_GROUP, is_file_spec
+
     if spec.startswith("ref:"):
         if spec[4:] not in REFERENCE:
             return spec, f"no reference controller {spec[4:]!r} (have: {', '.join(sorted(REFERENCE))})"
@@ -185,8 +192,10 @@ def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
         return str(file.resolve()) + rest, None
     if ":" not in spec:
         if not any(ep.name == spec for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)):
-            return spec, (f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
-                          f"controller (entry point group {ENTRY_POINT_GROUP})")
+            return spec, (
+                f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
+                f"controller (entry point group {ENTRY_POINT_GROUP})"
+            )
         return spec, None
     module, _, cls = spec.partition(":")
     if not cls or not module or not _module_exists(module):
@@ -202,7 +211,7 @@ def _module_exists(name: str) -> bool:
         for i in range(1, len(parts)):
             if spec is None or spec.submodule_search_locations is None:
                 return False
-            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[:i + 1]), spec.submodule_search_locations)
+            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[: i + 1]), spec.submodule_search_locations)
     except (ImportError, ValueError):
         return False
     return spec is not None

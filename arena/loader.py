@@ -158,8 +158,9 @@ class _Map:
         self.ctx, self.node, self.path = ctx, node, path
         for key in node.value.items:
             if key not in allowed:
-                raise ctx.fail(node.value.keylines[key], self.key(key),
-                               f"unknown key (expected one of: {', '.join(allowed)})")
+                raise ctx.fail(
+                    node.value.keylines[key], self.key(key), f"unknown key (expected one of: {', '.join(allowed)})"
+                )
 
     def key(self, key: str) -> str:
         return f"{self.path}.{key}" if self.path else key
@@ -199,6 +200,7 @@ def _kind(value: Any) -> str:
 
 
 # ---- scalar converters: (ctx, node, key) -> value -------------------------------------------
+
 
 def _number(ctx: _Ctx, node: _Node, key: str) -> float:
     v = node.value
@@ -255,6 +257,7 @@ def _choice(*options: str) -> Callable[[_Ctx, _Node, str], str]:
         if v not in options:
             raise ctx.fail(node.line, key, f"must be one of {', '.join(options)}, got {v!r}")
         return v
+
     return conv
 
 
@@ -297,6 +300,7 @@ def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]
 
 # ---- the level ------------------------------------------------------------------------------
 
+
 def find_level(name: str) -> Level:
     """Load a level by path, or by built-in name (`asabe`); `LevelError` if there is neither."""
     p = Path(name)
@@ -321,6 +325,8 @@ def load_level(path: str | Path, display: str | None = None) -> Level:
 
 
 MAX_LEVEL_BYTES = level_checks.MAX_BYTES
+
+
 def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     """Parse and validate level YAML bytes; `source` names the file in errors. With `base`, the
     level file's folder, the checks that concern a contest rather than the physics run too:
@@ -339,15 +345,34 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
         reason = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise LevelError(source, mark.line + 1 if mark else None, "(yaml)",
-                         f"malformed YAML: {reason}") from None
+        raise LevelError(source, mark.line + 1 if mark else None, "(yaml)", f"malformed YAML: {reason}") from None
     if root is None:
         raise LevelError(source, 1, "(top)", "the file is empty")
     located = _locate(root, source)
-    top = _Map(ctx, located, "", (
-        "name", "description", "units", "seed", "time_limit", "physics_rate", "control_period",
-        "record_rate", "field", "obstacles", "beacons", "laser", "robots", "task",
-        "default_controller", "limits", "rules"))
+    top = _Map(
+        ctx,
+        located,
+        "",
+        (
+            "name",
+            "description",
+            "units",
+            "seed",
+            "time_limit",
+            "physics_rate",
+            "control_period",
+            "record_rate",
+            "field",
+            "obstacles",
+            "beacons",
+            "laser",
+            "robots",
+            "task",
+            "default_controller",
+            "limits",
+            "rules",
+        ),
+    )
 
     units = top.opt("units", _choice(*LENGTH_UNITS), "m")
     ctx.scale = LENGTH_UNITS[units]
@@ -358,19 +383,23 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     control_period = top.req("control_period", _positive)
     steps = control_period * physics_rate
     if abs(steps - round(steps)) > 1e-6 or round(steps) < 1:
-        raise ctx.fail(top.raw("control_period").line, "control_period",
-                       f"{control_period:g} s is not a whole multiple of the physics step "
-                       f"1/{physics_rate} s")
+        raise ctx.fail(
+            top.raw("control_period").line,
+            "control_period",
+            f"{control_period:g} s is not a whole multiple of the physics step 1/{physics_rate} s",
+        )
     record_rate = top.opt("record_rate", _integer, DEFAULT_RECORD_RATE)
     if record_rate <= 0 or physics_rate % record_rate:
         raise _rate_problem(ctx, top, physics_rate, record_rate)
 
     fmap = top.sub("field", ("size", "origin", "walls"))
-    fld = Field(origin=fmap.opt("origin", _point, (0.0, 0.0)), size=fmap.req("size", _size),
-                walls=fmap.opt("walls", _flag, True))
+    fld = Field(
+        origin=fmap.opt("origin", _point, (0.0, 0.0)),
+        size=fmap.req("size", _size),
+        walls=fmap.opt("walls", _flag, True),
+    )
 
-    obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) \
-        if top.has("obstacles") else ()
+    obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) if top.has("obstacles") else ()
     beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items", "crosstalk")), fld)
     default_laser = _laser(top.sub("laser", ("angular_velocity", "index", "beam_offset")))
     task_map = top.sub("task", ("kind", "radius", "path", "goal"))
@@ -379,19 +408,20 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     robot_nodes = top.seq("robots")
     if not robot_nodes:
         raise ctx.fail(top.raw("robots").line, "robots", "at least one robot is required")
-    robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path)
-              for i, (n, k) in enumerate(robot_nodes)]
+    robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path) for i, (n, k) in enumerate(robot_nodes)]
     for r, (node, _key) in zip(robots, robot_nodes):
         turn = (abs(r.laser.angular_velocity) + 2 * r.model.max_wheel_speed / r.model.track) / physics_rate
         if turn >= math.pi / 2:
             where = top.raw("laser") if r.laser is default_laser else node
-            raise ctx.fail(where.line, "laser.angular_velocity",
-                           f"the beam would turn {math.degrees(turn):.0f} deg per physics step; keep it "
-                           f"under 90 by raising physics_rate")
+            raise ctx.fail(
+                where.line,
+                "laser.angular_velocity",
+                f"the beam would turn {math.degrees(turn):.0f} deg per physics step; keep it "
+                f"under 90 by raising physics_rate",
+            )
     slots = sorted(r.slot for r in robots)
     if slots != list(range(len(robots))):
-        raise ctx.fail(top.raw("robots").line, "robots",
-                       f"slots must be 0..{len(robots) - 1} once each, got {slots}")
+        raise ctx.fail(top.raw("robots").line, "robots", f"slots must be 0..{len(robots) - 1} once each, got {slots}")
     if task.kind == "race" and len(robots) < 2:
         raise ctx.fail(task_map.node.line, "task.kind", "a race needs at least two robots")
 
@@ -436,11 +466,17 @@ def _rate_problem(ctx: _Ctx, top: _Map, physics_rate: int, record_rate: int) -> 
     divisors = [d for d in range(1, physics_rate + 1) if physics_rate % d == 0 and 10 <= d <= 60]
     hint = f" (e.g. {' or '.join(map(str, divisors[:3]))})" if divisors else ""
     if not top.has("record_rate"):
-        return ctx.fail(top.raw("physics_rate").line, "physics_rate",
-                        f"{physics_rate} Hz is not a multiple of the default record_rate {record_rate} Hz; "
-                        f"give a physics_rate that is, or set record_rate to a divisor of {physics_rate}{hint}")
-    return ctx.fail(top.raw("record_rate").line, "record_rate",
-                    f"{record_rate} Hz must be positive and divide physics_rate {physics_rate} Hz{hint}")
+        return ctx.fail(
+            top.raw("physics_rate").line,
+            "physics_rate",
+            f"{physics_rate} Hz is not a multiple of the default record_rate {record_rate} Hz; "
+            f"give a physics_rate that is, or set record_rate to a divisor of {physics_rate}{hint}",
+        )
+    return ctx.fail(
+        top.raw("record_rate").line,
+        "record_rate",
+        f"{record_rate} Hz must be positive and divide physics_rate {physics_rate} Hz{hint}",
+    )
 
 
 def _line_of(root: _Node, key: str) -> int | None:
@@ -467,9 +503,11 @@ def _rules(m: _Map) -> Rules:
         pm = m.sub("penalties", tuple(d.penalties))
         for name in d.penalties:
             penalties[name] = pm.opt(name, _nonnegative, penalties[name])
-    return Rules(speed_limit=m.opt("speed_limit", _nonnegative, 0.0) * m.ctx.scale,
-                 min_impulse=m.opt("min_impulse", _nonnegative, d.min_impulse),
-                 penalties=MappingProxyType(penalties))
+    return Rules(
+        speed_limit=m.opt("speed_limit", _nonnegative, 0.0) * m.ctx.scale,
+        min_impulse=m.opt("min_impulse", _nonnegative, d.min_impulse),
+        penalties=MappingProxyType(penalties),
+    )
 
 
 LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb", "log_kb")
@@ -498,8 +536,12 @@ def _limits(m: _Map) -> ControllerLimits:
 def _inside(ctx: _Ctx, fld: Field, p: tuple[float, float], line: int, key: str, what: str) -> None:
     if not fld.contains(*p):
         s = ctx.scale
-        raise ctx.fail(line, key, f"{what} ({p[0] / s:g}, {p[1] / s:g}) is outside the field "
-                                  f"[{fld.xmin / s:g}..{fld.xmax / s:g}] x [{fld.ymin / s:g}..{fld.ymax / s:g}]")
+        raise ctx.fail(
+            line,
+            key,
+            f"{what} ({p[0] / s:g}, {p[1] / s:g}) is outside the field "
+            f"[{fld.xmin / s:g}..{fld.xmax / s:g}] x [{fld.ymin / s:g}..{fld.ymax / s:g}]",
+        )
 
 
 def _obstacle(ctx: _Ctx, node: _Node, key: str, fld: Field) -> Obstacle:
@@ -559,10 +601,10 @@ def _beacons(ctx: _Ctx, m: _Map, fld: Field) -> Beacons:
     radius = m.opt("radius", _length, DEFAULT_BEACON_RADIUS)
     crosstalk = m.opt("crosstalk", _choice("coded", "shared"), "coded")
     if crosstalk == "shared" and kind != "sensor_array":
-        raise ctx.fail(m.raw("crosstalk").line, m.key("crosstalk"),
-                       "shared crosstalk applies to sensor_array beacons only")
-    return Beacons(kind=kind, items=tuple(items), radius=radius, params=MappingProxyType(params),
-                   crosstalk=crosstalk)
+        raise ctx.fail(
+            m.raw("crosstalk").line, m.key("crosstalk"), "shared crosstalk applies to sensor_array beacons only"
+        )
+    return Beacons(kind=kind, items=tuple(items), radius=radius, params=MappingProxyType(params), crosstalk=crosstalk)
 
 
 def _scalar_id(ctx: _Ctx, node: _Node, key: str) -> str:
@@ -588,8 +630,9 @@ def _laser(m: _Map) -> Laser:
     w = m.req("angular_velocity", _number)
     if w == 0:
         raise m.ctx.fail(m.raw("angular_velocity").line, m.key("angular_velocity"), "must not be zero")
-    return Laser(angular_velocity=w, index=m.opt("index", _flag, False),
-                 beam_offset=m.opt("beam_offset", _length_signed, 0.0))
+    return Laser(
+        angular_velocity=w, index=m.opt("index", _flag, False), beam_offset=m.opt("beam_offset", _length_signed, 0.0)
+    )
 
 
 def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
@@ -604,8 +647,11 @@ def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, floa
     elif kind == "goto":
         g = m.raw("goal")
         vals = g.value if isinstance(g.value, list) else None
-        goal = _pose(ctx, g, m.key("goal")) if vals is not None and len(vals) == 3 \
+        goal = (
+            _pose(ctx, g, m.key("goal"))
+            if vals is not None and len(vals) == 3
             else Pose(*_point(ctx, g, m.key("goal")), math.nan)
+        )
         _inside(ctx, fld, (goal.x, goal.y), g.line, m.key("goal"), "goal")
     for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",))):
         if m.has(key) and kind not in allowed:
@@ -620,8 +666,15 @@ def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, floa
 DRIVE_KEYS = tuple(f.name for f in dataclasses.fields(DriveErrors))
 # Largest allowed value per drive key: spreads stay far from a negative gain or track, a
 # dead band below top speed, slips below the whole motion.
-DRIVE_MAX = {"gain_sd": 0.2, "radius_sd": 0.2, "track_sd": 0.2, "dead_band": 0.9, "turn_slip": 0.9,
-             "turn_slip_sd": 0.5, "accel_slip": 0.9}
+DRIVE_MAX = {
+    "gain_sd": 0.2,
+    "radius_sd": 0.2,
+    "track_sd": 0.2,
+    "dead_band": 0.9,
+    "turn_slip": 0.9,
+    "turn_slip_sd": 0.5,
+    "accel_slip": 0.9,
+}
 
 
 def _drive(m: _Map, base: DriveErrors) -> DriveErrors:
@@ -636,8 +689,16 @@ def _drive(m: _Map, base: DriveErrors) -> DriveErrors:
     return dataclasses.replace(base, **values)
 
 
-def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_laser: Laser,
-           task: Task, shared_path: tuple[tuple[float, float], ...]) -> RobotSlot:
+def _robot(
+    ctx: _Ctx,
+    node: _Node,
+    key: str,
+    index: int,
+    fld: Field,
+    default_laser: Laser,
+    task: Task,
+    shared_path: tuple[tuple[float, float], ...],
+) -> RobotSlot:
     m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path", "drive", "silhouette"))
     model_name = m.opt("model", _choice(*ROBOT_MODELS), "boe-bot")
     model = ROBOT_MODELS[model_name]
@@ -653,8 +714,9 @@ def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_las
         for dy in (-model.width / 2, model.width / 2):
             corner = (start.x + c * dx - s * dy, start.y + s * dx + c * dy)
             if not fld.contains(*corner):
-                raise ctx.fail(line, m.key("start"), f"the {model_name} footprint at this start pose "
-                                                     "reaches outside the field")
+                raise ctx.fail(
+                    line, m.key("start"), f"the {model_name} footprint at this start pose reaches outside the field"
+                )
     laser = _laser(m.sub("laser", ("angular_velocity", "index", "beam_offset"))) if m.has("laser") else default_laser
     path = shared_path
     if m.has("path"):
@@ -664,7 +726,16 @@ def _robot(ctx: _Ctx, node: _Node, key: str, index: int, fld: Field, default_las
         for i, p in enumerate(path):
             _inside(ctx, fld, p, m.raw("path").line, f"{m.key('path')}[{i}]", "waypoint")
     elif task.kind == "race" or (task.kind == "waypoints" and not path):
-        raise ctx.fail(m.node.line, m.key("path"), f"missing required key (no task.path to share, and "
-                                                   f"a {task.kind} robot needs a path)")
-    return RobotSlot(slot=m.opt("slot", _count, index), model=model, start=start, laser=laser,
-                     start_known=m.opt("start_known", _flag, False), path=path)
+        raise ctx.fail(
+            m.node.line,
+            m.key("path"),
+            f"missing required key (no task.path to share, and a {task.kind} robot needs a path)",
+        )
+    return RobotSlot(
+        slot=m.opt("slot", _count, index),
+        model=model,
+        start=start,
+        laser=laser,
+        start_known=m.opt("start_known", _flag, False),
+        path=path,
+    )

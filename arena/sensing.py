@@ -57,8 +57,10 @@ class Sensing:
         self.has_obstacles = bool(level.obstacles)
         self.obstacle_filter = pymunk.ShapeFilter(mask=CAT_OBSTACLE)
         self.dt = world.dt
-        self.rng = {name: [rng.stream("robot", r, name) for r in range(self.n)]
-                    for name in ("wobble", "detector", "timing", "false", "light")}
+        self.rng = {
+            name: [rng.stream("robot", r, name) for r in range(self.n)]
+            for name in ("wobble", "detector", "timing", "false", "light")
+        }
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
         self.wobble = np.zeros(self.n)
         self.spin_lag = np.zeros(self.n)  # the laser's relative rate minus its steady value (rad/s)
@@ -128,8 +130,16 @@ class Sensing:
 
     # ---- occlusion ------------------------------------------------------------------------
 
-    def _blocked(self, traj: Trajectory, robot: np.ndarray, step: np.ndarray, s: np.ndarray,
-                 px: np.ndarray, py: np.ndarray, beacon: np.ndarray) -> np.ndarray:
+    def _blocked(
+        self,
+        traj: Trajectory,
+        robot: np.ndarray,
+        step: np.ndarray,
+        s: np.ndarray,
+        px: np.ndarray,
+        py: np.ndarray,
+        beacon: np.ndarray,
+    ) -> np.ndarray:
         """Whether the segment from each laser to each beacon's near edge is blocked by another
         robot (at that instant) or an obstacle. Walls bound a convex field and never block."""
         if len(robot) == 0:
@@ -190,8 +200,7 @@ class Sensing:
         times = np.maximum(times, det.first_tick_after(window[0], p))
         if self.kind == "sensor_array":
             turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
-            times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"],
-                                           self.merge_key)
+            times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"], self.merge_key)
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * len(c)
@@ -199,7 +208,7 @@ class Sensing:
         shared = self.crosstalk == "shared"
         beams = zip(c.x.tolist(), c.y.tolist(), self.bx[c.beacon].tolist(), self.by[c.beacon].tolist())
         for r, t, beacon, angle, beam in zip(robot.tolist(), times.tolist(), labels, angles, beams):
-            for rx in (range(self.n) if shared else (r,)):
+            for rx in range(self.n) if shared else (r,):
                 out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r, beam=beam))
         if self.kind in ("reflector", "sensor_array") and p["false_rate"] > 0:
             for r in range(self.n):

@@ -116,8 +116,16 @@ class World:
     def _finish(self, entry: list) -> None:
         tick, a, b, point, impulse = entry
         other = KIND_OF_TYPE[b.collision_type]
-        self.contacts.append(Contact(tick, a.slot, other, getattr(b, "slot", None) if other == "robot" else None,
-                                     (float(point[0]), float(point[1])), impulse))
+        self.contacts.append(
+            Contact(
+                tick,
+                a.slot,
+                other,
+                getattr(b, "slot", None) if other == "robot" else None,
+                (float(point[0]), float(point[1])),
+                impulse,
+            )
+        )
 
     def end_contacts(self) -> None:
         """Close every contact still going on (at the end of a match)."""
@@ -164,5 +172,5 @@ class World:
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
-        x, y, h = self.state[3 * slot: 3 * slot + 3]
+        x, y, h = self.state[3 * slot : 3 * slot + 3]
         return Pose(x, y, wrap(h))

@@ -49,8 +49,9 @@ def main() -> None:
     ap.add_argument("--json", metavar="OUT", help="write the figures here as JSON")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    figures = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
-                           "platform": platform.platform()}}
+    figures = {
+        "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
+    }
     figures["world"] = world_vs_match()
     figures["solvers"] = solvers.measure()
     figures["render"] = render.measure(300)
@@ -58,15 +59,21 @@ def main() -> None:
     w, s, r, g = figures["world"], figures["solvers"], figures["render"], figures["grading"]
     rows = [
         ("(a) asabe-race bare stepping", f"{w['bare_x']:.0f}x real time", ""),
-        ("(a) asabe-race full match, isolated", f"{w['match_x']:.0f}x real time",
-         f"{w['ratio']:.2f} of bare (target >= 0.5)"),
+        (
+            "(a) asabe-race full match, isolated",
+            f"{w['match_x']:.0f}x real time",
+            f"{w['ratio']:.2f} of bare (target >= 0.5)",
+        ),
         ("(b) ToTal scalar", f"{s['total_scalar_us']:.2f} us/call", "target < 3 us"),
         ("(b) ToTal vectorized", f"{s['total_vectorized_per_s'] / 1e6:.1f} M solves/s", "target >= 10 M/s"),
         ("(c) render 960x640", f"{r['draw_fps']:.0f} frames/s", ""),
         ("(c) encode H.264 960x640", f"{r['encode_fps']:.0f} frames/s", "target >= 100"),
         ("(d) grading: CPU per 180 s match", f"{g['cpu_per_match_s']:.2f} s", "target < 2 s"),
-        ("(d) grading throughput", f"{g['per_hour_all']:.0f} matches/h on {g['workers']} workers",
-         f"{g['speedup']:.2f}x of one worker"),
+        (
+            "(d) grading throughput",
+            f"{g['per_hour_all']:.0f} matches/h on {g['workers']} workers",
+            f"{g['speedup']:.2f}x of one worker",
+        ),
     ]
     width = max(len(a) for a, _, _ in rows)
     print(f"LaserArena benchmarks on {figures['machine']['cpus']} CPUs, Python {figures['machine']['python']}")

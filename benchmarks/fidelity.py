@@ -98,6 +98,7 @@ def fmt_range(values: list[float], unit: str, digits: int = 1) -> str:
 
 # ---- Vannoy ---------------------------------------------------------------------------------
 
+
 def vannoy(folder: Path) -> list[Row]:
     """The worked example: reflections after the click, robot still at (8, 5) ft."""
     published = [1.0556, 2.3628, 2.8508]
@@ -109,15 +110,21 @@ def vannoy(folder: Path) -> list[Row]:
         hits = [e["t"] - click for e in mine if e["kind"] == "hit" and e["t"] > click][:3]
         worst = max(abs(a - b) for a, b in zip(hits, published)) if len(hits) == 3 else math.inf
         band = 1e-3 if ideal else 5e-3
-        rows.append(Row(
-            f"Vannoy worked example, reflection times after the click{' (ideal)' if ideal else ''}",
-            f'{VANNOY}: "1.0556, 2.3628, 2.8508 seconds after the click"',
-            "1.0556 / 2.3628 / 2.8508 s", fmt_range(hits, "s", 4),
-            f"each within {band * 1000:g} ms", worst <= band))
+        rows.append(
+            Row(
+                f"Vannoy worked example, reflection times after the click{' (ideal)' if ideal else ''}",
+                f'{VANNOY}: "1.0556, 2.3628, 2.8508 seconds after the click"',
+                "1.0556 / 2.3628 / 2.8508 s",
+                fmt_range(hits, "s", 4),
+                f"each within {band * 1000:g} ms",
+                worst <= band,
+            )
+        )
     return rows
 
 
 # ---- Bac ------------------------------------------------------------------------------------
+
 
 def bad_revolutions(rep: Replay, omega: float, slot: int = 0) -> tuple[int, float]:
     """Revolutions whose pulse set is not one clean O, A, B, C (a pulse missing, merged into
@@ -133,8 +140,11 @@ def bad_revolutions(rep: Replay, omega: float, slot: int = 0) -> tuple[int, floa
         span = hits[j]["t"] - hits[i]["t"]
         turns = max(1, round(span / period))
         times = [e["t"] for e in group]
-        clean = ([e["b"] for e in group] == ["O", "A", "B", "C"] and abs(span / period - 1) < 0.1
-                 and all(b - a > 1e-6 for a, b in zip(times, times[1:])))
+        clean = (
+            [e["b"] for e in group] == ["O", "A", "B", "C"]
+            and abs(span / period - 1) < 0.1
+            and all(b - a > 1e-6 for a, b in zip(times, times[1:]))
+        )
         bad += 0 if clean else turns
     total = (hits[starts[-1]]["t"] - hits[starts[0]]["t"]) / period
     return bad, total
@@ -154,13 +164,22 @@ def bac_static(folder: Path, seeds: list[int]) -> list[Row]:
         sx.append(1000 * statistics.pstdev(e[1] for e in correct))
         sy.append(1000 * statistics.pstdev(e[2] for e in correct))
     return [
-        Row("Bac static: revolutions with a bad pulse set (bac-static)",
+        Row(
+            "Bac static: revolutions with a bad pulse set (bac-static)",
             f'{BAC}: "the number of filtered errors varied between 1% and 3.7% of the total measurements"',
-            "1-3.7 %", fmt_range(rates, "%"), "1-4 %", all(1.0 <= r <= 4.0 for r in rates)),
-        Row("Bac Table 1: static std of x / y, the paper's method (ref:bac-seed) at (1.16, 0.53) m",
-            f'{BAC}: Table 1, standard deviation 1.7 mm among correct measurements',
-            "1.7 mm", "x " + fmt_range(sx, "mm", 2) + "; y " + fmt_range(sy, "mm", 2),
-            "0.85-3.4 mm (x2)", all(0.85 <= v <= 3.4 for v in sx + sy)),
+            "1-3.7 %",
+            fmt_range(rates, "%"),
+            "1-4 %",
+            all(1.0 <= r <= 4.0 for r in rates),
+        ),
+        Row(
+            "Bac Table 1: static std of x / y, the paper's method (ref:bac-seed) at (1.16, 0.53) m",
+            f"{BAC}: Table 1, standard deviation 1.7 mm among correct measurements",
+            "1.7 mm",
+            "x " + fmt_range(sx, "mm", 2) + "; y " + fmt_range(sy, "mm", 2),
+            "0.85-3.4 mm (x2)",
+            all(0.85 <= v <= 3.4 for v in sx + sy),
+        ),
     ]
 
 
@@ -178,10 +197,17 @@ def bac_line(folder: Path, seeds: list[int]) -> list[Row]:
                 dev.append(e["e"][1] - y)
         stds.append(1000 * statistics.pstdev(dev))
         counts.append(len(dev))
-    return [Row("Bac fig. 7: straight 0.9 m line at 31 rad/s, std of the y deviation (ref:bac-seed)",
-                f'{BAC}: "the deviations from the straight path had a standard deviation of 3.6 mm" '
-                "(40 readings over 0.9 m)", "3.6 mm", fmt_range(stds, "mm") + f" ({'/'.join(map(str, counts))} readings)",
-                "1.2-10.8 mm (x3: one run of 40 readings)", all(1.2 <= v <= 10.8 for v in stds))]
+    return [
+        Row(
+            "Bac fig. 7: straight 0.9 m line at 31 rad/s, std of the y deviation (ref:bac-seed)",
+            f'{BAC}: "the deviations from the straight path had a standard deviation of 3.6 mm" '
+            "(40 readings over 0.9 m)",
+            "3.6 mm",
+            fmt_range(stds, "mm") + f" ({'/'.join(map(str, counts))} readings)",
+            "1.2-10.8 mm (x3: one run of 40 readings)",
+            all(1.2 <= v <= 10.8 for v in stds),
+        )
+    ]
 
 
 def asabe(folder: Path, seeds: list[int]) -> list[Row]:
@@ -198,20 +224,38 @@ def asabe(folder: Path, seeds: list[int]) -> list[Row]:
     hdg = [math.degrees(r["localization"]["heading_rms"]) for r in laser]
     drift = [1000 * b["localization"]["position_rms"] for b in blind]
     return [
-        Row("ASABE: blind dead reckoning (ref:dead-reckoning) position RMS",
+        Row(
+            "ASABE: blind dead reckoning (ref:dead-reckoning) position RMS",
             f'{BAC}: "this is no guarantee that the robot will follow a perfectly straight line"',
-            "drifts", fmt_range(drift, "mm", 0), "tens of cm: 100-1500 mm", all(100 <= d <= 1500 for d in drift)),
-        Row("Bac fig. 8: the 'ASABE' letters, ref:bac (waypoints reached)",
-            f'{BAC}: "the robot followed the \'ASABE\' path reasonably well"',
-            f"{n} of {n}", " / ".join(f"{k}" for k in reached) + f" of {n}",
-            "finished on at least 2 of 3 seeds", finished >= min(2, len(seeds))),
-        Row("ASABE: ref:bac heading RMS", "ours: a reference reports its estimated heading", "-",
-            fmt_range(hdg, "deg"), "< 10 deg", all(h < 10 for h in hdg)),
-        Row("ASABE: laser (ref:bac) vs blind (ref:dead-reckoning), position RMS ratio",
+            "drifts",
+            fmt_range(drift, "mm", 0),
+            "tens of cm: 100-1500 mm",
+            all(100 <= d <= 1500 for d in drift),
+        ),
+        Row(
+            "Bac fig. 8: the 'ASABE' letters, ref:bac (waypoints reached)",
+            f"{BAC}: \"the robot followed the 'ASABE' path reasonably well\"",
+            f"{n} of {n}",
+            " / ".join(f"{k}" for k in reached) + f" of {n}",
+            "finished on at least 2 of 3 seeds",
+            finished >= min(2, len(seeds)),
+        ),
+        Row(
+            "ASABE: ref:bac heading RMS",
+            "ours: a reference reports its estimated heading",
+            "-",
+            fmt_range(hdg, "deg"),
+            "< 10 deg",
+            all(h < 10 for h in hdg),
+        ),
+        Row(
+            "ASABE: laser (ref:bac) vs blind (ref:dead-reckoning), position RMS ratio",
             'Simi 2000 (seed 003): "As with any system that uses dead-reckoning, error will always accumulate over time"',
-            "laser wins", fmt_range(ratio, "", 2) + "; laser scores higher: "
-            + " / ".join("yes" if b else "no" for b in better),
-            "ratio <= 0.33 and a higher score on every seed", all(r <= 1 / 3 for r in ratio) and all(better)),
+            "laser wins",
+            fmt_range(ratio, "", 2) + "; laser scores higher: " + " / ".join("yes" if b else "no" for b in better),
+            "ratio <= 0.33 and a higher score on every seed",
+            all(r <= 1 / 3 for r in ratio) and all(better),
+        ),
     ]
 
 
@@ -221,24 +265,62 @@ def asabe_race(folder: Path, seeds: list[int]) -> list[Row]:
     for seed in seeds:
         rep = play(level, ["ref:bac"] * len(level.robots), seed, folder)
         rms += [1000 * r["localization"]["position_rms"] for r in rep.result["robots"]]
-    return [Row("asabe-race: four ref:bac robots blocking each other's beams, position RMS",
-                "ours: references keep their fix under occlusion", "-",
-                f"median {statistics.median(rms):.1f} mm, worst {max(rms):.1f} mm",
-                "every robot < 60 mm, median < 30 mm", max(rms) < 60 and statistics.median(rms) < 30)]
+    return [
+        Row(
+            "asabe-race: four ref:bac robots blocking each other's beams, position RMS",
+            "ours: references keep their fix under occlusion",
+            "-",
+            f"median {statistics.median(rms):.1f} mm, worst {max(rms):.1f} mm",
+            "every robot < 60 mm, median < 30 mm",
+            max(rms) < 60 and statistics.median(rms) < 30,
+        )
+    ]
 
 
 # ---- Simi -----------------------------------------------------------------------------------
 
 # Appendix F: the 40 tile positions (in) at which the seed compared optical with measured values.
 SIMI_POSITIONS = [
-    (57.46535, -58.11582), (57.465, -46.116), (57.465, -34.116), (57.465, -22.116), (45.465, -22.116),
-    (33.465, -22.116), (33.465, -46.116), (45.465, -46.116), (45.465, -34.116), (33.465, -34.116),
-    (45.465, -58.116), (45.465, -70.116), (57.465, -70.116), (57.465, -82.116), (81.465, -58.116),
-    (81.465, -82.116), (81.465, -94.116), (81.465, -46.116), (81.465, -22.116), (81.465, -34.116),
-    (81.465, -70.116), (93.465, -70.116), (93.465, -82.116), (93.465, -46.116), (93.465, -34.116),
-    (93.465, -22.116), (105.465, -22.116), (105.465, -34.116), (105.465, -46.116), (105.465, -58.116),
-    (93.465, -58.116), (117.465, -34.116), (117.465, -22.116), (69.465, -46.116), (69.465, -34.116),
-    (69.465, -22.116), (69.465, -58.116), (69.465, -70.116), (69.465, -82.116), (69.465, -94.116),
+    (57.46535, -58.11582),
+    (57.465, -46.116),
+    (57.465, -34.116),
+    (57.465, -22.116),
+    (45.465, -22.116),
+    (33.465, -22.116),
+    (33.465, -46.116),
+    (45.465, -46.116),
+    (45.465, -34.116),
+    (33.465, -34.116),
+    (45.465, -58.116),
+    (45.465, -70.116),
+    (57.465, -70.116),
+    (57.465, -82.116),
+    (81.465, -58.116),
+    (81.465, -82.116),
+    (81.465, -94.116),
+    (81.465, -46.116),
+    (81.465, -22.116),
+    (81.465, -34.116),
+    (81.465, -70.116),
+    (93.465, -70.116),
+    (93.465, -82.116),
+    (93.465, -46.116),
+    (93.465, -34.116),
+    (93.465, -22.116),
+    (105.465, -22.116),
+    (105.465, -34.116),
+    (105.465, -46.116),
+    (105.465, -58.116),
+    (93.465, -58.116),
+    (117.465, -34.116),
+    (117.465, -22.116),
+    (69.465, -46.116),
+    (69.465, -34.116),
+    (69.465, -22.116),
+    (69.465, -58.116),
+    (69.465, -70.116),
+    (69.465, -82.116),
+    (69.465, -94.116),
 ]
 # five of them, each turned through the seed's 45, 90, -45 and -90 degrees for the heading error
 SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.465, -82.116), (81.465, -58.116)]
@@ -247,20 +329,24 @@ SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.4
 def simi(folder: Path, seeds: list[int]) -> list[Row]:
     worst_pos, fixed, worst_hdg, start = [], [], [], []
     for seed in seeds:
-        start.append(1000 * play(level_named("simi"), ["ref:simi"], seed, folder).result["robots"][0]
-                     ["localization"]["position_max"])
+        start.append(
+            1000
+            * play(level_named("simi"), ["ref:simi"], seed, folder).result["robots"][0]["localization"]["position_max"]
+        )
         pos, got = 0.0, 0
         for x, y in SIMI_POSITIONS:
-            r = play(variant("simi", time_limit=3, robot={"start": [x, y, 0]}), ["ref:simi"], seed,
-                     folder).result["robots"][0]["localization"]
+            r = play(variant("simi", time_limit=3, robot={"start": [x, y, 0]}), ["ref:simi"], seed, folder).result[
+                "robots"
+            ][0]["localization"]
             if r["fraction"] > 0:
                 got += 1
                 pos = max(pos, r["position_max"])
         hdg = 0.0
         for x, y in SIMI_TURNS:
             for turn in (45, 90, -45, -90):
-                r = play(variant("simi", time_limit=3, robot={"start": [x, y, turn]}), ["ref:simi"], seed,
-                         folder).result["robots"][0]["localization"]
+                r = play(
+                    variant("simi", time_limit=3, robot={"start": [x, y, turn]}), ["ref:simi"], seed, folder
+                ).result["robots"][0]["localization"]
                 if r["fraction"] > 0:
                     hdg = max(hdg, r["heading_max"])
         worst_pos.append(1000 * pos)
@@ -268,17 +354,38 @@ def simi(folder: Path, seeds: list[int]) -> list[Row]:
         worst_hdg.append(math.degrees(hdg))
     n = len(SIMI_POSITIONS)
     return [
-        Row("Simi: the level's own match, robot at the measured start, worst position error",
+        Row(
+            "Simi: the level's own match, robot at the measured start, worst position error",
             f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"',
-            "0.298 in = 7.6 mm", fmt_range(start, "mm"), "2.5-15 mm", all(2.5 <= v <= 15 for v in start)),
-        Row("Simi: positions of Appendix F that get a fix", f'{SIMI}: Appendix F, 40 tile positions', f"{n} of {n}",
-            " / ".join(str(k) for k in fixed) + f" of {n}", f"all {n}", all(k == n for k in fixed)),
-        Row("Simi: worst position error over the 40 positions",
-            f'{SIMI}: "errors of up to 0.259 inches for position variables"', "0.259 in = 6.6 mm",
-            fmt_range(worst_pos, "mm"), "2.5-15 mm", all(2.5 <= v <= 15 for v in worst_pos)),
-        Row("Simi: worst heading error, 5 positions turned by +-45 and +-90 deg",
-            f'{SIMI}: "The maximum error was found to be 0.8 degrees"', "0.8 deg",
-            fmt_range(worst_hdg, "deg", 2), "0.27-2.4 deg (x3)", all(0.27 <= v <= 2.4 for v in worst_hdg)),
+            "0.298 in = 7.6 mm",
+            fmt_range(start, "mm"),
+            "2.5-15 mm",
+            all(2.5 <= v <= 15 for v in start),
+        ),
+        Row(
+            "Simi: positions of Appendix F that get a fix",
+            f"{SIMI}: Appendix F, 40 tile positions",
+            f"{n} of {n}",
+            " / ".join(str(k) for k in fixed) + f" of {n}",
+            f"all {n}",
+            all(k == n for k in fixed),
+        ),
+        Row(
+            "Simi: worst position error over the 40 positions",
+            f'{SIMI}: "errors of up to 0.259 inches for position variables"',
+            "0.259 in = 6.6 mm",
+            fmt_range(worst_pos, "mm"),
+            "2.5-15 mm",
+            all(2.5 <= v <= 15 for v in worst_pos),
+        ),
+        Row(
+            "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg",
+            f'{SIMI}: "The maximum error was found to be 0.8 degrees"',
+            "0.8 deg",
+            fmt_range(worst_hdg, "deg", 2),
+            "0.27-2.4 deg (x3)",
+            all(0.27 <= v <= 2.4 for v in worst_hdg),
+        ),
     ]
 
 
@@ -292,11 +399,20 @@ def ideal(folder: Path) -> list[Row]:
     rows = []
     for name in SEED_LEVELS:
         level = level_named(name)
-        loc = play(level, [level.default_controller], level.seed, folder, ideal=True).result["robots"][0]["localization"]
+        loc = play(level, [level.default_controller], level.seed, folder, ideal=True).result["robots"][0][
+            "localization"
+        ]
         rms, worst = 1000 * loc["position_rms"], 1000 * loc["position_max"]
-        rows.append(Row(f"--ideal: {name} with {level.default_controller}", "ours: perfect hardware, exact method",
-                        "-", f"RMS {rms:.2f} mm, max {worst:.2f} mm", "RMS and max < 5 mm",
-                        rms < 5 and worst < 5 and loc["fraction"] > 0))
+        rows.append(
+            Row(
+                f"--ideal: {name} with {level.default_controller}",
+                "ours: perfect hardware, exact method",
+                "-",
+                f"RMS {rms:.2f} mm, max {worst:.2f} mm",
+                "RMS and max < 5 mm",
+                rms < 5 and worst < 5 and loc["fraction"] > 0,
+            )
+        )
     return rows
 
 
@@ -312,8 +428,10 @@ def markdown(rows: list[Row], seeds: list[int], seconds: float) -> str:
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(f"| {r.experiment} | {r.source} | {r.published} | {r.simulated} | {r.band} | "
-                     f"{'yes' if r.ok else '**no**'} |")
+        lines.append(
+            f"| {r.experiment} | {r.source} | {r.published} | {r.simulated} | {r.band} | "
+            f"{'yes' if r.ok else '**no**'} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -328,13 +446,22 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[Row] = []
     with tempfile.TemporaryDirectory(prefix="laserarena-fidelity-") as d:
         folder = Path(d)
-        for part in (lambda: vannoy(folder), lambda: bac_static(folder, seeds), lambda: bac_line(folder, seeds),
-                     lambda: asabe(folder, seeds), lambda: asabe_race(folder, seeds), lambda: simi(folder, seeds),
-                     lambda: ideal(folder)):
+        for part in (
+            lambda: vannoy(folder),
+            lambda: bac_static(folder, seeds),
+            lambda: bac_line(folder, seeds),
+            lambda: asabe(folder, seeds),
+            lambda: asabe_race(folder, seeds),
+            lambda: simi(folder, seeds),
+            lambda: ideal(folder),
+        ):
             for r in part():
                 rows.append(r)
-                print(f"{'pass' if r.ok else 'FAIL'}  {r.experiment}: {r.simulated}  (published {r.published}; "
-                      f"band {r.band})", flush=True)
+                print(
+                    f"{'pass' if r.ok else 'FAIL'}  {r.experiment}: {r.simulated}  (published {r.published}; "
+                    f"band {r.band})",
+                    flush=True,
+                )
     text = markdown(rows, seeds, time.perf_counter() - start)
     Path(args.out).write_text(text, encoding="utf-8")
     failed = sum(not r.ok for r in rows)

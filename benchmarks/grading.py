@@ -33,8 +33,9 @@ def run(matches: int, workers: int) -> tuple[float, float]:
     team = resolve("ref:bac")
     with tempfile.TemporaryDirectory() as d:
         journal = g.Journal(Path(d) / "bench.sqlite")
-        jobs = g.make_jobs([(load_level(path), path)], [(team.spec, team.code_hash)], matches,
-                           journal.secret(None), __version__)
+        jobs = g.make_jobs(
+            [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
+        )
         c0, w0 = cpu(), time.perf_counter()
         g.grade(jobs, journal, workers=workers, quiet=True)
         return time.perf_counter() - w0, cpu() - c0
@@ -45,8 +46,14 @@ def measure(n: int = 6) -> dict:
     wall1, cpu1 = run(n, 1)
     workers = os.cpu_count() or 1
     wall_k, _ = run(n, workers)
-    return {"matches": n, "cpu_per_match_s": cpu1 / n, "per_hour_1": 3600 * n / wall1,
-            "workers": workers, "per_hour_all": 3600 * n / wall_k, "speedup": wall1 / wall_k}
+    return {
+        "matches": n,
+        "cpu_per_match_s": cpu1 / n,
+        "per_hour_1": 3600 * n / wall1,
+        "workers": workers,
+        "per_hour_all": 3600 * n / wall_k,
+        "speedup": wall1 / wall_k,
+    }
 
 
 def main() -> None:
@@ -54,10 +61,14 @@ def main() -> None:
     ap.add_argument("--matches", type=int, default=6)
     m = measure(ap.parse_args().matches)
     print(f"grading asabe (180 s matches, ref:bac, isolated), {m['matches']} matches")
-    print(f"  CPU per match            {m['cpu_per_match_s']:8.2f} s   ({180 / m['cpu_per_match_s']:.0f}x real time; target < 2 s)")
+    print(
+        f"  CPU per match            {m['cpu_per_match_s']:8.2f} s   ({180 / m['cpu_per_match_s']:.0f}x real time; target < 2 s)"
+    )
     print(f"  1 worker                 {m['per_hour_1']:8.0f} matches/hour")
-    print(f"  {m['workers']} workers                {m['per_hour_all']:8.0f} matches/hour   "
-          f"(speed-up {m['speedup']:.2f}x on {m['workers']} cores)")
+    print(
+        f"  {m['workers']} workers                {m['per_hour_all']:8.0f} matches/hour   "
+        f"(speed-up {m['speedup']:.2f}x on {m['workers']} cores)"
+    )
 
 
 if __name__ == "__main__":

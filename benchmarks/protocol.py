@@ -33,6 +33,7 @@ def measure(n: int) -> dict:
         buf = io.BytesIO()
         protocol.write(buf, msg)
         return buf.getvalue()[4:]
+
     obs_msg = {"type": "step", "obs": protocol.to_plain(OBS)}
     cmd_msg = {"type": "command", "tick": 120, "command": protocol.to_plain(CMD)}
     obs_bytes, cmd_bytes = frame(obs_msg), frame(cmd_msg)
@@ -60,8 +61,10 @@ def main() -> None:
     print("controller protocol, one control tick (4 sensor events, a command with an estimate)")
     print(f"  referee: encode obs, decode + check command   {m['referee_us']:6.2f} us")
     print(f"  runner:  decode obs, encode command           {m['runner_us']:6.2f} us")
-    print(f"  stdlib json, both messages both ways, no checks {m['bare_json_us']:6.2f} us "
-          f"(typed + checked / bare: {(m['referee_us'] + m['runner_us']) / m['bare_json_us']:.2f})")
+    print(
+        f"  stdlib json, both messages both ways, no checks {m['bare_json_us']:6.2f} us "
+        f"(typed + checked / bare: {(m['referee_us'] + m['runner_us']) / m['bare_json_us']:.2f})"
+    )
 
 
 if __name__ == "__main__":

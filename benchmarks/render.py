@@ -33,8 +33,9 @@ def measure(count: int = 600) -> dict:
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "race.replay"
         text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 20")
-        run_match(parse_level(text.encode(), "race20.yaml"), [resolve("ref:dead-reckoning")] * 4,
-                  replay=path, isolate=False)
+        run_match(
+            parse_level(text.encode(), "race20.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False
+        )
         scenes = Scenes(load(path))
         painter, surface = Painter(scenes.level, SIZE), pygame.Surface(SIZE)
         times = [k / 30 for k in range(count)]
@@ -44,17 +45,28 @@ def measure(count: int = 600) -> dict:
             painter.draw(surface, scenes.at(t))
             frames.append(pygame.image.tobytes(surface, "RGB"))
         draw_fps = len(times) / (time.perf_counter() - start)
-        writer = imageio_ffmpeg.write_frames(str(Path(d) / "b.mp4"), SIZE, fps=30, codec="libx264",
-                                             pix_fmt_in="rgb24", macro_block_size=16, quality=None,
-                                             output_params=["-preset", "veryfast", "-crf", "26"])
+        writer = imageio_ffmpeg.write_frames(
+            str(Path(d) / "b.mp4"),
+            SIZE,
+            fps=30,
+            codec="libx264",
+            pix_fmt_in="rgb24",
+            macro_block_size=16,
+            quality=None,
+            output_params=["-preset", "veryfast", "-crf", "26"],
+        )
         writer.send(None)
         start = time.perf_counter()
         for f in frames:
             writer.send(f)
         writer.close()
         encode_fps = len(frames) / (time.perf_counter() - start)
-    return {"frames": len(times), "draw_fps": draw_fps, "encode_fps": encode_fps,
-            "both_fps": 1 / (1 / draw_fps + 1 / encode_fps)}
+    return {
+        "frames": len(times),
+        "draw_fps": draw_fps,
+        "encode_fps": encode_fps,
+        "both_fps": 1 / (1 / draw_fps + 1 / encode_fps),
+    }
 
 
 def main() -> None:

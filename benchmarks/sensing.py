@@ -45,10 +45,13 @@ def main() -> None:
     bare = min(run(args.seconds, False)[0] for _ in range(3))
     sensed, events = min((run(args.seconds, True) for _ in range(3)), key=lambda r: r[0])
     out = {
-        "level": "asabe-race", "simulated_s": args.seconds,
-        "bare_speed_x": args.seconds / bare, "sensing_speed_x": args.seconds / sensed,
+        "level": "asabe-race",
+        "simulated_s": args.seconds,
+        "bare_speed_x": args.seconds / bare,
+        "sensing_speed_x": args.seconds / sensed,
         "sensing_overhead": (sensed - bare) / bare,
-        "events": events, "us_per_event": 1e6 * (sensed - bare) / max(events, 1),
+        "events": events,
+        "us_per_event": 1e6 * (sensed - bare) / max(events, 1),
     }
     if args.json:
         print(json.dumps(out, indent=2))

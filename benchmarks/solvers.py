@@ -52,14 +52,20 @@ def measure() -> dict:
         S.total_batch(beacons, batch)
         best = min(best, time.perf_counter() - start)
     rate = len(batch) / best
-    return {"total_scalar_us": total_us, "total_heading_us": total_h_us, "circles_scalar_us": circles_us,
-            "total_vectorized_per_s": rate}
+    return {
+        "total_scalar_us": total_us,
+        "total_heading_us": total_h_us,
+        "circles_scalar_us": circles_us,
+        "total_vectorized_per_s": rate,
+    }
 
 
 def main() -> None:
     m = measure()
     print("localization solvers (best of several runs)")
-    print(f"  ToTal scalar        {m['total_scalar_us']:8.2f} us per call   (position, as the paper times it; target < 3 us)")
+    print(
+        f"  ToTal scalar        {m['total_scalar_us']:8.2f} us per call   (position, as the paper times it; target < 3 us)"
+    )
     print(f"  ToTal + heading     {m['total_heading_us']:8.2f} us per call")
     print(f"  circles scalar      {m['circles_scalar_us']:8.2f} us per call")
     rate = m["total_vectorized_per_s"]

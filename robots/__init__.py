@@ -17,5 +17,16 @@ from robots.api import (
     TaskInfo,
 )
 
-__all__ = ["API_VERSION", "BeaconInfo", "Brief", "Command", "Controller", "Drawing", "LaserInfo",
-           "Observation", "RobotInfo", "SensorEvent", "TaskInfo"]  # the public API: `from robots import ...`
+__all__ = [
+    "API_VERSION",
+    "BeaconInfo",
+    "Brief",
+    "Command",
+    "Controller",
+    "Drawing",
+    "LaserInfo",
+    "Observation",
+    "RobotInfo",
+    "SensorEvent",
+    "TaskInfo",
+]  # the public API: `from robots import ...`

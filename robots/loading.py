@@ -32,8 +32,7 @@ def load_class(spec: str) -> type[Controller]:
     if spec.startswith("ref:"):
         name = spec[4:]
         if name not in REFERENCE:
-            raise LoadError(f"team {spec}: no reference controller {name!r} "
-                            f"(have: {', '.join(sorted(REFERENCE))})")
+            raise LoadError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
         return _from_module(REFERENCE[name], spec)
     if is_file_spec(spec):
         path, _, cls = spec.partition(".py")
@@ -51,8 +50,10 @@ def entry_point(name: str) -> str:
     from the package's metadata: nothing is imported); LoadError if there is none."""
     found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
     if not found:
-        raise LoadError(f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
-                        f"an installed controller (entry point group {ENTRY_POINT_GROUP})")
+        raise LoadError(
+            f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
+            f"an installed controller (entry point group {ENTRY_POINT_GROUP})"
+        )
     return found[0].value
 
 
@@ -91,10 +92,12 @@ def _pick(module: ModuleType, cls: str, spec: str) -> type[Controller]:
         if not (inspect.isclass(found) and issubclass(found, Controller)):
             raise LoadError(f"team {spec}: {cls} is not a Controller class in {module.__name__}")
         return found
-    own = [c for _, c in inspect.getmembers(module, inspect.isclass)
-           if issubclass(c, Controller) and c is not Controller and c.__module__ == module.__name__]
+    own = [
+        c
+        for _, c in inspect.getmembers(module, inspect.isclass)
+        if issubclass(c, Controller) and c is not Controller and c.__module__ == module.__name__
+    ]
     if len(own) != 1:
         names = ", ".join(c.__name__ for c in own) or "none"
-        raise LoadError(f"team {spec}: name the class as FILE.py:Class "
-                        f"(found {len(own)} Controller classes: {names})")
+        raise LoadError(f"team {spec}: name the class as FILE.py:Class (found {len(own)} Controller classes: {names})")
     return own[0]

@@ -158,7 +158,9 @@ class _Fault(_Message, tag="fault"):
 
 
 _MESSAGE = msgspec.json.Decoder(_Setup | _Step | _Stop | _Loaded | _Ready | _CommandMsg | _Fault)
-_DECODERS: dict[type[_Data], msgspec.json.Decoder[Any]] = {t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)}
+_DECODERS: dict[type[_Data], msgspec.json.Decoder[Any]] = {
+    t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)
+}
 _ENCODER = msgspec.json.Encoder()
 
 
@@ -167,6 +169,7 @@ class ProtocolError(Exception):
 
 
 # ---- frames ---------------------------------------------------------------------------------
+
 
 def write(stream: IO[bytes], msg: dict) -> None:
     """Send one message (plain data: dicts, lists, tuples, text, numbers; see `to_plain`)."""
@@ -254,6 +257,7 @@ def _payload(d: Any, cls: type[_Data], what: str) -> Any:
 
 # ---- plain data out -------------------------------------------------------------------------
 
+
 def _real(v: Any) -> Any:
     """A number as a Python float (numpy scalars included); anything else unchanged, for the
     other side to reject by name."""
@@ -264,17 +268,31 @@ def to_plain(obj: Any) -> Any:
     """A Brief, Observation or Command as plain JSON-able data. Numbers of any real type
     (numpy scalars, what a numpy-based team computes) become floats here, on the sending side."""
     if isinstance(obj, Observation):
-        return {"tick": obj.tick, "time": obj.time, "events": [
-            {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
-            for e in obj.events]}
+        return {
+            "tick": obj.tick,
+            "time": obj.time,
+            "events": [
+                {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
+                for e in obj.events
+            ],
+        }
     if isinstance(obj, Command):
         est = obj.estimate
-        return {"left": _real(obj.left), "right": _real(obj.right),
-                "estimate": tuple(map(_real, est)) if isinstance(est, (tuple, list)) else est,
-                "debug": [{"kind": g.kind, "points": [tuple(map(_real, p)) for p in g.points],
-                           "radius": _real(g.radius), "text": g.text,
-                           "color": tuple(int(c) if isinstance(c, numbers.Integral) else c for c in g.color)}
-                          for g in obj.debug]}
+        return {
+            "left": _real(obj.left),
+            "right": _real(obj.right),
+            "estimate": tuple(map(_real, est)) if isinstance(est, (tuple, list)) else est,
+            "debug": [
+                {
+                    "kind": g.kind,
+                    "points": [tuple(map(_real, p)) for p in g.points],
+                    "radius": _real(g.radius),
+                    "text": g.text,
+                    "color": tuple(int(c) if isinstance(c, numbers.Integral) else c for c in g.color),
+                }
+                for g in obj.debug
+            ],
+        }
     if isinstance(obj, Brief):
         return msgspec.to_builtins(obj)
     raise TypeError(f"to_plain: not a protocol payload: {type(obj).__name__}")
@@ -282,24 +300,39 @@ def to_plain(obj: Any) -> Any:
 
 # ---- checked payloads in --------------------------------------------------------------------
 
+
 def brief_from(d: Any) -> Brief:
     """A Brief from raw JSON or plain data, checked."""
     b = _payload(d, _Brief, "brief")
     return Brief(
-        slot=b.slot, field=b.field, beacon_kind=b.beacon_kind,
+        slot=b.slot,
+        field=b.field,
+        beacon_kind=b.beacon_kind,
         beacons=tuple(BeaconInfo(x.id, x.x, x.y) for x in b.beacons),
         laser=LaserInfo(b.laser.angular_velocity, b.laser.index),
-        robot=RobotInfo(b.robot.model, b.robot.length, b.robot.width, b.robot.track,
-                        b.robot.max_wheel_speed, b.robot.max_wheel_accel),
+        robot=RobotInfo(
+            b.robot.model,
+            b.robot.length,
+            b.robot.width,
+            b.robot.track,
+            b.robot.max_wheel_speed,
+            b.robot.max_wheel_accel,
+        ),
         task=TaskInfo(b.task.kind, b.task.radius, tuple(b.task.path), b.task.goal),
-        control_period=b.control_period, time_limit=b.time_limit, start=b.start)
+        control_period=b.control_period,
+        time_limit=b.time_limit,
+        start=b.start,
+    )
 
 
 def observation_from(d: Any) -> Observation:
     """An Observation from raw JSON or plain data, checked."""
     o = _payload(d, _Observation, "obs")
-    return Observation(tick=o.tick, time=o.time, events=tuple(
-        SensorEvent(e.time, e.kind, e.beacon, e.angle, tuple(e.samples)) for e in o.events))
+    return Observation(
+        tick=o.tick,
+        time=o.time,
+        events=tuple(SensorEvent(e.time, e.kind, e.beacon, e.angle, tuple(e.samples)) for e in o.events),
+    )
 
 
 def command_from(d: Any) -> Command:
@@ -308,9 +341,15 @@ def command_from(d: Any) -> Command:
     c = _payload(d, _Command, "command")
     if not c.debug:  # the common case, on the per-tick path
         return Command(c.left, c.right, c.estimate)
-    return Command(c.left, c.right, c.estimate, tuple(
-        Drawing(g.kind, tuple(g.points[:MAX_POINTS]), g.radius, g.text[:MAX_TEXT], g.color)
-        for g in c.debug[:MAX_DRAWINGS]))
+    return Command(
+        c.left,
+        c.right,
+        c.estimate,
+        tuple(
+            Drawing(g.kind, tuple(g.points[:MAX_POINTS]), g.radius, g.text[:MAX_TEXT], g.color)
+            for g in c.debug[:MAX_DRAWINGS]
+        ),
+    )
 
 
 def _bad_real(v: object) -> bool:
@@ -337,23 +376,31 @@ def command_problem(cmd: object) -> str | None:
         if _bad_real(v):
             return f"Command.{name} must be a finite number within +-{LIMIT:g}, got {_show(v)}"
     est = cmd.estimate
-    if est is not None and not (isinstance(est, (tuple, list)) and len(est) == 3
-                                and not (_bad_real(est[0]) or _bad_real(est[1]) or _bad_real(est[2]))):
+    if est is not None and not (
+        isinstance(est, (tuple, list))
+        and len(est) == 3
+        and not (_bad_real(est[0]) or _bad_real(est[1]) or _bad_real(est[2]))
+    ):
         return f"Command.estimate must be None or three finite numbers within +-{LIMIT:g}, got {_show(est)}"
     if not isinstance(cmd.debug, (tuple, list)):
         return f"Command.debug must be a tuple of Drawing, got {_show(cmd.debug)}"
     for i, g in enumerate(cmd.debug):
         if not isinstance(g, Drawing):
             return f"Command.debug[{i}] must be a Drawing, got {_show(g)}"
-        if not (isinstance(g.kind, str) and isinstance(g.text, str) and not _bad_real(g.radius)
-                and isinstance(g.points, (tuple, list))
-                and all(isinstance(p, (tuple, list)) and len(p) == 2 and not any(map(_bad_real, p))
-                        for p in g.points)
-                and isinstance(g.color, (tuple, list)) and len(g.color) == 3
-                and all(isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c <= 255
-                        for c in g.color)):
-            return (f"Command.debug[{i}] must have text kind and text, finite points (x, y), "
-                    f"a finite radius and an RGB color of 0..255")
+        if not (
+            isinstance(g.kind, str)
+            and isinstance(g.text, str)
+            and not _bad_real(g.radius)
+            and isinstance(g.points, (tuple, list))
+            and all(isinstance(p, (tuple, list)) and len(p) == 2 and not any(map(_bad_real, p)) for p in g.points)
+            and isinstance(g.color, (tuple, list))
+            and len(g.color) == 3
+            and all(isinstance(c, numbers.Integral) and not isinstance(c, bool) and 0 <= c <= 255 for c in g.color)
+        ):
+            return (
+                f"Command.debug[{i}] must have text kind and text, finite points (x, y), "
+                f"a finite radius and an RGB color of 0..255"
+            )
     return None
 
 

@@ -37,6 +37,7 @@ def _private_channel() -> tuple:
 
 def _reader(stream):
     """Buffered exact reads on an unbuffered pipe."""
+
     class Exact:
         def read(self, n: int) -> bytes:
             chunks, left = [], n
@@ -47,14 +48,17 @@ def _reader(stream):
                 chunks.append(chunk)
                 left -= len(chunk)
             return b"".join(chunks)
+
     return Exact()
 
 
 def _fault(out, kind: str, where: str, e: BaseException) -> None:
     traceback.print_exc(file=sys.stderr)
     text = " ".join(str(e).split())
-    protocol.write(out, {"type": "fault", "kind": kind,
-                         "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")})
+    protocol.write(
+        out,
+        {"type": "fault", "kind": kind, "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")},
+    )
 
 
 def _built(cls, brief):
@@ -84,8 +88,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("spec")
     ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
     ap.add_argument("--log-cap", type=int, default=0, help="bytes the team may write (0: no cap)")
-    ap.add_argument("--max-procs", type=int, default=0,
-                    help="processes and threads of this user at once (0: no limit; only for a uid of its own)")
+    ap.add_argument(
+        "--max-procs",
+        type=int,
+        default=0,
+        help="processes and threads of this user at once (0: no limit; only for a uid of its own)",
+    )
     args = ap.parse_args(argv)
     if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
         resource.setrlimit(resource.RLIMIT_NPROC, (args.max_procs, args.max_procs))

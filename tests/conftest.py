@@ -8,13 +8,16 @@ import pytest
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 
+
 @pytest.fixture
 def write_level(tmp_path):
     """Write level text to a file and return its path."""
+
     def write(text: str, name: str = "level.yaml") -> Path:
         p = tmp_path / name
         p.write_text(text)
         return p
+
     return write
 
 
@@ -23,6 +26,7 @@ def shared_dir():
     """A scratch folder any user may write: controllers run as `nobody` when tests run as root."""
     import shutil
     import tempfile
+
     d = Path(tempfile.mkdtemp(prefix="laserarena-test-", dir="/tmp"))
     d.chmod(0o777)
     yield d

@@ -78,8 +78,9 @@ def variant(source: str, name: str = "variant.yaml", **changes: Any) -> Level:
 
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     """Run `python -m referee ARGS` as a separate process, as a user would."""
-    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "referee", *args], capture_output=True, text=True, cwd=cwd, timeout=300
+    )
 
 
 # ---- a laser test table: four sensor arrays, one or two robots, stepped by hand ------------

@@ -34,6 +34,7 @@ def with_facing(kind, beacon_line, degrees, params=""):
 
     from arena.loader import parse_level
     from arena.world import World
+
     text = TABLE.format(kind=kind, omega=60.0, robots=ONE, params=params, obstacles="")
     text = text.replace(beacon_line, beacon_line[:-1] + f", facing: {degrees}}}")
     return World(parse_level(text.encode(), "t.yaml"))
@@ -43,8 +44,7 @@ def test_reflector_incidence_limit():
     # P at (0.2, 0.3) seen from the robot at (1.7, 1.2); turn P's face away from the robot
     to_robot = math.degrees(math.atan2(1.2 - 0.3, 1.7 - 0.2))
     for offset, seen in ((30, True), (50, False)):
-        w = with_facing("reflector", "{id: P, at: [0.2, 0.3]}", to_robot + offset,
-                        "  params: {max_incidence: 40}")
+        w = with_facing("reflector", "{id: P, at: [0.2, 0.3]}", to_robot + offset, "  params: {max_incidence: 40}")
         (events,), _ = sense(w, 1.0, ideal=False)
         back, _ = bearing_from(w, 0, "P")
         rel = (back - w.level.robots[0].start.heading) % (2 * math.pi)
@@ -71,8 +71,10 @@ def incidence_of(world, slot, beacon_id):
     return abs(math.remainder(bearing + math.pi - facing, 2 * math.pi)), d
 
 
-OPTICS = ("  params: {{beam_diameter: 0.002, beam_divergence: {div}, aperture: 0.004, "
-          "trigger_fraction: {eta}, rise_time: {rise}, clock_hz: 0}}")
+OPTICS = (
+    "  params: {{beam_diameter: 0.002, beam_divergence: {div}, aperture: 0.004, "
+    "trigger_fraction: {eta}, rise_time: {rise}, clock_hz: 0}}"
+)
 
 
 def test_finite_beam_triggers_early_by_the_hand_computed_offset():
@@ -110,8 +112,9 @@ def test_finite_beam_misses_when_too_little_light_or_too_short():
     width = 0.002 + math.radians(0.1) * r
     above = (width + 0.004 * math.cos(inc) - 2 * eta * width) / (omega * r)
     for rise, seen in ((0.9 * above, True), (1.1 * above, False)):
-        (events,), _ = sense(make("sensor_array", omega=omega, params=OPTICS.format(div=0.1, eta=eta, rise=rise)),
-                             1.0, ideal=False)
+        (events,), _ = sense(
+            make("sensor_array", omega=omega, params=OPTICS.format(div=0.1, eta=eta, rise=rise)), 1.0, ideal=False
+        )
         assert bool(hits(events, "P")) == seen
 
 
@@ -152,8 +155,12 @@ def test_sensor_array_counter_clock_and_delivery_window():
     # the optics make pulses fire before the crossings that find them
     from arena.rng import RandomTree
     from arena.sensing import Sensing
-    w = make("sensor_array", omega=81.0,
-             params=OPTICS.format(div=0.1, eta=0.0, rise=0).replace("clock_hz: 0", "clock_hz: 20.0e+6"))
+
+    w = make(
+        "sensor_array",
+        omega=81.0,
+        params=OPTICS.format(div=0.1, eta=0.0, rise=0).replace("clock_hz: 0", "clock_hz: 20.0e+6"),
+    )
     s = Sensing(w, RandomTree(1), ideal=False)
     times, previous = [], w.time
     for k in range(5 * w.level.physics_rate):
@@ -185,6 +192,7 @@ def test_flash_detector_encoder_angles_and_incidence_limit():
         assert e.angle == pytest.approx((bearing - h0) % (2 * math.pi), abs=1e-9)
     # the incidence limit falls with range: 44 deg at 1 ft, 27 deg at 7 ft (linear between)
     from arena.detectors import flash_limit
+
     p = w.level.beacons.params
     limits = flash_limit(np.array([0.3048, 4 * 0.3048, 7 * 0.3048]), p)
     assert np.degrees(limits) == pytest.approx([44, 35.5, 27])
@@ -213,8 +221,7 @@ def test_binary_angle_quantization():
 
 @pytest.mark.parametrize("mode", ["coded", "shared"])
 def test_crosstalk_coded_vs_shared(mode):
-    w = make("sensor_array", robots=TWO.replace("[0.95, 0.75, 0]", "[2.9, 2.2, 0]"),
-             params=f"  crosstalk: {mode}")
+    w = make("sensor_array", robots=TWO.replace("[0.95, 0.75, 0]", "[2.9, 2.2, 0]"), params=f"  crosstalk: {mode}")
     events, _ = sense(w, 2.0, ideal=True)
     own = [[e for e in evs if e.kind == "hit" and e.source == r] for r, evs in enumerate(events)]
     everyone = sum(len(o) for o in own)
@@ -257,6 +264,7 @@ def test_light_turret_far_lights_merge_into_one_peak():
     # two lights 10 cm apart seen from 3 m: 1.9 deg apart, inside a 6 deg beam -> one dip
     from arena.loader import parse_level
     from arena.world import World
+
     text = """
 name: merge
 description: two close lights
@@ -301,6 +309,7 @@ def test_sensor_array_false_pulses_are_poisson_and_labelled():
 def test_flash_limit_is_held_outside_the_measured_ranges():
     # "44 deg at 1 foot away and 27 deg at 7 feet away": linear between, never extrapolated
     from arena.detectors import flash_limit
+
     w = make("flash_detector", omega=60.0)
     ft = 0.3048
     limits = flash_limit(np.array([0.5, 1, 4, 7, 10, 30]) * ft, w.level.beacons.params)
@@ -310,6 +319,7 @@ def test_flash_limit_is_held_outside_the_measured_ranges():
 def level_params(name):
     import levels
     from arena.loader import load_level
+
     return load_level(levels.path(name)).beacons.params
 
 
@@ -345,6 +355,7 @@ def test_bac_static_bad_revolutions_within_table_1(seed):
     import levels
     from arena.loader import load_level
     from arena.world import World
+
     level = load_level(levels.path("bac-static"))
     (events,), _ = sense(World(level), 60.0, ideal=False, seed=seed, every=level.steps_per_control)
     period = 2 * math.pi / level.robots[0].laser.angular_velocity
@@ -359,14 +370,46 @@ def test_bac_static_bad_revolutions_within_table_1(seed):
 
 # The 40 tile positions (in) at which Simi's Appendix F reports an optical fix.
 SIMI_POSITIONS = [
-    (33.465, -46.116), (33.465, -34.116), (33.465, -22.116), (45.465, -70.116), (45.465, -58.116),
-    (45.465, -46.116), (45.465, -34.116), (45.465, -22.116), (57.465, -82.116), (57.465, -70.116),
-    (57.465, -46.116), (57.465, -34.116), (57.465, -22.116), (57.46535, -58.11582), (69.465, -94.116),
-    (69.465, -82.116), (69.465, -70.116), (69.465, -58.116), (69.465, -46.116), (69.465, -34.116),
-    (69.465, -22.116), (81.465, -94.116), (81.465, -82.116), (81.465, -70.116), (81.465, -58.116),
-    (81.465, -46.116), (81.465, -34.116), (81.465, -22.116), (93.465, -82.116), (93.465, -70.116),
-    (93.465, -58.116), (93.465, -46.116), (93.465, -34.116), (93.465, -22.116), (105.465, -58.116),
-    (105.465, -46.116), (105.465, -34.116), (105.465, -22.116), (117.465, -34.116), (117.465, -22.116),
+    (33.465, -46.116),
+    (33.465, -34.116),
+    (33.465, -22.116),
+    (45.465, -70.116),
+    (45.465, -58.116),
+    (45.465, -46.116),
+    (45.465, -34.116),
+    (45.465, -22.116),
+    (57.465, -82.116),
+    (57.465, -70.116),
+    (57.465, -46.116),
+    (57.465, -34.116),
+    (57.465, -22.116),
+    (57.46535, -58.11582),
+    (69.465, -94.116),
+    (69.465, -82.116),
+    (69.465, -70.116),
+    (69.465, -58.116),
+    (69.465, -46.116),
+    (69.465, -34.116),
+    (69.465, -22.116),
+    (81.465, -94.116),
+    (81.465, -82.116),
+    (81.465, -70.116),
+    (81.465, -58.116),
+    (81.465, -46.116),
+    (81.465, -34.116),
+    (81.465, -22.116),
+    (93.465, -82.116),
+    (93.465, -70.116),
+    (93.465, -58.116),
+    (93.465, -46.116),
+    (93.465, -34.116),
+    (93.465, -22.116),
+    (105.465, -58.116),
+    (105.465, -46.116),
+    (105.465, -34.116),
+    (105.465, -22.116),
+    (117.465, -34.116),
+    (117.465, -22.116),
 ]
 
 
@@ -378,6 +421,7 @@ def seed_limit_deg(range_in):
 
 def simi_at(x, y):
     from helpers import variant
+
     return variant("simi", "simi.yaml", robots__0__start=[x, y, 0])
 
 
@@ -386,6 +430,7 @@ def test_simi_sees_all_three_detectors_at_every_position_of_the_seed():
     within two seconds, though at five of them one detector is past the seed's stated limit
     (by 0.5-5.5 deg): the limit is where detection becomes unreliable, not a wall."""
     from arena.world import World
+
     for x, y in SIMI_POSITIONS:
         (events,), _ = sense(World(simi_at(x, y)), 2.0, ideal=False, every=12)
         assert {e.beacon for e in hits(events)} == {"1", "2", "3"}, (x, y)
@@ -398,6 +443,7 @@ def test_simi_detection_rate_past_the_limit_follows_the_light_statistics():
     from statistics import NormalDist
 
     from arena.world import World
+
     x, y = 93.465, -82.116  # detector 1 sees the laser 33.3 deg off its axis at 6.7 ft (limit 27.8)
     level = simi_at(x, y)
     p = level.beacons.params
@@ -420,6 +466,7 @@ def test_simi_detection_rate_past_the_limit_follows_the_light_statistics():
 
 def test_simi_detects_every_sweep_well_inside_its_limits():
     from arena.world import World
+
     (events,), _ = sense(World(simi_at(57.46535, -58.11582)), 2.0, ideal=False, every=12)
     sweeps = 2.0 * 30.0
     for name in "123":

@@ -90,8 +90,9 @@ def test_robot_cannot_leave_through_a_wall():
     assert w.pose(0).x > f.xmax - m.length / 2 - 0.01  # it got there and stopped
 
 
-PUSH = edited(BIG, {"robots": [{"model": "generic", "start": [1.0, 2.0, 0]},
-                               {"model": "boe-bot", "start": [1.6, 2.0, 0]}]})
+PUSH = edited(
+    BIG, {"robots": [{"model": "generic", "start": [1.0, 2.0, 0]}, {"model": "boe-bot", "start": [1.6, 2.0, 0]}]}
+)
 
 
 def penetration(a, b):
@@ -135,8 +136,10 @@ def test_equal_robots_stall_head_on():
 
 
 def test_box_and_circle_obstacles_stop_a_robot():
-    for obstacle, face in (({"kind": "box", "center": [3.0, 2.0], "size": [0.2, 1.0], "angle": 0}, 2.9),
-                           ({"kind": "circle", "center": [3.0, 2.0], "radius": 0.1}, 2.9)):
+    for obstacle, face in (
+        ({"kind": "box", "center": [3.0, 2.0], "size": [0.2, 1.0], "angle": 0}, 2.9),
+        ({"kind": "circle", "center": [3.0, 2.0], "radius": 0.1}, 2.9),
+    ):
         w = world(edited(BIG, {"obstacles": [obstacle]}))
         w.command(0, 0.17, 0.17)
         run(w, 15.0)  # 2.5 m of travel if nothing were in the way

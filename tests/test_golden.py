@@ -26,8 +26,13 @@ def content_hash() -> str:
     level = variant("asabe-race", "levels/asabe-race.yaml", time_limit=6)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "golden.replay"
-        run_match(level, [resolve("ref:best"), resolve("ref:bac"), resolve("ref:dead-reckoning"),
-                          resolve("ref:starter")], seed=11, replay=path, isolate=False)
+        run_match(
+            level,
+            [resolve("ref:best"), resolve("ref:bac"), resolve("ref:dead-reckoning"), resolve("ref:starter")],
+            seed=11,
+            replay=path,
+            isolate=False,
+        )
         lines = gzip.open(path).read().splitlines()
     header = json.loads(lines[0])
     header.pop("software")  # the version string may change without the simulation changing
@@ -39,13 +44,17 @@ def content_hash() -> str:
 
 def test_golden_replay():
     golden = json.loads(GOLDEN.read_text())
-    assert (golden["format"], golden["behaviour"]) == (VERSION, BEHAVIOUR), \
+    assert (golden["format"], golden["behaviour"]) == (VERSION, BEHAVIOUR), (
         "the replay format or behaviour version changed: regenerate with `python tests/test_golden.py`"
+    )
     assert content_hash() == golden["sha256"], (
         "simulation results changed without a version bump: if that is intended, bump "
-        "referee.records.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`")
+        "referee.records.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`"
+    )
 
 
 if __name__ == "__main__":
-    GOLDEN.write_text(json.dumps({"format": VERSION, "behaviour": BEHAVIOUR, "sha256": content_hash()}, indent=2) + "\n")
+    GOLDEN.write_text(
+        json.dumps({"format": VERSION, "behaviour": BEHAVIOUR, "sha256": content_hash()}, indent=2) + "\n"
+    )
     print(f"wrote {GOLDEN}", file=sys.stderr)

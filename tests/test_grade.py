@@ -14,8 +14,18 @@ from helpers import run_cli
 
 from referee.contest.grade import interval
 
-ARGS = ["bac-line", "--team", "ref:bac", "--team", "ref:dead-reckoning", "--seeds", "3", "--quiet",
-        "--secret", "a shared secret"]  # one secret: journals compared across runs draw the same noise
+ARGS = [
+    "bac-line",
+    "--team",
+    "ref:bac",
+    "--team",
+    "ref:dead-reckoning",
+    "--seeds",
+    "3",
+    "--quiet",
+    "--secret",
+    "a shared secret",
+]  # one secret: journals compared across runs draw the same noise
 
 
 def journal(db):
@@ -42,18 +52,18 @@ def test_worker_count_does_not_change_the_results(tmp_path):
 
 def test_dask_cluster_gives_the_same_leaderboard(tmp_path):
     from dask import distributed  # the dask extra, which `make test` installs
+
     local, remote = tmp_path / "local", tmp_path / "dask"
     local.mkdir(), remote.mkdir()
     expected = grade(local, "--workers", "2")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         got = grade(remote, "--scheduler", cluster.scheduler_address)
     assert got == expected
 
 
 def test_interval_is_the_student_t_95_percent_interval():
     mean, half = interval([1.0, 2.0, 3.0])
-    assert mean == 2.0 and half == pytest.approx(4.303 * 1.0 / 3 ** 0.5)
+    assert mean == 2.0 and half == pytest.approx(4.303 * 1.0 / 3**0.5)
     assert interval([5.0]) == (5.0, 0.0)
 
 
@@ -87,8 +97,9 @@ def rows(db):
 
 
 def run_grade(folder, *args):
-    return run_cli("grade", "bac-line", "--db", str(folder / "r.sqlite"), "--out", str(folder / "lb.csv"),
-                   "--quiet", *args)
+    return run_cli(
+        "grade", "bac-line", "--db", str(folder / "r.sqlite"), "--out", str(folder / "lb.csv"), "--quiet", *args
+    )
 
 
 def test_an_edited_team_is_graded_again_and_old_rows_never_mix_in(shared_dir, tmp_path):
@@ -111,6 +122,7 @@ def test_two_teams_whose_names_clean_up_alike_keep_their_own_replays(shared_dir,
     a, b = team(shared_dir, "a b.py"), team(shared_dir, "a_b.py", speed="0.025")
     assert run_grade(tmp_path, "--team", a, "--team", b, "--seeds", "1", "--secret", "s").returncode == 0
     from referee.records.replay import load
+
     got = {load(r[4]).header["teams"][0]["spec"]: r[0] for r in rows(tmp_path / "r.sqlite")}
     assert got == {a: a, b: b}  # each row's replay holds that row's team
     assert len(list((tmp_path / "replays").glob("*.replay"))) == 2
@@ -151,8 +163,23 @@ def test_a_stopped_grade_leaves_nothing_running_and_resumes(shared_dir, tmp_path
     full.mkdir(), stopped.mkdir()
     assert run_grade(full, *args).returncode == 0
     db = stopped / "r.sqlite"
-    proc = subprocess.Popen([sys.executable, "-m", "referee", "grade", "bac-line", "--db", str(db), "--out",
-                             str(stopped / "lb.csv"), "--quiet", *args], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "referee",
+            "grade",
+            "bac-line",
+            "--db",
+            str(db),
+            "--out",
+            str(stopped / "lb.csv"),
+            "--quiet",
+            *args,
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     below: dict[int, str] = {}
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
@@ -211,6 +238,7 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
     import stat
 
     from referee.records.replay import load
+
     assert run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1").returncode == 0
     db = tmp_path / "r.sqlite"
     with sqlite3.connect(db) as c:
@@ -218,16 +246,19 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
         (replay,) = c.execute("SELECT replay FROM matches").fetchone()
     assert len(secret) == 64 and int(secret, 16)  # 256 bits from `secrets`
     header = load(replay).header
-    expected = hmac.new(secret.encode(), f"laserarena-noise:{header['level']['hash']}:1".encode(),
-                        hashlib.sha256).hexdigest()
+    expected = hmac.new(
+        secret.encode(), f"laserarena-noise:{header['level']['hash']}:1".encode(), hashlib.sha256
+    ).hexdigest()
     assert header["noise_key"] == expected
     assert secret.encode() not in gzip.open(replay).read()  # the replay holds one match's key only
     assert stat.S_IMODE(os.stat(replay).st_mode) == 0o600 and stat.S_IMODE(os.stat(db).st_mode) == 0o600
     assert stat.S_IMODE(os.stat(tmp_path / "replays").st_mode) == 0o700
     # the public seed alone gives other noise: a local run of the same seed differs in its events
     local = tmp_path / "local.replay"
-    assert run_cli("run", "bac-line", "--team", "ref:bac", "--seed", "1", "--replay", str(local),
-                   "--quiet").returncode == 0
+    assert (
+        run_cli("run", "bac-line", "--team", "ref:bac", "--seed", "1", "--replay", str(local), "--quiet").returncode
+        == 0
+    )
     graded_events, local_events = load(replay).events, load(local).events
     assert graded_events and local_events and graded_events != local_events
     # ... and verify re-simulates the graded match bit for bit from its replay
@@ -248,8 +279,18 @@ def test_team_names_reach_the_terminal_escaped(shared_dir, tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "\x1b" not in proc.stdout and "evil\\x1b[2J\\x1b[31mred\\nsecond line.py" in proc.stdout
     assert len(proc.stdout.splitlines()) == 3  # the heading, the column names, one robot
-    proc = run_cli("grade", "bac-line", "--team", str(evil), "--seeds", "1", "--db", str(tmp_path / "r.sqlite"),
-                   "--out", str(tmp_path / "lb.csv"))
+    proc = run_cli(
+        "grade",
+        "bac-line",
+        "--team",
+        str(evil),
+        "--seeds",
+        "1",
+        "--db",
+        str(tmp_path / "r.sqlite"),
+        "--out",
+        str(tmp_path / "lb.csv"),
+    )
     assert proc.returncode == 0 and "\x1b" not in proc.stdout + proc.stderr
     assert len(proc.stdout.splitlines()) == 3  # the markdown header, its rule, one team
     proc = run_cli("run", "bac-line", "--team", str(shared_dir / "no\x1b[2Jsuch.py"))
@@ -258,6 +299,7 @@ def test_team_names_reach_the_terminal_escaped(shared_dir, tmp_path):
 
 def test_one_grading_run_per_journal(tmp_path):
     import fcntl
+
     db = tmp_path / "r.sqlite"
     db.touch(mode=0o600)
     with open(db, "rb") as held:

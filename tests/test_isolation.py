@@ -46,8 +46,12 @@ FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overa
 def hostile_match(tmp_path, body, limits=FAST):
     """Slot 0 runs the hostile controller, the others reference ones."""
     lv = variant("asabe-race", "race30.yaml", time_limit=30)
-    teams = [resolve(team_file(tmp_path, body)), resolve("ref:dead-reckoning"),
-             resolve("ref:dead-reckoning"), resolve("ref:dead-reckoning")]
+    teams = [
+        resolve(team_file(tmp_path, body)),
+        resolve("ref:dead-reckoning"),
+        resolve("ref:dead-reckoning"),
+        resolve("ref:dead-reckoning"),
+    ]
     return run_match(lv, teams, seed=2, limits=limits)
 
 
@@ -60,14 +64,17 @@ def check_contained(result, *kinds):
 
 
 def test_infinite_loop_times_out(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Spin(Controller):
             def step(self, obs):
                 if obs.tick == 5:
                     while True:
                         pass
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     # skipped at the deadline, then disqualified when the overage bank ran dry
     check_contained(result, "skipped_tick", "timeout")
     assert [f["tick"] for f in result["robots"][0]["faults"]] == [5, 6]
@@ -75,27 +82,33 @@ def test_infinite_loop_times_out(tmp_path):
 
 
 def test_slow_steps_draw_on_the_bank_without_skipping(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import time
         class Slow(Controller):
             def step(self, obs):
                 if obs.tick in (3, 9):
                     time.sleep(0.12)  # over step_time 0.05, under the 0.25 deadline
                 return Command(0.05, 0.05, estimate=(0, 0, 0))
-    """)
+    """,
+    )
     bad = result["robots"][0]
     assert bad["faults"] == [] and bad["localization"]["fraction"] == 1.0
 
 
 def test_late_answers_are_skipped_ticks_and_the_robot_goes_on(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import time
         class Late(Controller):
             def step(self, obs):
                 if obs.tick in (3, 20):
                     time.sleep(0.35)  # past the 0.25 s deadline
                 return Command(0.05, 0.05, estimate=(0, 0, 0))
-    """)
+    """,
+    )
     bad = result["robots"][0]
     assert [(f["kind"], f["tick"]) for f in bad["faults"]] == [("skipped_tick", 3), ("skipped_tick", 20)]
     assert not bad["stopped"]
@@ -106,52 +119,67 @@ def test_late_answers_are_skipped_ticks_and_the_robot_goes_on(tmp_path):
 
 
 def test_too_many_skips_in_a_row_disqualify(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import time
         class Sluggish(Controller):
             def step(self, obs):
                 if obs.tick >= 4:
                     time.sleep(0.3)
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     check_contained(result, "skipped_tick", "skipped_tick", "timeout")
     assert "3 skipped ticks in a row" in result["robots"][0]["faults"][-1]["message"]
 
 
 def test_exit_is_a_crash(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Quit(Controller):
             def step(self, obs):
                 os._exit(3)
-    """)
+    """,
+    )
     check_contained(result, "crash")
     assert "exited with code 3" in result["robots"][0]["faults"][0]["message"]
 
 
 def test_unbounded_allocation_hits_the_memory_limit(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Hog(Controller):
             def step(self, obs):
                 hoard = []
                 while True:
                     hoard.append(bytearray(50 << 20))
-    """, dataclasses.replace(FAST, memory=300 << 20, step_deadline=3.0, overage_bank=5.0))
+    """,
+        dataclasses.replace(FAST, memory=300 << 20, step_deadline=3.0, overage_bank=5.0),
+    )
     check_contained(result, "memory")
 
 
 def test_nan_command_is_rejected(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Nan(Controller):
             def step(self, obs):
                 return Command(float("nan"), 0.1)
-    """)
+    """,
+    )
     check_contained(result, "bad_command")
     assert result["robots"][0]["faults"][0]["tick"] == 0  # rejected at once: NaN never reached physics
 
 
 def test_no_world_state_in_the_controller_process(tmp_path):
     # it looks through its own memory for anything of the simulator; finding any, it crashes
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import gc
         class Snoop(Controller):
             def step(self, obs):
@@ -161,14 +189,17 @@ def test_no_world_state_in_the_controller_process(tmp_path):
                 if leaks:
                     raise RuntimeError(f"found {leaks[:5]}")
                 return Command(0.0, 0.0)
-    """)
+    """,
+    )
     bad = result["robots"][0]
     assert bad["faults"] == [] and not bad["stopped"]  # it found nothing
     assert result["end_reason"] == "time_limit"
 
 
 def test_forked_children_do_not_outlive_the_match(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Forker(Controller):
             def setup(self, brief):
                 if os.fork() == 0:
@@ -177,7 +208,8 @@ def test_forked_children_do_not_outlive_the_match(tmp_path):
                     os._exit(0)
             def step(self, obs):
                 raise RuntimeError("done")
-    """)
+    """,
+    )
     assert result["robots"][0]["faults"][0]["kind"] == "exception"
     # the child ran as the slot's own uid (as root) or in the slot's PID namespace: none is left
     assert sandboxed_processes() == []
@@ -185,7 +217,9 @@ def test_forked_children_do_not_outlive_the_match(tmp_path):
 
 def test_cannot_read_the_referees_memory_or_environment(tmp_path, monkeypatch):
     monkeypatch.setenv("LASERARENA_TEST_SECRET", "the-true-pose-is-here")
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Peek(Controller):
             def step(self, obs):
                 parent = os.getppid()
@@ -207,7 +241,8 @@ def test_cannot_read_the_referees_memory_or_environment(tmp_path, monkeypatch):
                 if found:
                     raise RuntimeError(f"read the referee: {found}")
                 return Command(0.0, 0.0)
-    """)
+    """,
+    )
     bad = result["robots"][0]
     assert bad["faults"] == [], bad["faults"]
 
@@ -216,7 +251,9 @@ def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
     # the replay goes to a folder the controller could read; it looks for it every step
     replay = shared_dir / "match.replay"
     lv = variant("asabe-race", "race10.yaml", time_limit=10)
-    snoop = team_file(tmp_path, f"""
+    snoop = team_file(
+        tmp_path,
+        f"""
         class Snoop(Controller):
             def step(self, obs):
                 try:
@@ -231,7 +268,8 @@ def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
                     if text.startswith(b"\\x1f\\x8b") or b"laserarena-replay" in text:  # gzip or plain
                         raise RuntimeError("read the replay")
                 return Command(0.0, 0.0)
-    """)
+    """,
+    )
     result = run_match(lv, [resolve(snoop)] + [resolve("ref:dead-reckoning")] * 3, replay=replay, limits=FAST)
     assert result["robots"][0]["faults"] == []
     assert load(replay).header["format"] == "laserarena-replay"  # and it is there at the end
@@ -242,21 +280,29 @@ def test_output_flood_is_capped_and_reported(tmp_path):
     logs = tmp_path / "logs"
     logs.mkdir()
     lv = variant("asabe-race", "race10.yaml", time_limit=10)
-    flood = team_file(tmp_path, """
+    flood = team_file(
+        tmp_path,
+        """
         class Flood(Controller):
             def step(self, obs):
                 while True:
                     print("x" * 1000)
-    """)
-    crash = team_file(tmp_path, """
+    """,
+    )
+    crash = team_file(
+        tmp_path,
+        """
         class Oops(Controller):
             def step(self, obs):
                 print("about to fail")
                 return 1 / 0
-    """, "oops.py")
+    """,
+        "oops.py",
+    )
     limits = dataclasses.replace(FAST, log_bytes=64 << 10)
-    result = run_match(lv, [resolve(flood), resolve(crash)] + [resolve("ref:dead-reckoning")] * 2,
-                       limits=limits, logs=logs)
+    result = run_match(
+        lv, [resolve(flood), resolve(crash)] + [resolve("ref:dead-reckoning")] * 2, limits=limits, logs=logs
+    )
     assert [f["kind"] for f in result["robots"][0]["faults"]] == ["output_flood"]
     assert (logs / "slot0.log").stat().st_size <= 64 << 10
     log1 = (logs / "slot1.log").read_text()
@@ -278,5 +324,6 @@ def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
 
 
 def run_cli_env(env, *args):
-    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True, env=env,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "referee", *args], capture_output=True, text=True, env=env, timeout=300
+    )

@@ -70,8 +70,6 @@ def test_turning_changes_the_beams_world_speed():
     assert np.allclose(index, 2 * math.pi / 20.0)  # the index is on the body: unchanged
 
 
-
-
 def test_another_robot_blocks_the_beam():
     # robot 1 stands on the line from robot 0 to beacon P
     w = make(robots=TWO)
@@ -153,7 +151,7 @@ def test_the_laser_lags_when_the_body_starts_turning():
     params = f"  params: {{spin_coupling: {c}, spin_time: {tau}}}"
     w = make(params=params)
     (events,), poses = sense(w, 4.0, commands=[(-0.2, 0.2)], ideal=False)
-    spin = (poses[-1, 0, 2] - poses[-241, 0, 2])  # rad/s over the last second (steady by then)
+    spin = poses[-1, 0, 2] - poses[-241, 0, 2]  # rad/s over the last second (steady by then)
     times = np.array([e.time for e in hits(events, "P")])
     gaps = np.diff(times[times > 2.0])
     assert np.allclose(gaps, 2 * math.pi / (omega + (1 - c) * spin), rtol=2e-3)
@@ -164,6 +162,7 @@ def test_the_laser_lags_when_the_body_starts_turning():
 
 def test_first_order_closed_form_matches_the_recursion():
     from arena.sensing import first_order
+
     rng = np.random.default_rng(3)
     for a in (0.93, 1e-4):  # the second underflows a^k: a time constant far below a step
         y0, drive = np.array([0.4, -1.0]), rng.normal(size=(50, 2))
@@ -180,6 +179,7 @@ def test_a_beam_beside_the_axis_meets_each_beacon_earlier_by_its_range(omega):
     it meets a beacon at range R when its direction is the bearing minus asin(d / R), so each
     crossing moves by asin(d / R) / |omega| (earlier when spinning counter-clockwise)."""
     from helpers import edited
+
     d = 0.01
     text = TABLE.format(kind="sensor_array", omega=omega, robots=ONE, params="  params: {clock_hz: 0}", obstacles="")
     w = World(parse_level(edited(text, {"laser.beam_offset": d}).encode(), "t.yaml"))

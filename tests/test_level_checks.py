@@ -77,14 +77,18 @@ def test_concave_and_self_crossing_polygons_are_refused(tmp_path):
     dent = [[1.0, 0.2], [1.4, 0.2], [1.2, 0.4], [1.4, 0.6], [1.0, 0.6]]  # a notch at point 2
     expect(tmp_path, with_obstacle({"kind": "polygon", "points": dent}), "obstacles[0].points", "not convex")
     # a pentagram: every corner turns the same way, but the outline goes round twice
-    star = [[1.2 + 0.2 * math.cos(math.radians(90 + 144 * k)), 0.5 + 0.2 * math.sin(math.radians(90 + 144 * k))]
-            for k in range(5)]
+    star = [
+        [1.2 + 0.2 * math.cos(math.radians(90 + 144 * k)), 0.5 + 0.2 * math.sin(math.radians(90 + 144 * k))]
+        for k in range(5)
+    ]
     expect(tmp_path, with_obstacle({"kind": "polygon", "points": star}), "obstacles[0].points", "crosses itself")
     flat = [[1.0, 0.2], [1.2, 0.2], [1.4, 0.2]]
     expect(tmp_path, with_obstacle({"kind": "polygon", "points": flat}), "obstacles[0].points", "no area")
     for order in (1, -1):  # a convex pentagon passes, either way round
-        pentagon = [[1.2 + 0.2 * math.cos(order * 2 * math.pi * k / 5), 0.5 + 0.2 * math.sin(order * 2 * math.pi * k / 5)]
-                    for k in range(5)]
+        pentagon = [
+            [1.2 + 0.2 * math.cos(order * 2 * math.pi * k / 5), 0.5 + 0.2 * math.sin(order * 2 * math.pi * k / 5)]
+            for k in range(5)
+        ]
         assert len(load_level(write(tmp_path, with_obstacle({"kind": "polygon", "points": pentagon}))).obstacles) == 1
 
 
@@ -120,6 +124,7 @@ def test_fewer_than_three_beacons(tmp_path, kind):
     expect(tmp_path, d, "beacons.items", "needs at least 3")
     # the physics runs with two: text parsed without the level's folder (replays, sensor fixtures) passes
     from arena.loader import parse_level
+
     assert len(parse_level(yaml.safe_dump(d).encode(), "two.yaml").beacons.items) == 2
     d["beacons"]["items"].append({"id": "C", "at": [0, 1]})
     assert len(load_level(write(tmp_path, d)).beacons.items) == 3
@@ -157,7 +162,9 @@ def test_default_module_is_found_without_running_its_package(tmp_path, monkeypat
     (pkg / "__init__.py").write_text(HOSTILE)
     (pkg / "bot.py").write_text(HOSTILE)
     monkeypatch.syspath_prepend(str(tmp_path / "lib"))
-    assert load_level(write(tmp_path, with_controller("hostile_pkg.bot:Bot"))).default_controller == "hostile_pkg.bot:Bot"
+    assert (
+        load_level(write(tmp_path, with_controller("hostile_pkg.bot:Bot"))).default_controller == "hostile_pkg.bot:Bot"
+    )
     expect(tmp_path, with_controller("hostile_pkg.nothere:Bot"), "default_controller", "no importable module")
     assert not list(pkg.glob("*.ran")) and "hostile_pkg" not in sys.modules
 

@@ -21,23 +21,48 @@ CASES = [
     ("beacon outside", "{id: B, at: [2, 1]}", "{id: B, at: [2.5, 1]}", "beacons.items[2].at", "id: B"),
     ("start outside", "start: [0.5, 0.5, 0]", "start: [0.5, 1.5, 0]", "robots[0].start", "start:"),
     ("footprint outside", "start: [0.5, 0.5, 0]", "start: [0.03, 0.5, 0]", "robots[0].start", "start:"),
-    ("non-multiple control period", "control_period: 0.05", "control_period: 0.013",
-     "control_period", "control_period:"),
+    (
+        "non-multiple control period",
+        "control_period: 0.05",
+        "control_period: 0.013",
+        "control_period",
+        "control_period:",
+    ),
     ("unknown unit", "units: m", "units: furlong", "units", "units:"),
     ("bad kind", "kind: sensor_array", "kind: sonar", "beacons.kind", "kind: sonar"),
     ("zero laser", "angular_velocity: 20.0", "angular_velocity: 0", "laser.angular_velocity", "angular_velocity"),
     ("duplicate beacon", "{id: B, at: [2, 1]}", "{id: A, at: [2, 1]}", "beacons.items[2].id", "{id: A, at: [2, 1]}"),
     ("waypoint outside", "[1.5, 0.5]]", "[2.5, 0.5]]", "task.path[1]", "path:"),
-    ("unknown param", "  kind: sensor_array\n", "  kind: sensor_array\n  params: {bogus: 1}\n",
-     "beacons.params.bogus", "bogus"),
+    (
+        "unknown param",
+        "  kind: sensor_array\n",
+        "  kind: sensor_array\n  params: {bogus: 1}\n",
+        "beacons.params.bogus",
+        "bogus",
+    ),
     ("not a mapping", "field:\n  size: [2.0, 1.0]", "field: 3", "field", "field: 3"),
     ("bool for number", "seed: 3", "seed: true", "seed", "seed:"),
-    ("unknown drive key", "    start_known: true\n", "    start_known: true\n    drive: {gain: 0.1}\n",
-     "robots[0].drive.gain", "drive:"),
-    ("negative drive error", "    start_known: true\n", "    start_known: true\n    drive: {gain_sd: -0.01}\n",
-     "robots[0].drive.gain_sd", "drive:"),
-    ("slip of a whole turn", "    start_known: true\n", "    start_known: true\n    drive: {turn_slip: 1.5}\n",
-     "robots[0].drive.turn_slip", "drive:"),
+    (
+        "unknown drive key",
+        "    start_known: true\n",
+        "    start_known: true\n    drive: {gain: 0.1}\n",
+        "robots[0].drive.gain",
+        "drive:",
+    ),
+    (
+        "negative drive error",
+        "    start_known: true\n",
+        "    start_known: true\n    drive: {gain_sd: -0.01}\n",
+        "robots[0].drive.gain_sd",
+        "drive:",
+    ),
+    (
+        "slip of a whole turn",
+        "    start_known: true\n",
+        "    start_known: true\n    drive: {turn_slip: 1.5}\n",
+        "robots[0].drive.turn_slip",
+        "drive:",
+    ),
 ]
 
 
@@ -114,10 +139,17 @@ def test_valid_mini_level_checks_ok(write_level):
 
 
 def test_controller_limits_in_the_level(write_level):
-    text = MINI_LEVEL + "limits: {step_time: 0.02, step_deadline: 0.1, overage_bank: 1.5, max_skips: 2, memory_mb: 256}\n"
+    text = (
+        MINI_LEVEL + "limits: {step_time: 0.02, step_deadline: 0.1, overage_bank: 1.5, max_skips: 2, memory_mb: 256}\n"
+    )
     lv = parse_level(text.encode(), "x.yaml")
-    assert (lv.limits.step_time, lv.limits.step_deadline, lv.limits.overage_bank, lv.limits.max_skips,
-            lv.limits.memory) == (0.02, 0.1, 1.5, 2, 256 << 20)
+    assert (
+        lv.limits.step_time,
+        lv.limits.step_deadline,
+        lv.limits.overage_bank,
+        lv.limits.max_skips,
+        lv.limits.memory,
+    ) == (0.02, 0.1, 1.5, 2, 256 << 20)
     bad = MINI_LEVEL + "limits: {step_time: 0.2, step_deadline: 0.1}\n"
     with pytest.raises(LevelError) as info:
         parse_level(bad.encode(), "x.yaml")

@@ -36,7 +36,9 @@ def test_vannoy_field_and_worked_example_timings():
     lv = load("vannoy")
     assert lv.field.size == pytest.approx((13 * FT, 21 * FT))
     assert [b.id for b in lv.beacons.items] == ["A", "B", "C"]
-    assert flat((b.x, b.y) for b in lv.beacons.items) == pytest.approx(flat([(0, 21 * FT), (13 * FT, 21 * FT), (13 * FT, 0)]))
+    assert flat((b.x, b.y) for b in lv.beacons.items) == pytest.approx(
+        flat([(0, 21 * FT), (13 * FT, 21 * FT), (13 * FT, 0)])
+    )
     r = lv.robots[0]
     assert (r.start.x, r.start.y) == pytest.approx((8 * FT, 5 * FT))
     assert math.degrees(r.start.heading) == pytest.approx(220)  # compass 230 deg
@@ -45,7 +47,8 @@ def test_vannoy_field_and_worked_example_timings():
     # the level's own numbers with plain trigonometry.
     times = sorted(
         ((math.atan2(b.y - r.start.y, b.x - r.start.x) - r.start.heading) % (2 * math.pi)) / r.laser.angular_velocity
-        for b in lv.beacons.items)
+        for b in lv.beacons.items
+    )
     assert times == pytest.approx([1.0556, 2.3628, 2.8508], abs=2e-4)
     assert lv.beacons.params["range"] == pytest.approx(25 * FT)
     assert (lv.task.goal.x, lv.task.goal.y) == pytest.approx((0, 10.5 * FT))
@@ -55,7 +58,8 @@ def test_ubersetzig_targets_on_one_wall():
     lv = load("ubersetzig")
     assert flat((b.x, b.y) for b in lv.beacons.items) == pytest.approx(flat([(0, -48 * IN), (0, 0), (0, 48 * IN)]))
     assert (lv.field.xmin, lv.field.xmax, lv.field.ymin, lv.field.ymax) == pytest.approx(
-        (0, 127 * IN, -127 * IN, 127 * IN))
+        (0, 127 * IN, -127 * IN, 127 * IN)
+    )
     assert lv.beacons.params["quantization"] == 256
 
 
@@ -65,7 +69,8 @@ def test_bac_table_four_corner_arrays(name):
     assert lv.field.size == pytest.approx((1.83, 1.22))
     assert lv.beacons.kind == "sensor_array" and not lv.robots[0].laser.index
     assert flat(sorted((b.x, b.y) for b in lv.beacons.items)) == pytest.approx(
-        flat(sorted([(0, 0), (1.83, 0), (1.83, 1.22), (0, 1.22)])))
+        flat(sorted([(0, 0), (1.83, 0), (1.83, 1.22), (0, 1.22)]))
+    )
     for b in lv.beacons.items:  # each array faces the table centre
         assert b.facing == pytest.approx(math.atan2(0.61 - b.y, 0.915 - b.x))
 
@@ -93,7 +98,9 @@ def test_bac_static_true_position():
 def test_simi_equilateral_triangle():
     lv = load("simi")
     pts = [(b.x, b.y) for b in lv.beacons.items]
-    assert flat(pts) == pytest.approx(flat([(129.75 * IN, -10 * IN), (10 * IN, -10 * IN), (69.875 * IN, -113.7065 * IN)]))
+    assert flat(pts) == pytest.approx(
+        flat([(129.75 * IN, -10 * IN), (10 * IN, -10 * IN), (69.875 * IN, -113.7065 * IN)])
+    )
     for i in range(3):
         assert math.dist(pts[i], pts[(i + 1) % 3]) == pytest.approx(119.75 * IN, rel=1e-5)
     assert lv.robots[0].laser.angular_velocity == pytest.approx(1800 / 60 * 2 * math.pi)

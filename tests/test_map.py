@@ -13,8 +13,9 @@ from referee.media import accuracy_map as am
 from robots.toolkit.solvers import least_squares
 
 
-@pytest.mark.parametrize("name,points", [("asabe", [(0.9, 0.6), (0.3, 0.25), (1.6, 1.0)]),
-                                         ("vannoy", [(2.4, 1.5), (1.0, 4.5)])])
+@pytest.mark.parametrize(
+    "name,points", [("asabe", [(0.9, 0.6), (0.3, 0.25), (1.6, 1.0)]), ("vannoy", [(2.4, 1.5), (1.0, 4.5)])]
+)
 def test_bound_matches_monte_carlo_at_sample_points(name, points):
     level = load_level(levels.path(name))
     m = am.compute(level, cells=20)

@@ -12,10 +12,17 @@ from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.loading import load_class
 
-TWO = edited(MINI_LEVEL, {
-    "robots": [{"model": "boe-bot", "start": [0.5, 0.25, 0], "start_known": True, "path": [[1.0, 0.25], [1.5, 0.25]]},
-               {"model": "boe-bot", "start": [0.5, 0.75, 0], "start_known": True, "path": [[1.0, 0.75], [1.5, 0.75]]}],
-    "task.path": None, "time_limit": 12})
+TWO = edited(
+    MINI_LEVEL,
+    {
+        "robots": [
+            {"model": "boe-bot", "start": [0.5, 0.25, 0], "start_known": True, "path": [[1.0, 0.25], [1.5, 0.25]]},
+            {"model": "boe-bot", "start": [0.5, 0.75, 0], "start_known": True, "path": [[1.0, 0.75], [1.5, 0.75]]},
+        ],
+        "task.path": None,
+        "time_limit": 12,
+    },
+)
 
 
 def level(text=MINI_LEVEL):
@@ -30,13 +37,16 @@ def team_file(tmp_path, body, name="team.py"):
 
 @pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
 def test_exception_in_step_stops_that_robot_only(tmp_path, isolate):
-    bad = team_file(tmp_path, """
+    bad = team_file(
+        tmp_path,
+        """
         class Bad(Controller):
             def step(self, obs):
                 if obs.tick == 3:
                     raise RuntimeError("boom\\nsecond line")
                 return Command(0.1, 0.1)
-    """)
+    """,
+    )
     result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")], isolate=isolate)
     r0, r1 = result["robots"]
     (fault,) = r0.faults  # the typed result; the same fields by their JSON names below
@@ -51,16 +61,24 @@ def test_exception_in_step_stops_that_robot_only(tmp_path, isolate):
 
 @pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
 def test_exception_in_setup_and_bad_commands(tmp_path, isolate):
-    setup_fails = team_file(tmp_path, """
+    setup_fails = team_file(
+        tmp_path,
+        """
         class A(Controller):
             def setup(self, brief):
                 raise ValueError("no")
-    """, "a.py")
-    nan = team_file(tmp_path, """
+    """,
+        "a.py",
+    )
+    nan = team_file(
+        tmp_path,
+        """
         class B(Controller):
             def step(self, obs):
                 return Command(float("nan"), 0.0)
-    """, "b.py")
+    """,
+        "b.py",
+    )
     result = run_match(level(TWO), [resolve(setup_fails), resolve(nan)], isolate=isolate)
     (f0,), (f1,) = result["robots"][0]["faults"], result["robots"][1]["faults"]
     assert (f0["kind"], f0["tick"]) == ("exception", 0) and "ValueError: no" in f0["message"]
@@ -72,11 +90,14 @@ def test_exception_in_setup_and_bad_commands(tmp_path, isolate):
 
 @pytest.mark.parametrize("isolate", [True, False], ids=["isolated", "in-process"])
 def test_wrong_return_type_is_a_bad_command(tmp_path, isolate):
-    t = team_file(tmp_path, """
+    t = team_file(
+        tmp_path,
+        """
         class C(Controller):
             def step(self, obs):
                 return (0.1, 0.1)
-    """)
+    """,
+    )
     result = run_match(level(), [resolve(t)], isolate=isolate)
     assert result["robots"][0]["faults"][0]["kind"] == "bad_command"
     assert result["robots"][0]["faults"][0]["message"] == "step() returned tuple, not Command"
@@ -84,12 +105,15 @@ def test_wrong_return_type_is_a_bad_command(tmp_path, isolate):
 
 def test_estimate_errors_scored_against_truth(tmp_path):
     # A robot standing still at (0.5, 0.5, 0) reports a fixed offset estimate on even ticks only.
-    t = team_file(tmp_path, """
+    t = team_file(
+        tmp_path,
+        """
         class Offset(Controller):
             def step(self, obs):
                 est = (0.53, 0.54, 0.1) if obs.tick % 2 == 0 else None
                 return Command(0.0, 0.0, estimate=est)
-    """)
+    """,
+    )
     result = run_match(level(), [resolve(t)])
     loc = result["robots"][0]["localization"]
     n = round(4.0 / 0.05)  # control ticks in the 4 s time limit
@@ -100,17 +124,22 @@ def test_estimate_errors_scored_against_truth(tmp_path):
 
 
 def test_heading_error_wraps_around(tmp_path):
-    t = team_file(tmp_path, """
+    t = team_file(
+        tmp_path,
+        """
         class Wrap(Controller):
             def step(self, obs):
                 return Command(0.0, 0.0, estimate=(0.5, 0.5, 2 * math.pi - 0.02))
-    """)
+    """,
+    )
     loc = run_match(level(), [resolve(t)])["robots"][0]["localization"]
     assert loc["heading_max"] == pytest.approx(0.02)
 
 
 def test_observations_arrive_every_control_period(tmp_path):
-    t = team_file(tmp_path, """
+    t = team_file(
+        tmp_path,
+        """
         SEEN = []
         class Clock(Controller):
             def setup(self, brief):
@@ -118,7 +147,8 @@ def test_observations_arrive_every_control_period(tmp_path):
             def step(self, obs):
                 SEEN.append((obs.tick, obs.time))
                 return Command(0.0, 0.0)
-    """)
+    """,
+    )
     team = resolve(t)
     run_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
     seen = __import__(load_class(team.spec).__module__).SEEN
@@ -129,14 +159,17 @@ def test_observations_arrive_every_control_period(tmp_path):
 
 
 def test_brief_hides_start_unless_announced(tmp_path):
-    t = team_file(tmp_path, """
+    t = team_file(
+        tmp_path,
+        """
         BRIEFS = []
         class Look(Controller):
             def setup(self, brief):
                 BRIEFS.append(brief)
             def step(self, obs):
                 return Command(0.0, 0.0)
-    """)
+    """,
+    )
     team = resolve(t)
     run_match(level(edited(MINI_LEVEL, {"robots.0.start_known": False})), [team], isolate=False)
     brief = __import__(load_class(team.spec).__module__).BRIEFS[0]
@@ -147,8 +180,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
 
 def test_waypoint_task_ends_match_when_done():
     # a perfect drive (ideal), so blind dead reckoning surely reaches both waypoints
-    result = run_match(level(edited(MINI_LEVEL, {"time_limit": 12})), [resolve("ref:dead-reckoning")],
-                       ideal=True)
+    result = run_match(level(edited(MINI_LEVEL, {"time_limit": 12})), [resolve("ref:dead-reckoning")], ideal=True)
     r = result["robots"][0]
     assert r["task"]["reached"] == 2 and r["score"]["task"] == 100.0
     assert result["end_reason"] == "task_complete"
@@ -159,12 +191,15 @@ def test_waypoint_task_ends_match_when_done():
 
 def test_team_specs(tmp_path):
     """Resolving finds and hashes a team's code without running it; loading is the controller's."""
-    two = team_file(tmp_path, """
+    two = team_file(
+        tmp_path,
+        """
         class One(Controller):
             def step(self, obs): return Command(0, 0)
         class Two(Controller):
             def step(self, obs): return Command(0, 0)
-    """)
+    """,
+    )
     team = resolve(two + ":Two")
     assert team.label == "team.py:Two"  # no machine-dependent path
     assert team.code_hash == "sha256:" + hashlib.sha256(open(two, "rb").read()).hexdigest()
@@ -179,16 +214,22 @@ def test_team_specs(tmp_path):
 
 
 def test_loading_problems_are_load_faults_of_their_slot(tmp_path):
-    two = team_file(tmp_path, """
+    two = team_file(
+        tmp_path,
+        """
         class One(Controller):
             def step(self, obs): return Command(0, 0)
         class Two(Controller):
             def step(self, obs): return Command(0, 0)
-    """)
+    """,
+    )
     broken = team_file(tmp_path, "import no_such_module_here\n", "broken.py")
     for isolate in (True, False):
-        for spec, words in ((two, "found 2 Controller classes: One, Two"), (two + ":Three", "Three is not a Controller"),
-                            (broken, "broken.py failed to load: ModuleNotFoundError")):
+        for spec, words in (
+            (two, "found 2 Controller classes: One, Two"),
+            (two + ":Three", "Three is not a Controller"),
+            (broken, "broken.py failed to load: ModuleNotFoundError"),
+        ):
             result = run_match(level(), [resolve(spec)], isolate=isolate)
             (fault,) = result["robots"][0]["faults"]
             assert fault["kind"] == "load" and words in fault["message"], (isolate, fault)

@@ -32,8 +32,17 @@ RECORDER = """
 def test_vannoy_ideal_reflections_match_the_seed(tmp_path):
     team = tmp_path / "recorder.py"
     team.write_text(textwrap.dedent(RECORDER))
-    proc = run_cli("run", "vannoy", "--ideal", "--team", str(team), "--json", str(tmp_path / "r.json"),
-                   "--logs", str(tmp_path / "logs"))
+    proc = run_cli(
+        "run",
+        "vannoy",
+        "--ideal",
+        "--team",
+        str(team),
+        "--json",
+        str(tmp_path / "r.json"),
+        "--logs",
+        str(tmp_path / "logs"),
+    )
     assert proc.returncode == 0, proc.stderr
     assert json.loads((tmp_path / "r.json").read_text())["ideal"] is True
     recorded = (tmp_path / "logs" / "slot0.log").read_text().split("RECORDED ", 1)[1].splitlines()[0]
@@ -57,9 +66,11 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
         def step(self, obs):
             log.append(obs)
             from robots.api import Command
+
             return Command(0.05, 0.1)
 
     from referee.sandbox.teams import Team
+
     level = load_level(levels.path("asabe"))
     run_match(level, [Team("spy", spec="", code_hash="", factory=Spy)], ideal=False, isolate=False)
     assert len(log) > 100

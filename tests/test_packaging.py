@@ -30,11 +30,18 @@ def test_robots_imports_nothing_from_arena_or_referee():
     root = Path(robots.__file__).parent
     for f in root.rglob("*.py"):
         for node in ast.walk(ast.parse(f.read_text())):
-            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
-                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             for n in names:
                 assert n.split(".")[0] not in ("arena", "referee", "levels", "pymunk", "pygame"), (f, n)
-    code = ("import sys, robots, robots.controllers.idle, robots.controllers.dead_reckoning; "
-            "print(sorted({m.split('.')[0] for m in sys.modules} & {'arena','referee','pymunk','pygame'}))")
+    code = (
+        "import sys, robots, robots.controllers.idle, robots.controllers.dead_reckoning; "
+        "print(sorted({m.split('.')[0] for m in sys.modules} & {'arena','referee','pymunk','pygame'}))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
     assert out.stdout.strip() == "[]", out.stderr

@@ -38,8 +38,9 @@ def replay(tmp_path_factory):
     d["rules"] = {"speed_limit": 0.05}
     level = parse_level(yaml.safe_dump(d).encode(), "race6.yaml")
     path = folder / "race.replay"
-    result = run_match(level, [resolve(str(folder / "crash.py"))] + [resolve("ref:bac")] * 3, replay=path,
-                       isolate=False)
+    result = run_match(
+        level, [resolve(str(folder / "crash.py"))] + [resolve("ref:bac")] * 3, replay=path, isolate=False
+    )
     return path, result
 
 
@@ -95,13 +96,16 @@ def test_curves_and_marks_are_where_the_axes_put_them(replay, tmp_path):
             for times, c in ((r.faults, FAULT), (r.fouls, FOUL)):
                 for t in times:
                     x = panel.to_pixel(t, 0)[0]
-                    if (c == FOUL and any(abs(x - panel.to_pixel(f, 0)[0]) <= 1 for f in r.faults)):
+                    if c == FOUL and any(abs(x - panel.to_pixel(f, 0)[0]) <= 1 for f in r.faults):
                         continue
                     assert tuple(image.get_at((x, top + 1)))[:3] == c
             # above the highest point of the curve lies nothing but paper and grid
             peak = max(values)
-            clear = [image.get_at((x, top + 2))[:3] for x in range(left + 2, left + w - 2, 7)
-                     if all(abs(x - m) > 1 for m in marks)]
+            clear = [
+                image.get_at((x, top + 2))[:3]
+                for x in range(left + 2, left + w - 2, 7)
+                if all(abs(x - m) > 1 for m in marks)
+            ]
             if panel.to_pixel(0, peak)[1] > top + 4:
                 assert set(clear) <= {BACKGROUND, GRID}
 

@@ -27,13 +27,27 @@ def frame(body: bytes) -> bytes:
 
 
 VALID = [
-    {"type": "ready"}, {"type": "stop"},
+    {"type": "ready"},
+    {"type": "stop"},
     {"type": "fault", "kind": "exception", "message": "in step: ValueError"},
-    {"type": "command", "tick": 7, "command": {"left": 0.1, "right": -0.2, "estimate": [1.0, 2.0, 3.0],
-                                               "debug": [{"kind": "line", "points": [[0, 0], [1, 1]],
-                                                          "radius": 0.0, "text": "hi", "color": [1, 2, 3]}]}},
-    {"type": "step", "obs": {"tick": 3, "time": 0.15, "events": [
-        {"time": 0.1, "kind": "hit", "beacon": "A", "angle": 1.5, "samples": []}]}},
+    {
+        "type": "command",
+        "tick": 7,
+        "command": {
+            "left": 0.1,
+            "right": -0.2,
+            "estimate": [1.0, 2.0, 3.0],
+            "debug": [{"kind": "line", "points": [[0, 0], [1, 1]], "radius": 0.0, "text": "hi", "color": [1, 2, 3]}],
+        },
+    },
+    {
+        "type": "step",
+        "obs": {
+            "tick": 3,
+            "time": 0.15,
+            "events": [{"time": 0.1, "kind": "hit", "beacon": "A", "angle": 1.5, "samples": []}],
+        },
+    },
 ]
 
 
@@ -67,15 +81,18 @@ def mutations(rng: random.Random, base: bytes) -> bytes:
         for _ in range(rng.randint(1, 8)):
             b[rng.randrange(len(b))] = rng.randrange(256)
     elif choice == 1:
-        b = b[:rng.randrange(len(b) + 1)]
+        b = b[: rng.randrange(len(b) + 1)]
     elif choice == 2:
         i = rng.randrange(len(b) + 1)
-        b = b[:i] + b[i:i + rng.randint(1, 20)] * rng.randint(2, 50) + b[i:]
+        b = b[:i] + b[i : i + rng.randint(1, 20)] * rng.randint(2, 50) + b[i:]
     elif choice == 3:
         b = bytearray(base.replace(b"0.1", b"1" + b"0" * rng.randint(300, 5000)))
     elif choice == 4:
-        b = bytearray(base.replace(b"0.1", rng.choice([b"1e400", b"-1e309", b"NaN", b"Infinity", b"true",
-                                                        b'"0.1"', b"null", b"[]", b"{}"])))
+        b = bytearray(
+            base.replace(
+                b"0.1", rng.choice([b"1e400", b"-1e309", b"NaN", b"Infinity", b"true", b'"0.1"', b"null", b"[]", b"{}"])
+            )
+        )
     else:
         depth = rng.randint(1000, 200_000)
         b = bytearray(base.replace(b"0.1", b"[" * depth + b"]" * depth))
@@ -85,6 +102,7 @@ def mutations(rng: random.Random, base: bytes) -> bytes:
 def a_setup_message() -> dict:
     from arena.loader import load_level
     from referee.match.loop import brief_for
+
     return {"type": "setup", "brief": protocol.to_plain(brief_for(load_level(levels.path("asabe-race")), 1))}
 
 
@@ -100,9 +118,13 @@ def test_a_seeded_fuzzer_gets_nothing_but_protocol_errors():
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.recursive(st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=20),
-                    lambda kids: st.lists(kids, max_size=5) | st.dictionaries(st.text(max_size=8), kids, max_size=5),
-                    max_leaves=40))
+@given(
+    st.recursive(
+        st.none() | st.booleans() | st.integers() | st.floats() | st.text(max_size=20),
+        lambda kids: st.lists(kids, max_size=5) | st.dictionaries(st.text(max_size=8), kids, max_size=5),
+        max_leaves=40,
+    )
+)
 def test_any_json_value_as_a_command_is_decoded_or_refused_by_name(value):
     try:
         body = json.dumps({"v": 1, "type": "command", "tick": 1, "command": value}).encode()
@@ -147,15 +169,20 @@ def test_frames_over_the_limit_are_refused_before_reading_them():
     with pytest.raises(protocol.ProtocolError, match="over the"):
         protocol.parse(b" " * (protocol.MAX_FRAME + 1))
     drawings = b",".join([b'{"kind":"point","points":[[0,0]]}'] * 100_000)  # 3.3 MB, under the frame limit
-    msg = protocol.parse(b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":['
-                         + drawings + b"]}}")
+    msg = protocol.parse(
+        b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":[' + drawings + b"]}}"
+    )
     with pytest.raises(protocol.ProtocolError, match="command.debug"):
         protocol.command_from(msg["command"])
 
 
 def test_numpy_scalars_are_numbers_on_the_wire():
-    cmd = Command(np.float32(0.0625), np.float64(-0.125), tuple(np.array([1.5, 2.25, -0.5])),
-                  (Drawing("line", ((np.float32(1.0), np.int64(2)),), color=(np.int64(1), np.uint8(2), 3)),))
+    cmd = Command(
+        np.float32(0.0625),
+        np.float64(-0.125),
+        tuple(np.array([1.5, 2.25, -0.5])),
+        (Drawing("line", ((np.float32(1.0), np.int64(2)),), color=(np.int64(1), np.uint8(2), 3)),),
+    )
     assert protocol.command_problem(cmd) is None
     buf = io.BytesIO()
     protocol.write(buf, {"type": "command", "tick": 1, "command": protocol.to_plain(cmd)})
@@ -172,12 +199,25 @@ class Nasty:
         raise RuntimeError("no")
 
 
-@pytest.mark.parametrize("cmd", [
-    Command(10 ** 400, 0), Command(0, -(10 ** 5000)), Command(float("nan"), 0), Command(0, float("inf")),
-    Command(True, 0), Command("1", 0), Command(Nasty(), 0), Command(0, 0, (0, 0, 10 ** 400)),
-    Command(0, 0, "xyz"), Command(0, 0, None, "x"), Command(0, 0, None, (Drawing("x", ((0, 1e300),)),)),
-    Command(0, 0, None, (Drawing("x", (), color=(0, 0, 300)),)), Nasty(), None,
-])
+@pytest.mark.parametrize(
+    "cmd",
+    [
+        Command(10**400, 0),
+        Command(0, -(10**5000)),
+        Command(float("nan"), 0),
+        Command(0, float("inf")),
+        Command(True, 0),
+        Command("1", 0),
+        Command(Nasty(), 0),
+        Command(0, 0, (0, 0, 10**400)),
+        Command(0, 0, "xyz"),
+        Command(0, 0, None, "x"),
+        Command(0, 0, None, (Drawing("x", ((0, 1e300),)),)),
+        Command(0, 0, None, (Drawing("x", (), color=(0, 0, 300)),)),
+        Nasty(),
+        None,
+    ],
+)
 def test_command_problem_judges_without_raising(cmd):
     assert protocol.command_problem(cmd)
 
@@ -241,25 +281,31 @@ def contained(result, kind: str, shared_dir) -> str:
 
 
 def test_an_overflowing_number_written_raw_is_a_bad_command(shared_dir):
-    body = RAW_WRITER.replace("PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":{"left":1'
-                                              + b"0" * 400 + b',"right":0}}'))
+    body = RAW_WRITER.replace(
+        "PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":{"left":1' + b"0" * 400 + b',"right":0}}')
+    )
     assert "command.left" in contained(hostile(shared_dir, body), "bad_command", shared_dir)
 
 
 def test_a_deeply_nested_frame_written_raw_is_a_protocol_fault(shared_dir):
-    body = RAW_WRITER.replace("PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":'
-                                              + b"[" * 200_000 + b"]" * 200_000 + b"}"))
+    body = RAW_WRITER.replace(
+        "PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":' + b"[" * 200_000 + b"]" * 200_000 + b"}")
+    )
     assert "nested too deeply" in contained(hostile(shared_dir, body), "protocol", shared_dir)
 
 
 @pytest.mark.parametrize("isolate", [True, False])
 def test_a_returned_overflowing_command_is_a_bad_command(shared_dir, isolate):
-    result = hostile(shared_dir, """
+    result = hostile(
+        shared_dir,
+        """
         from robots.api import Command, Controller
         class Big(Controller):
             def step(self, obs):
                 return Command(10 ** 400 if obs.tick == 4 else 0.05, 0.05)
-    """, isolate=isolate)
+    """,
+        isolate=isolate,
+    )
     assert "Command.left" in contained(result, "bad_command", shared_dir)
 
 
@@ -273,10 +319,20 @@ def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
                 return Command(WRAP(0.0625), WRAP(0.125), estimate=ESTIMATE,
                                debug=(Drawing("line", ((WRAP(1.0), WRAP(0.5)), (0.0, 0.0))),))
     """
-    numpy = hostile(shared_dir, body.replace("WRAP", "np.float32").replace(
-        "ESTIMATE", "tuple(np.array([1.0, 0.5, 0.25], np.float32))"), "np_team.py", isolate, shared_dir / "n.replay")
-    plain = hostile(shared_dir, body.replace("WRAP", "float").replace("ESTIMATE", "(1.0, 0.5, 0.25)"),
-                    "plain_team.py", isolate, shared_dir / "p.replay")
+    numpy = hostile(
+        shared_dir,
+        body.replace("WRAP", "np.float32").replace("ESTIMATE", "tuple(np.array([1.0, 0.5, 0.25], np.float32))"),
+        "np_team.py",
+        isolate,
+        shared_dir / "n.replay",
+    )
+    plain = hostile(
+        shared_dir,
+        body.replace("WRAP", "float").replace("ESTIMATE", "(1.0, 0.5, 0.25)"),
+        "plain_team.py",
+        isolate,
+        shared_dir / "p.replay",
+    )
     records = [gzip.open(shared_dir / f"{n}.replay").read().splitlines()[1:-1] for n in "np"]  # no header, result
     assert records[0] == records[1]  # every frame, estimate and drawing recorded alike
     assert not numpy["robots"][0]["faults"]
@@ -288,7 +344,8 @@ def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
 @pytest.mark.parametrize("isolate", [True, False])
 def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, isolate):
     team = tmp_path / "future.py"
-    team.write_text(textwrap.dedent("""
+    team.write_text(
+        textwrap.dedent("""
         from robots.api import Command, Controller
 
         class Future(Controller):
@@ -296,7 +353,8 @@ def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, i
 
             def step(self, obs):
                 return Command(0.1, 0.1)
-    """))
+    """)
+    )
     level = parse_level(levels.path("bac-static").read_bytes(), "levels/bac-static.yaml")
     result = run_match(level, [resolve(str(team))], isolate=isolate)
     (fault,) = result["robots"][0]["faults"]

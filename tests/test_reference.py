@@ -43,6 +43,7 @@ def traced(level, team):
         if getattr(out, "estimate", None):
             pairs.append((out.estimate, m.world.pose(0)))
         return out
+
     bot.step = spy
     m.run()
     return pairs
@@ -62,6 +63,7 @@ def test_goto_controllers_reach_their_goal(level):
 
 
 # ---- the paper's own method reproduces the paper's figures ------------------------------
+
 
 def test_bac_seed_static_precision_of_table_1():
     # Table 1: the std of the correct measurements is 1.7 mm in x and y, the robot standing at
@@ -97,6 +99,7 @@ def test_the_fused_bac_is_steadier_than_the_paper_standing_still():
 
 
 # ---- the fused references under the default hardware errors -----------------------------
+
 
 def test_bac_on_asabe_localizes_and_beats_driving_blind():
     finished = 0

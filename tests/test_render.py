@@ -20,8 +20,8 @@ def replay(tmp_path_factory):
     path = tmp_path_factory.mktemp("r") / "race.replay"
     text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 6")
     from arena.loader import parse_level
-    run_match(parse_level(text.encode(), "race6.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path,
-              isolate=False)
+
+    run_match(parse_level(text.encode(), "race6.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False)
     return path
 
 
@@ -36,7 +36,9 @@ def test_frame_shows_robots_and_beacons_where_they_are(replay, tmp_path):
     frame = rep.frames[round(t * rep.header["record_rate"])][1]
     for slot, (x, y, h) in enumerate(frame):
         # a point inside the body, away from the heading tick and the slot label
-        px, py = painter.to_screen(x - 0.03 * math.cos(h) + 0.025 * math.sin(h), y - 0.03 * math.sin(h) - 0.025 * math.cos(h))
+        px, py = painter.to_screen(
+            x - 0.03 * math.cos(h) + 0.025 * math.sin(h), y - 0.03 * math.sin(h) - 0.025 * math.cos(h)
+        )
         assert tuple(surface.get_at((px, py)))[:3] == color(slot), slot
     for b in scenes.level.beacons.items:  # sensor arrays are drawn as bars through their centre
         assert tuple(surface.get_at(painter.to_screen(b.x, b.y)))[:3] == BEACON["sensor_array"]
@@ -70,18 +72,23 @@ def test_mp4_decodes_to_the_right_frame_count(replay, tmp_path):
 
 def test_watch_plays_a_replay_and_a_live_match_headless(replay):
     from referee.media.watch import watch
+
     assert watch(str(replay), max_frames=5, speed=8.0) == 5
     assert watch("bac-line", max_frames=5, speed=8.0) == 5
 
 
 def test_bad_replays_and_arguments_are_one_line_errors(replay, tmp_path):
     from helpers import run_cli
+
     cut = tmp_path / "cut.replay"
     cut.write_bytes(replay.read_bytes()[: len(replay.read_bytes()) // 2])
     (tmp_path / "text.replay").write_text("not a replay")
-    for args in (["verify", str(tmp_path / "text.replay")], ["render", str(cut), "--out", str(tmp_path / "o.mp4")],
-                 ["render", str(replay), "--out", str(tmp_path / "o.mp4"), "--size", "12x"],
-                 ["render", str(tmp_path / "missing.replay"), "--out", str(tmp_path / "o.mp4")]):
+    for args in (
+        ["verify", str(tmp_path / "text.replay")],
+        ["render", str(cut), "--out", str(tmp_path / "o.mp4")],
+        ["render", str(replay), "--out", str(tmp_path / "o.mp4"), "--size", "12x"],
+        ["render", str(tmp_path / "missing.replay"), "--out", str(tmp_path / "o.mp4")],
+    ):
         proc = run_cli(*args)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
         assert "Traceback" not in proc.stderr

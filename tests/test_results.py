@@ -27,7 +27,8 @@ def results(tmp_path_factory):
     """Real results of every task kind, with fouls (a robot driving into a wall) and a fault."""
     folder = tmp_path_factory.mktemp("teams")
     crash = folder / "crash.py"
-    crash.write_text(textwrap.dedent("""
+    crash.write_text(
+        textwrap.dedent("""
         from robots.api import Command, Controller
 
         class Crash(Controller):
@@ -35,7 +36,8 @@ def results(tmp_path_factory):
                 if obs.tick == 5:
                     raise RuntimeError("boom")
                 return Command(0.17, 0.17)
-    """))
+    """)
+    )
     waypoints = parse_level(edited(MINI_LEVEL, {"time_limit": 8}).encode(), "mini.yaml")
     return [
         run_match(waypoints, [resolve(str(crash))], isolate=False),
@@ -72,8 +74,9 @@ def test_attribute_and_json_name_access_agree(results):
     robot = r.robots[0]
     assert robot.score.total == r["robots"][0]["score"]["total"]
     assert robot.faults[0].kind == robot["faults"][0]["kind"] == "exception"
-    assert robot.score.total == pytest.approx(robot.score.task + robot.score.time + robot.score.localization
-                                              - robot.score.penalties)
+    assert robot.score.total == pytest.approx(
+        robot.score.task + robot.score.time + robot.score.localization - robot.score.penalties
+    )
     with pytest.raises(KeyError):
         results[2].robots[0].task["reached"]  # a localize task has no waypoints
     assert results[2].robots[0].task.get("reached", "none") == "none"
@@ -82,8 +85,17 @@ def test_attribute_and_json_name_access_agree(results):
 
 
 def test_a_damaged_result_is_refused_by_the_types():
-    good = {"format": "laserarena-result", "version": 2, "software": "x", "level": {"name": "l", "hash": "h"},
-            "seed": 1, "ideal": False, "end_time": 1.0, "end_reason": "time_limit", "robots": []}
+    good = {
+        "format": "laserarena-result",
+        "version": 2,
+        "software": "x",
+        "level": {"name": "l", "hash": "h"},
+        "seed": 1,
+        "ideal": False,
+        "end_time": 1.0,
+        "end_reason": "time_limit",
+        "robots": [],
+    }
     MatchResult.from_dict(good)
     with pytest.raises(Exception, match="seed"):
         MatchResult.from_dict({**good, "seed": "one"})

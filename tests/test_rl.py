@@ -30,12 +30,14 @@ def shortened(name: str, seconds: float):
 
 def test_gym_make_by_module_name_and_check_env():
     from gymnasium.utils.env_checker import check_env
+
     env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
     assert env.action_space.shape == (2,) and env.observation_space.shape == (HEADER + PER_BEACON * 4,)
     check_env(env.unwrapped, skip_render_check=False)
     env.close()
-    with_estimate = gymnasium.make("referee.gym:LaserArena-v0", level=shortened("vannoy", 5), report_estimate=True,
-                                   render_mode="rgb_array")
+    with_estimate = gymnasium.make(
+        "referee.gym:LaserArena-v0", level=shortened("vannoy", 5), report_estimate=True, render_mode="rgb_array"
+    )
     check_env(with_estimate.unwrapped)
     with_estimate.reset(seed=4)
     assert with_estimate.render().shape == (360, 480, 3)
@@ -60,6 +62,7 @@ def drive_like_dead_reckoning(env, level):
 
 def test_env_runs_the_referees_physics_and_its_return_is_the_score():
     from referee.gym import LaserArenaEnv
+
     level = load_level(levels.path("bac-line"))
     ref = run_match(level, [resolve("ref:dead-reckoning")], isolate=False)["robots"][0]
     env = LaserArenaEnv(level=level)
@@ -77,6 +80,7 @@ def test_bearings_in_the_observation_match_the_geometry():
     """Standing still with ideal sensors on bac-static, each beacon's encoded bearing is the
     angle from the robot's heading to the beacon, computed here from the level's coordinates."""
     from referee.gym import LaserArenaEnv
+
     level = load_level(levels.path("bac-static"))
     env = LaserArenaEnv(level=level, ideal=True)
     env.reset(seed=1)
@@ -87,7 +91,7 @@ def test_bearings_in_the_observation_match_the_geometry():
     period = 2 * math.pi / level.robots[0].laser.angular_velocity
     seen = 0
     for k, b in enumerate(level.beacons.items):
-        c, s, age, flag = obs[HEADER + PER_BEACON * k: HEADER + PER_BEACON * (k + 1)]
+        c, s, age, flag = obs[HEADER + PER_BEACON * k : HEADER + PER_BEACON * (k + 1)]
         if not flag:
             assert age == AGE_MAX
             continue
@@ -103,6 +107,7 @@ def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     from pettingzoo.test import parallel_api_test
 
     from referee.gym.parallel import LaserArenaParallelEnv
+
     env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))
     parallel_api_test(env, num_cycles=40)
     assert env.possible_agents == ["robot_0", "robot_1", "robot_2", "robot_3"]
@@ -118,8 +123,12 @@ def test_pettingzoo_parallel_api_and_every_robot_an_agent():
 
 def test_random_policy_example_runs():
     script = Path(__file__).resolve().parent.parent / "examples" / "random_policy.py"
-    proc = subprocess.run([sys.executable, str(script), "--level", "bac-line", "--episodes", "1"],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, str(script), "--level", "bac-line", "--episodes", "1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "mean return" in proc.stdout
 
@@ -129,6 +138,7 @@ def test_env_replays_load_and_plot(tmp_path):
     from referee.gym import LaserArenaEnv
     from referee.media.plot import error_figure
     from referee.records.replay import load
+
     path = tmp_path / "episode.replay"
     env = LaserArenaEnv(level="bac-line", replay=path, report_estimate=True)
     env.reset(seed=3)

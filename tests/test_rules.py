@@ -36,7 +36,8 @@ STRAIGHT = """
 def test_waypoints_score_time_and_cross_track(tmp_path):
     # a robot driving dead straight along y = 0.5 through waypoints on y = 0.5 and y = 0.52
     text = MINI_LEVEL.replace("time_limit: 4", "time_limit: 20").replace(
-        "path: [[1.0, 0.5], [1.5, 0.5]]", "path: [[1.0, 0.52], [1.5, 0.5]]")
+        "path: [[1.0, 0.5], [1.5, 0.5]]", "path: [[1.0, 0.52], [1.5, 0.5]]"
+    )
     r = play(text, team(tmp_path, STRAIGHT))["robots"][0]
     assert r["task"]["reached"] == 2
     finished = r["task"]["finished"]
@@ -54,44 +55,61 @@ def test_waypoints_score_time_and_cross_track(tmp_path):
 
 
 def test_goto_partial_credit_and_localize_scored_on_error(tmp_path):
-    goto = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
-                              "kind: goto\n  radius: 0.05\n  goal: [1.5, 0.5]")
-    half = team(tmp_path, """
+    goto = MINI_LEVEL.replace(
+        "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
+        "kind: goto\n  radius: 0.05\n  goal: [1.5, 0.5]",
+    )
+    half = team(
+        tmp_path,
+        """
         class Half(Controller):
             def step(self, obs):
                 return Command(0.125, 0.125) if obs.time < 4.0 else Command(0.0, 0.0)
-    """)
+    """,
+    )
     r = play(goto.replace("time_limit: 4", "time_limit: 8"), half)["robots"][0]
     d = r["task"]["final_distance"]
     assert 0.4 < d < 0.6 and r["score"]["task"] == pytest.approx(100 * (1 - d / 1.0), abs=1e-6)
-    localize = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
-                                  "kind: localize")
-    off = team(tmp_path, """
+    localize = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]", "kind: localize")
+    off = team(
+        tmp_path,
+        """
         class Off(Controller):
             def step(self, obs):
                 return Command(0.0, 0.0, estimate=(0.51, 0.5, 0.0))
-    """, "off.py")
+    """,
+        "off.py",
+    )
     r = play(localize, off)["robots"][0]
     # 1 cm off every tick: quality 1 / (1 + 10 mm / 10 mm) = 0.5 -> 50 of 100 points
     assert r["score"]["localization"] == pytest.approx(50.0) and r["score"]["task"] == 0
 
 
-TWO = MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [3.0, 1.0]").replace("""robots:
+TWO = (
+    MINI_LEVEL.replace("size: [2.0, 1.0]", "size: [3.0, 1.0]")
+    .replace(
+        """robots:
   - model: boe-bot
     start: [0.5, 0.5, 0]
     start_known: true
-""", """robots:
+""",
+        """robots:
   - model: boe-bot
     start: [0.5, 0.5, 0]
     path: [[2.5, 0.5]]
   - model: boe-bot
     start: [2.5, 0.5, 180]
     path: [[0.5, 0.5]]
-""").replace("  path: [[1.0, 0.5], [1.5, 0.5]]\n", "").replace("time_limit: 4", "time_limit: 12")
+""",
+    )
+    .replace("  path: [[1.0, 0.5], [1.5, 0.5]]\n", "")
+    .replace("time_limit: 4", "time_limit: 12")
+)
 
 
-LOCALIZE = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
-                              "kind: localize").replace("time_limit: 4", "time_limit: 20")
+LOCALIZE = MINI_LEVEL.replace(
+    "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]", "kind: localize"
+).replace("time_limit: 4", "time_limit: 20")
 
 
 def test_robot_and_wall_collisions_are_fouls_with_impulse(tmp_path):
@@ -112,18 +130,24 @@ def test_robot_and_wall_collisions_are_fouls_with_impulse(tmp_path):
 
 
 def test_leaving_the_field_speeding_and_faults_are_fouls(tmp_path):
-    open_field = LOCALIZE.replace("  size: [2.0, 1.0]", "  size: [2.0, 1.0]\n  walls: false") + \
-        "rules: {speed_limit: 0.05, penalties: {leave_field: 7}}\n"
+    open_field = (
+        LOCALIZE.replace("  size: [2.0, 1.0]", "  size: [2.0, 1.0]\n  walls: false")
+        + "rules: {speed_limit: 0.05, penalties: {leave_field: 7}}\n"
+    )
     r = play(open_field, team(tmp_path, STRAIGHT))["robots"][0]
     kinds = [f["kind"] for f in r["fouls"]]
     assert kinds == ["speeding", "leave_field"]
     speeding, leave = r["fouls"]
     assert speeding["speed"] > 0.05 and speeding["time"] == pytest.approx(0.05 / 0.5, abs=0.01)
     assert leave["place"][0] == pytest.approx(2.0, abs=0.01) and leave["penalty"] == 7
-    crash = team(tmp_path, """
+    crash = team(
+        tmp_path,
+        """
         class Crash(Controller):
             def step(self, obs):
                 raise RuntimeError("no")
-    """, "crash.py")
+    """,
+        "crash.py",
+    )
     r = play(MINI_LEVEL, crash)["robots"][0]
     assert [f["kind"] for f in r["fouls"]] == ["fault"] and r["score"]["penalties"] == 25.0

@@ -9,21 +9,25 @@ import sys
 import pytest
 from helpers import MINI_LEVEL, run_cli
 
-BOMB = "".join([
-    "name: bomb\n",
-    'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n',
-    *(f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi")),
-])  # 9^9 = 387 million strings once expanded
+BOMB = "".join(
+    [
+        "name: bomb\n",
+        'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n',
+        *(f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi")),
+    ]
+)  # 9^9 = 387 million strings once expanded
 
 
 def measured(*args: str) -> tuple[int, str, int]:
     """Run `laserarena ARGS` from a fresh parent: (exit code, stderr, the peak RSS in KiB of
     that run alone, from getrusage of the parent's only child)."""
-    probe = ("import resource, subprocess, sys\n"
-             "p = subprocess.run([sys.executable, '-m', 'referee', *sys.argv[1:]], capture_output=True, "
-             "text=True, timeout=300)\n"
-             "sys.stderr.write(p.stderr)\n"
-             "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n")
+    probe = (
+        "import resource, subprocess, sys\n"
+        "p = subprocess.run([sys.executable, '-m', 'referee', *sys.argv[1:]], capture_output=True, "
+        "text=True, timeout=300)\n"
+        "sys.stderr.write(p.stderr)\n"
+        "print(p.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n"
+    )
     proc = subprocess.run([sys.executable, "-c", probe, *args], capture_output=True, text=True, timeout=320)
     code, rss = map(int, proc.stdout.split())
     return code, proc.stderr, rss
@@ -91,16 +95,22 @@ def test_an_alias_bomb_in_a_replay_header_is_refused_by_verify_and_render(tmp_pa
     assert rss < normal + 50 * 1024
 
 
-@pytest.mark.parametrize("damage, words", [
-    (lambda lines: [b"[" * 100_000 + b"]" * 100_000 + b"\n", *lines[1:]], "nested too deeply"),
-    (lambda lines: [b"[1, 2]\n", *lines[1:]], "not an object"),
-    (lambda lines: with_header(lines, teams="ref:bac"), "teams"),
-    (lambda lines: with_header(lines, seed=10 ** 30), "seed"),
-    (lambda lines: with_header(lines, noise_key="not hex"), "noise_key"),
-    (lambda lines: [lines[0], b'{"k":"f","t":0.0,"p":' + b"[" * 10_000 + b"]" * 10_000 + b"}\n"], "nested too deeply"),
-    (lambda lines: [lines[0], b'{"k":"f","t":"x","p":[]}\n'], "frame"),
-    (lambda lines: [lines[0], b'"' + b"x" * (9 << 20) + b'"\n'], "over"),
-])
+@pytest.mark.parametrize(
+    "damage, words",
+    [
+        (lambda lines: [b"[" * 100_000 + b"]" * 100_000 + b"\n", *lines[1:]], "nested too deeply"),
+        (lambda lines: [b"[1, 2]\n", *lines[1:]], "not an object"),
+        (lambda lines: with_header(lines, teams="ref:bac"), "teams"),
+        (lambda lines: with_header(lines, seed=10**30), "seed"),
+        (lambda lines: with_header(lines, noise_key="not hex"), "noise_key"),
+        (
+            lambda lines: [lines[0], b'{"k":"f","t":0.0,"p":' + b"[" * 10_000 + b"]" * 10_000 + b"}\n"],
+            "nested too deeply",
+        ),
+        (lambda lines: [lines[0], b'{"k":"f","t":"x","p":[]}\n'], "frame"),
+        (lambda lines: [lines[0], b'"' + b"x" * (9 << 20) + b'"\n'], "over"),
+    ],
+)
 def test_a_damaged_replay_is_one_line(tmp_path, replay_lines, damage, words):
     path = forged(tmp_path, damage(replay_lines))
     for args in (["verify", path], ["render", path, "--out", str(tmp_path / "frames")]):

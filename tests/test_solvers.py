@@ -88,8 +88,9 @@ def test_wall_and_law_of_sines_round_trip():
     for _ in range(300):
         x, y = rng.uniform(-1.4, 1.4), -rng.uniform(0.05, 2.0)
         a = [math.atan2(-y, lx - x) for lx in (-1.5, 0, 1.5)]
-        fix = S.law_of_sines(1.5, abs(math.remainder(a[0] - a[1], 2 * math.pi)),
-                             abs(math.remainder(a[1] - a[2], 2 * math.pi)))
+        fix = S.law_of_sines(
+            1.5, abs(math.remainder(a[0] - a[1], 2 * math.pi)), abs(math.remainder(a[1] - a[2], 2 * math.pi))
+        )
         assert math.dist((fix.x, fix.y), (x, y)) < 1e-9
 
 
@@ -122,7 +123,9 @@ def test_degenerate_inputs_are_flagged():
     # near the circle the reliability collapses: it is a usable warning, not garbage
     near = (0.915 + 1.001 * r * math.cos(2.5), 0.61 + 1.001 * r * math.sin(2.5))
     far = (0.9, 0.4)
-    assert 0 < S.total(TRI, bearings(*near, 0, TRI)).reliability < 0.01 * S.total(TRI, bearings(*far, 0, TRI)).reliability
+    assert (
+        0 < S.total(TRI, bearings(*near, 0, TRI)).reliability < 0.01 * S.total(TRI, bearings(*far, 0, TRI)).reliability
+    )
 
 
 def test_total_batch_matches_scalar():
@@ -146,8 +149,10 @@ def test_vannoy_sector_rule_and_its_ambiguity():
     got = by_sectors([rel[b] for b in order], beacons, centre)
     assert got.ids == ("C", "B", "A") and not got.ambiguous
     # where all three sectors are 120 deg the rule cannot decide: find that point by search
-    best = min(((i * 0.01 * 13 * FT, j * 0.01 * 21 * FT) for i in range(1, 100) for j in range(1, 100)),
-               key=lambda p: sum(abs(g - 2 * math.pi / 3) for g in sectors(p, beacons)))
+    best = min(
+        ((i * 0.01 * 13 * FT, j * 0.01 * 21 * FT) for i in range(1, 100) for j in range(1, 100)),
+        key=lambda p: sum(abs(g - 2 * math.pi / 3) for g in sectors(p, beacons)),
+    )
     assert max(abs(g - 2 * math.pi / 3) for g in sectors(best, beacons)) < math.radians(2)
     rel = sorted((math.atan2(by - best[1], bx - best[0]) % (2 * math.pi) for bx, by in beacons.values()))
     assert by_sectors(rel, beacons, centre).ambiguous

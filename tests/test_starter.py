@@ -54,7 +54,7 @@ def test_starter_static_is_exact_when_ideal_and_follows_the_line():
 def test_starter_stays_one_self_contained_file():
     # `laserarena new` copies this one file for a team: it may import the API and the standard library only
     tree = ast.parse(open(starter.__file__).read())
-    modules = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names} | \
-        {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    modules = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names} | {
+        n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
+    }
     assert all(m == "robots.api" or m.split(".")[0] in sys.stdlib_module_names for m in modules), modules
-

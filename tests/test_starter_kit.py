@@ -49,7 +49,8 @@ def test_installed_controller_found_by_entry_point(shared_dir, tmp_path):
         "from robots.api import Command, Controller\n"
         "class Fast(Controller):\n"
         "    def step(self, obs):\n"
-        "        return Command(0.17, 0.17)\n")
+        "        return Command(0.17, 0.17)\n"
+    )
     info = site / "fastbot-1.0.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fastbot\nVersion: 1.0\n")
@@ -58,10 +59,15 @@ def test_installed_controller_found_by_entry_point(shared_dir, tmp_path):
         p.chmod(0o755)
     env = {"PYTHONPATH": str(site), "PATH": "/usr/bin:/bin"}
     out = tmp_path / "r.json"
-    done = subprocess.run([sys.executable, "-m", "referee", "run", "bac-line", "--team", "fastbot",
-                           "--json", str(out), "--quiet"], capture_output=True, text=True, env=env)
+    done = subprocess.run(
+        [sys.executable, "-m", "referee", "run", "bac-line", "--team", "fastbot", "--json", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
     assert done.returncode == 0, done.stderr
     import json
+
     robot = json.loads(out.read_text())["robots"][0]
     assert robot["team"] == "fastbot" and robot["faults"] == []
     assert robot["final_pose"][0] > 0.40 + 0.5  # it drove: the installed class ran

@@ -16,21 +16,30 @@ from robots.toolkit.tracker import HitTracker
 
 def test_index_revolutions_give_angles_from_time_fractions():
     period = 0.5
-    events = [SensorEvent(0.0, "index"), SensorEvent(0.125, "hit"), SensorEvent(0.3, "hit"),
-              SensorEvent(0.5, "index"), SensorEvent(0.55, "hit"), SensorEvent(1.0, "index")]
+    events = [
+        SensorEvent(0.0, "index"),
+        SensorEvent(0.125, "hit"),
+        SensorEvent(0.3, "hit"),
+        SensorEvent(0.5, "index"),
+        SensorEvent(0.55, "hit"),
+        SensorEvent(1.0, "index"),
+    ]
     revs = IndexRevolutions().feed(events)
     assert len(revs) == 2 and revs[0].period == period
     assert [a for a, _ in revs[0].hits] == pytest.approx([math.pi / 2, 2 * math.pi * 0.6])
     cw = IndexRevolutions(sign=-1.0).feed(events)  # a clockwise laser: angles go the other way
     assert cw[0].hits[0][0] == pytest.approx(2 * math.pi - math.pi / 2)
-    latched = IndexRevolutions().feed([SensorEvent(0, "index"), SensorEvent(0.1, "hit", None, 1.0),
-                                       SensorEvent(0.5, "index")])
+    latched = IndexRevolutions().feed(
+        [SensorEvent(0, "index"), SensorEvent(0.1, "hit", None, 1.0), SensorEvent(0.5, "index")]
+    )
     assert latched[0].hits[0][0] == 1.0  # a hardware angle wins over the time fraction
 
 
 def test_beacon_revolutions_and_plausibility():
-    ev = [SensorEvent(t, "hit", b) for t, b in
-          [(0.0, "O"), (0.02, "A"), (0.05, "B"), (0.08, "O"), (0.1, "A"), (0.16, "O")]]
+    ev = [
+        SensorEvent(t, "hit", b)
+        for t, b in [(0.0, "O"), (0.02, "A"), (0.05, "B"), (0.08, "O"), (0.1, "A"), (0.16, "O")]
+    ]
     revs = BeaconRevolutions("O").feed(ev)
     assert [r.period for r in revs] == pytest.approx([0.08, 0.08])
     assert revs[0].hits[0] == (0.0, "O") and revs[0].hits[1][0] == pytest.approx(2 * math.pi * 0.25)
@@ -56,8 +65,11 @@ def test_ekf_converges_and_gates_an_outlier():
     x, y, h, omega = 0.7, 0.5, 0.4, 40.0
     ekf = BearingEKF(0.75, 0.45, h, 0.0, omega, var_xy=1e-2, var_heading=1e-4, var_sum=1.0, var_rate=1.0)
     # exact hit times of a robot standing still: the beam h + omega t meets bearing b
-    hits = sorted(((math.atan2(by - y, bx - x) - h) % (2 * math.pi) / omega + k * 2 * math.pi / omega, (bx, by))
-                  for k in range(25) for bx, by in beacons)
+    hits = sorted(
+        ((math.atan2(by - y, bx - x) - h) % (2 * math.pi) / omega + k * 2 * math.pi / omega, (bx, by))
+        for k in range(25)
+        for bx, by in beacons
+    )
     t, accepted = 0.0, 0
     for th, beacon in hits:
         ekf.predict(th - t, 0.0, 0.0)
@@ -70,6 +82,7 @@ def test_ekf_converges_and_gates_an_outlier():
 
 
 # ---- the wheel model's turn prediction and the HitTracker ----------------------------------
+
 
 def test_heading_change_of_a_trapezoid_spin():
     # from rest: each wheel ramps to 0.1 m/s in 0.2 s, holds, ramps down in 0.2 s after the
@@ -87,10 +100,18 @@ ARRAYS = {"O": (0.0, 0.0), "A": (1.83, 0.0), "B": (1.83, 1.22), "C": (0.0, 1.22)
 
 
 def table_brief(start=None, omega=81.0):
-    return Brief(slot=0, field=(0.0, 0.0, 1.83, 1.22), beacon_kind="sensor_array",
-                 beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()), laser=LaserInfo(omega, False),
-                 robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
-                 task=TaskInfo("localize", 0.05), control_period=0.2, time_limit=10.0, start=start)
+    return Brief(
+        slot=0,
+        field=(0.0, 0.0, 1.83, 1.22),
+        beacon_kind="sensor_array",
+        beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()),
+        laser=LaserInfo(omega, False),
+        robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
+        task=TaskInfo("localize", 0.05),
+        control_period=0.2,
+        time_limit=10.0,
+        start=start,
+    )
 
 
 def standing_hits(x, y, beam0, omega, turns, skip=()):
@@ -162,8 +183,11 @@ def test_bac_turn_ends_on_the_angle_between_control_ticks():
         wheels.command(left, right, 0.17)
         for k in range(48):
             _, v, w = wheels.advance(tick * 0.2 + (k + 1) * dt)
-            pose = [pose[0] + v * math.cos(pose[2] + w * dt / 2) * dt, pose[1] + v * math.sin(pose[2] + w * dt / 2) * dt,
-                    pose[2] + w * dt]
+            pose = [
+                pose[0] + v * math.cos(pose[2] + w * dt / 2) * dt,
+                pose[1] + v * math.sin(pose[2] + w * dt / 2) * dt,
+                pose[2] + w * dt,
+            ]
         bac.tracker.wheels.advance((tick + 1) * 0.2)
         if tick > 2 and wheels.speeds[0] == wheels.speeds[1] > 0:
             break
@@ -199,7 +223,9 @@ def test_tracker_takes_the_heading_from_the_direction_of_travel():
         tracker.command(0.1, 0.1)
     x, y, h = tracker.pose
     assert tracker.restarts == 1  # the heading restarted once from the direction of travel
-    assert abs(wrap(h - 0.3)) < 0.03 and math.dist((x, y), (0.5 + 0.3 * math.cos(0.3), 0.5 + 0.3 * math.sin(0.3))) < 0.002
+    assert (
+        abs(wrap(h - 0.3)) < 0.03 and math.dist((x, y), (0.5 + 0.3 * math.cos(0.3), 0.5 + 0.3 * math.sin(0.3))) < 0.002
+    )
 
 
 def test_tracker_restarts_when_the_closed_form_fixes_contradict_it():

@@ -29,13 +29,19 @@ from referee.records.replay import load
 from referee.sandbox.teams import resolve
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-        "--disable-sync", "--no-first-run"]
+ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
 SIZE = (960, 640)
 WAIT_MS = 30_000  # the bound on every wait for the page
 
 # Debug drawings of every kind, and an estimate off the truth by a known amount (20 mm, 10 mm, 0.1 rad).
-DRAWING_BOT = '''
+DRAWING_BOT = """
 from robots.api import Command, Drawing
 from robots.controllers.dead_reckoning import DeadReckoning
 
@@ -52,7 +58,7 @@ class DrawingBot(DeadReckoning):
             Drawing("circle", ((x, y),), radius=0.09, color=(200, 0, 200)),
             Drawing("text", ((x + 0.06, y + 0.08),), text=f"wp {self.target}", color=(10, 10, 120)),
             Drawing("point", ((tx, ty),), color=(250, 120, 0))))
-'''
+"""
 
 OBSTACLES = """obstacles:
   - {kind: box, center: [3, 15], size: [2, 1], angle: 30}
@@ -75,10 +81,15 @@ def replays(tmp_path_factory):
     bot = resolve(str(d / "drawing_bot.py"))
     out = {}
     for key, data, teams in (
-            ("race", _short("asabe-race", 6, "rules:\n  speed_limit: 0.1\n"), [bot, bot, resolve("ref:dead-reckoning"), resolve("ref:bac")]),
-            ("vannoy", _short("vannoy", 3, OBSTACLES), [resolve("ref:vannoy")]),
-            ("simi", _short("simi", 2), [resolve("ref:simi")]),
-            ("osentoski", _short("osentoski", 2), [resolve("ref:osentoski")])):
+        (
+            "race",
+            _short("asabe-race", 6, "rules:\n  speed_limit: 0.1\n"),
+            [bot, bot, resolve("ref:dead-reckoning"), resolve("ref:bac")],
+        ),
+        ("vannoy", _short("vannoy", 3, OBSTACLES), [resolve("ref:vannoy")]),
+        ("simi", _short("simi", 2), [resolve("ref:simi")]),
+        ("osentoski", _short("osentoski", 2), [resolve("ref:osentoski")]),
+    ):
         out[key] = d / f"{key}.replay"
         run_match(parse_level(data, f"{key}.yaml"), teams, replay=out[key], isolate=False)
     return out
@@ -89,6 +100,7 @@ def browser():
     if not Path(CHROMIUM).exists():
         pytest.skip("no chromium installed (apt-get install -y chromium): the browser viewer is not tested here")
     from playwright.sync_api import sync_playwright
+
     with sync_playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
         yield b
@@ -107,6 +119,7 @@ def _open(browser, html: Path):
         else:
             page.remote.append(r.request.url)
             r.abort()
+
     page.route("**/*", route)
     page.goto(html.as_uri())
     page.wait_for_function("window.viewer && window.viewer.ready", timeout=WAIT_MS)
@@ -131,7 +144,7 @@ def _pygame(replay: Path, t: float) -> tuple[np.ndarray, Painter, Scenes]:
 def _centroid(img: np.ndarray, centre: tuple[float, float], radius: float, rgb, tol: float = 20.0):
     """Mean position of the pixels within `radius` of `centre` whose colour is within `tol` of `rgb`."""
     xs, ys = np.meshgrid(np.arange(img.shape[0]), np.arange(img.shape[1]), indexing="ij")
-    near = (xs - centre[0]) ** 2 + (ys - centre[1]) ** 2 <= radius ** 2
+    near = (xs - centre[0]) ** 2 + (ys - centre[1]) ** 2 <= radius**2
     match = near & (np.linalg.norm(img - np.array(rgb), axis=2) <= tol)
     assert match.sum() >= 5, (centre, rgb)
     return float(xs[match].mean()), float(ys[match].mean())
@@ -152,12 +165,16 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
     assert float(page.get_attribute("#view", "data-time")) > 0
     page.click("#play")  # pause: the clock stands still over the next animation frames
     held = page.evaluate("window.viewer.time")
-    page.evaluate("new Promise(r => { let n = 0; const f = () => (++n < 5 ? requestAnimationFrame(f) : r()); requestAnimationFrame(f); })")
+    page.evaluate(
+        "new Promise(r => { let n = 0; const f = () => (++n < 5 ? requestAnimationFrame(f) : r()); requestAnimationFrame(f); })"
+    )
     assert page.evaluate("window.viewer.time") == held
 
     # the timeline slider seeks, and the robots are drawn where the replay's frame puts them
-    page.evaluate("(() => { const s = document.getElementById('slider'); s.value = '2.5';"
-                  " s.dispatchEvent(new Event('input')); })()")
+    page.evaluate(
+        "(() => { const s = document.getElementById('slider'); s.value = '2.5';"
+        " s.dispatchEvent(new Event('input')); })()"
+    )
     assert page.evaluate("window.viewer.time") == 2.5
     assert page.get_attribute("#view", "data-time") == "2.5000"
     img = _canvas(page)
@@ -165,7 +182,9 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
     frame = rep.frames[round(2.5 * rep.header["record_rate"])][1]
     for slot, (x, y, h) in enumerate(frame):
         # a point inside the body, away from the heading tick and the slot label
-        px, py = painter.to_screen(x - 0.03 * math.cos(h) + 0.025 * math.sin(h), y - 0.03 * math.sin(h) - 0.025 * math.cos(h))
+        px, py = painter.to_screen(
+            x - 0.03 * math.cos(h) + 0.025 * math.sin(h), y - 0.03 * math.sin(h) - 0.025 * math.cos(h)
+        )
         assert tuple(img[px, py]) == color(slot), slot
 
     # the panel: each robot's latest estimate against the true pose at the tick it was reported
@@ -187,7 +206,8 @@ def test_page_plays_seeks_and_steps(replays, browser, tmp_path):
     page.locator("#incidents li").nth(1).click()
     assert page.evaluate("window.viewer.time") == incidents[1]
     assert f"fouls {sum(f['time'] <= incidents[1] for f in rep.fouls)}" in page.evaluate(
-        "window.viewer.scenes.at(window.viewer.time).hud[0]")
+        "window.viewer.scenes.at(window.viewer.time).hud[0]"
+    )
     page.evaluate("window.viewer.seek(2.5)")
 
     page.keyboard.press("ArrowRight")  # one frame on, while paused
@@ -235,16 +255,19 @@ def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key,
     web = _canvas(page)
     ref, painter, scenes = _pygame(replays[key], t)
     assert web.shape == ref.shape
-    for when in (t, scenes.duration):  # the HUD's text, as referee/media/render.py writes it (the final scores at the end)
+    for when in (
+        t,
+        scenes.duration,
+    ):  # the HUD's text, as referee/media/render.py writes it (the final scores at the end)
         assert page.evaluate(f"window.viewer.scenes.at({when}).hud") == list(scenes.at(when).hud)
     diff = np.abs(web - ref)
-    field, whole = diff[:, painter.hud_height:].mean(), diff.mean()
+    field, whole = diff[:, painter.hud_height :].mean(), diff.mean()
     print(f"{key} t={t}: mean abs difference {field:.3f} on the field, {whole:.3f} over the frame")
     assert field < 1.5 and whole < 2.5
 
     if key == "race":  # the bound tells a wrong frame from the right one (here the robots move)
         later, _, _ = _pygame(replays[key], t + 0.1)
-        wrong = np.abs(web - later)[:, painter.hud_height:].mean()
+        wrong = np.abs(web - later)[:, painter.hud_height :].mean()
         print(f"{key}: against pygame's frame 0.1 s later, {wrong:.3f} on the field")
         assert wrong > 1.5
 
@@ -291,8 +314,10 @@ def test_other_replays_open_by_picker_and_drop(replays, browser, tmp_path):
     assert page.evaluate("window.viewer.error") is None
 
     # frames that lack a robot of the level: refused with a message, the replay shown before stays
-    short = [json.dumps({**r, "p": r["p"][:1]}) + "\n" if r.get("k") == "f" else json.dumps(r) + "\n"
-             for r in map(json.loads, lines[1:])]
+    short = [
+        json.dumps({**r, "p": r["p"][:1]}) + "\n" if r.get("k") == "f" else json.dumps(r) + "\n"
+        for r in map(json.loads, lines[1:])
+    ]
     (tmp_path / "short.replay").write_bytes(gzip.compress((lines[0] + "".join(short)).encode()))
     page.set_input_files("#file", str(tmp_path / "short.replay"))
     page.wait_for_function("window.viewer.error !== null", timeout=WAIT_MS)
@@ -301,12 +326,15 @@ def test_other_replays_open_by_picker_and_drop(replays, browser, tmp_path):
 
     # drag and drop of the race again, under another name: it plays
     data = base64.b64encode(replays["race"].read_bytes()).decode()
-    page.evaluate("""data => {
+    page.evaluate(
+        """data => {
         const bytes = Uint8Array.from(atob(data), c => c.charCodeAt(0));
         const dt = new DataTransfer();
         dt.items.add(new File([bytes], 'again.replay'));
         document.dispatchEvent(new DragEvent('drop', {dataTransfer: dt, bubbles: true, cancelable: true}));
-    }""", data)
+    }""",
+        data,
+    )
     page.wait_for_function("window.viewer.name === 'again.replay' && window.viewer.error === null", timeout=WAIT_MS)
     page.evaluate("window.viewer.seek(1.0)")
     assert page.evaluate("window.viewer.time") == 1.0
@@ -323,8 +351,9 @@ def test_a_built_in_level_replay_opens_in_any_page(browser, tmp_path):
     page = _open(browser, html)
     assert page.evaluate("window.viewer.error") is None
     builtin = tmp_path / "simi.replay"  # the built-in level file as shipped
-    run_match(parse_level(levels.path("simi").read_bytes(), "simi.yaml"), [resolve("ref:idle")], replay=builtin,
-              isolate=False)
+    run_match(
+        parse_level(levels.path("simi").read_bytes(), "simi.yaml"), [resolve("ref:idle")], replay=builtin, isolate=False
+    )
     page.set_input_files("#file", str(builtin))
     page.wait_for_function("window.viewer.name === 'simi.replay'", timeout=WAIT_MS)
     assert page.evaluate("window.viewer.error") is None
@@ -341,9 +370,11 @@ def test_page_needs_no_network_and_bad_input_is_one_line(replays, tmp_path):
     assert "DecompressionStream" in text and base64.b64encode(replays["simi"].read_bytes()[:30]).decode()[:40] in text
     cut = tmp_path / "cut.replay"
     cut.write_bytes(replays["simi"].read_bytes()[: len(replays["simi"].read_bytes()) // 2])
-    for args, words in ((["render", str(cut), "--html", str(tmp_path / "x.html")], "truncated"),
-                        (["render", str(replays["simi"]), "--html", str(tmp_path / "no" / "x.html")], "does not exist"),
-                        (["render", str(replays["simi"])], "--html")):
+    for args, words in (
+        (["render", str(cut), "--html", str(tmp_path / "x.html")], "truncated"),
+        (["render", str(replays["simi"]), "--html", str(tmp_path / "no" / "x.html")], "does not exist"),
+        (["render", str(replays["simi"])], "--html"),
+    ):
         proc = run_cli(*args)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
         assert words in proc.stderr and "Traceback" not in proc.stderr

@@ -29,14 +29,19 @@ def replay(tmp_path_factory):
     d["time_limit"] = 12
     d["rules"] = {"speed_limit": 0.05}  # ref:bac drives faster: speeding fouls to score
     path = tmp_path_factory.mktemp("watch") / "race.replay"
-    result = run_match(parse_level(yaml.safe_dump(d).encode(), "race12.yaml"), [resolve("ref:bac")] * 4,
-                       replay=path, isolate=False)
+    result = run_match(
+        parse_level(yaml.safe_dump(d).encode(), "race12.yaml"), [resolve("ref:bac")] * 4, replay=path, isolate=False
+    )
     return path, result
 
 
 def count(surface, rect, rgb) -> int:
-    return sum(1 for x in range(rect.left, rect.right) for y in range(rect.top, rect.bottom)
-               if tuple(surface.get_at((x, y)))[:3] == rgb)
+    return sum(
+        1
+        for x in range(rect.left, rect.right)
+        for y in range(rect.top, rect.bottom)
+        if tuple(surface.get_at((x, y)))[:3] == rgb
+    )
 
 
 def test_help_shows_at_start_hides_by_itself_and_toggles(replay):
@@ -71,12 +76,19 @@ def direct_standing(rep, result, slot, t, control_period):
     for e in rep.estimates:
         if e["r"] == slot and e["t"] <= t + 1e-9:
             x, y, h = frames[round(e["t"], 6)][slot]
-            errors.append((math.hypot(e["e"][0] - x, e["e"][1] - y),
-                           abs(math.atan2(math.sin(e["e"][2] - h), math.cos(e["e"][2] - h)))))
+            errors.append(
+                (
+                    math.hypot(e["e"][0] - x, e["e"][1] - y),
+                    abs(math.atan2(math.sin(e["e"][2] - h), math.cos(e["e"][2] - h))),
+                )
+            )
     ticks = math.floor(t / control_period + 1e-9) + 1
     rms = math.sqrt(sum(d * d for d, _ in errors) / len(errors))
-    score = 100 * reached / robot["task"]["total"] + 25 * (len(errors) / ticks) / (1 + rms / 0.010) \
+    score = (
+        100 * reached / robot["task"]["total"]
+        + 25 * (len(errors) / ticks) / (1 + rms / 0.010)
         - sum(f["penalty"] for f in robot["fouls"] if f["time"] <= t)
+    )
     return score, reached, errors[-1]
 
 

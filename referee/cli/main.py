@@ -30,16 +30,20 @@ from referee.terminal import safe
 def cmd_levels(args: argparse.Namespace) -> int:
     for name in levels.names():
         lv = load_level(levels.path(name), display=f"levels/{name}.yaml")
-        print(f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
-              f"default {lv.default_controller:<20} {lv.description}")
+        print(
+            f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
+            f"default {lv.default_controller:<20} {lv.description}"
+        )
     return 0
 
 
 def cmd_check(args: argparse.Namespace) -> int:
     for name in args.level:
         lv = find_level(name)
-        print(f"{name}: ok ({lv.name}: {len(lv.robots)} robot(s), {len(lv.beacons.items)} "
-              f"{lv.beacons.kind} beacons, {lv.task.kind} task)")
+        print(
+            f"{name}: ok ({lv.name}: {len(lv.robots)} robot(s), {len(lv.beacons.items)} "
+            f"{lv.beacons.kind} beacons, {lv.task.kind} task)"
+        )
     return 0
 
 
@@ -51,10 +55,17 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError(f"{path}: the folder does not exist")
     if args.logs:
         Path(args.logs).mkdir(parents=True, exist_ok=True)
-    result = run_match(level, teams, seed=args.seed, replay=args.replay, ideal=args.ideal,
-                       isolate=not args.in_process, limits=NO_LIMITS if args.no_limits else None,
-                       logs=Path(args.logs) if args.logs else None)
-    given = result["robots"][:len(args.team or [])]
+    result = run_match(
+        level,
+        teams,
+        seed=args.seed,
+        replay=args.replay,
+        ideal=args.ideal,
+        isolate=not args.in_process,
+        limits=NO_LIMITS if args.no_limits else None,
+        logs=Path(args.logs) if args.logs else None,
+    )
+    given = result["robots"][: len(args.team or [])]
     unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
     if given and len(unloadable) == len(given):  # nothing the user asked for could run
         raise UserError("; ".join(unloadable))
@@ -67,6 +78,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     from referee.contest import grade as g
+
     found = []
     for name in args.level:
         lv = find_level(name)
@@ -86,7 +98,9 @@ def cmd_grade(args: argparse.Namespace) -> int:
         try:
             given = Path(args.secret_file).read_text(encoding="utf-8").strip()
         except (OSError, UnicodeDecodeError) as e:
-            raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
+            raise UserError(
+                f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}"
+            ) from None
         if not given:
             raise UserError(f"{args.secret_file}: the secret file is empty")
     journal = g.Journal(db)
@@ -97,13 +111,17 @@ def cmd_grade(args: argparse.Namespace) -> int:
     text = g.write_leaderboard(rows, Path(args.out))
     if not args.quiet:
         print(text, end="")
-        print(f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
-              f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
+        print(
+            f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
+            f"{time.perf_counter() - start:.1f} s",
+            file=sys.stderr,
+        )
     return 0
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
     from referee.match.verify import verify
+
     ok, message = verify(Path(args.replay), args.team)
     print(safe(f"{args.replay}: {message}", 1000))
     return 0 if ok else 1
@@ -111,6 +129,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from referee.media.render import render
+
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
@@ -120,12 +139,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     html = args.html or (args.out if Path(args.out).suffix.lower() in (".html", ".htm") else None)
     if html:
         from referee.media.viewer import write_viewer
+
         write_viewer(Path(args.replay), Path(html), size=(w, h))
         if not args.quiet:
             print(f"wrote {html}: open it in a web browser")
     if args.out and args.out != html:
-        n = render(Path(args.replay), Path(args.out), fps=args.fps, size=(w, h), start=getattr(args, "from"),
-                   end=args.to, quiet=args.quiet)
+        n = render(
+            Path(args.replay),
+            Path(args.out),
+            fps=args.fps,
+            size=(w, h),
+            start=getattr(args, "from"),
+            end=args.to,
+            quiet=args.quiet,
+        )
         if not args.quiet:
             print(f"wrote {n} frames to {args.out}")
     return 0
@@ -133,6 +160,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_watch(args: argparse.Namespace) -> int:
     from referee.media.watch import KEYS_HELP, watch
+
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
@@ -144,6 +172,7 @@ def cmd_watch(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     from referee.media.plot import error_figure
+
     if args.width < 320:
         raise UserError("--width must be at least 320")
     if not Path(args.out).resolve().parent.is_dir():
@@ -152,9 +181,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     for r in fig.robots:
         if r.times:
             rms = (sum(v * v for v in r.position_mm) / len(r.times)) ** 0.5
-            print(f"{r.slot} {r.team}: {len(r.times)} estimates, position error rms {rms:.1f} mm "
-                  f"max {max(r.position_mm):.1f} mm, heading error max {max(r.heading_deg):.1f} deg, "
-                  f"{len(r.fouls)} fouls, {len(r.faults)} faults")
+            print(
+                f"{r.slot} {r.team}: {len(r.times)} estimates, position error rms {rms:.1f} mm "
+                f"max {max(r.position_mm):.1f} mm, heading error max {max(r.heading_deg):.1f} deg, "
+                f"{len(r.fouls)} fouls, {len(r.faults)} faults"
+            )
         else:
             print(f"{r.slot} {r.team}: no estimates")
     print(f"wrote {args.out}")
@@ -163,15 +194,18 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_map(args: argparse.Namespace) -> int:
     from referee.media import accuracy_map as am
+
     maps = [am.compute(find_level(args.level), cells=args.cells)]
     if args.compare:
         maps.append(am.compute(find_level(args.compare), cells=args.cells))
     am.draw(maps, Path(args.out))
     for m in maps:
         finite = m.error[m.error == m.error]
-        print(f"{m.level.name}: bearing noise {1000 * m.sigma:.3f} mrad; position error bound "
-              f"median {1000 * float(np.median(finite)):.2f} mm, best {1000 * float(finite.min()):.2f} mm; "
-              f"{100 * float((m.seen < 3).mean()):.0f} % of the field sees fewer than 3 beacons")
+        print(
+            f"{m.level.name}: bearing noise {1000 * m.sigma:.3f} mrad; position error bound "
+            f"median {1000 * float(np.median(finite)):.2f} mm, best {1000 * float(finite.min()):.2f} mm; "
+            f"{100 * float((m.seen < 3).mean()):.0f} % of the field sees fewer than 3 beacons"
+        )
     print(f"wrote {args.out}")
     return 0
 
@@ -184,26 +218,36 @@ def cmd_new(args: argparse.Namespace) -> int:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="laserarena", description="LaserArena: spinning-laser beacon "
-                                "navigation contests, simulated and refereed.")
+    p = argparse.ArgumentParser(
+        prog="laserarena", description="LaserArena: spinning-laser beacon navigation contests, simulated and refereed."
+    )
     p.add_argument("--version", action="version", version=f"laserarena {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("run", help="run one match headless and print its score table")
     s.add_argument("level", help="a level file or built-in level name")
-    s.add_argument("--team", action="append", metavar="T",
-                   help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class")
+    s.add_argument(
+        "--team",
+        action="append",
+        metavar="T",
+        help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class",
+    )
     s.add_argument("--seed", type=int, help="match seed (default: the level's)")
     s.add_argument("--json", metavar="OUT", help="write the result JSON here")
     s.add_argument("--replay", metavar="OUT", help="write the replay here")
-    s.add_argument("--ideal", action="store_true",
-                   help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors")
-    s.add_argument("--in-process", action="store_true",
-                   help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
-                        "runs with the referee's rights (never for grading); same results within budget")
+    s.add_argument(
+        "--ideal",
+        action="store_true",
+        help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors",
+    )
+    s.add_argument(
+        "--in-process",
+        action="store_true",
+        help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
+        "runs with the referee's rights (never for grading); same results within budget",
+    )
     s.add_argument("--logs", metavar="DIR", help="keep each controller's output here (slotN.log)")
-    s.add_argument("--no-limits", action="store_true",
-                   help="no time or memory limits for the controllers (debugging)")
+    s.add_argument("--no-limits", action="store_true", help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
     s.set_defaults(func=cmd_run)
 
@@ -218,10 +262,17 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
-    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own, made on first "
-                   "use); every match's noise derives from it (docs/integrity.md)")
-    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE (keeps it off the "
-                   "command line, which other processes can read)")
+    s.add_argument(
+        "--secret",
+        metavar="S",
+        help="the noise secret (default: the journal's own, made on first "
+        "use); every match's noise derives from it (docs/integrity.md)",
+    )
+    s.add_argument(
+        "--secret-file",
+        metavar="FILE",
+        help="read the noise secret from FILE (keeps it off the command line, which other processes can read)",
+    )
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)

@@ -27,18 +27,43 @@ def _progress(task: dict) -> str:
 
 def table(result: MatchResult) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error."""
-    head = (f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
-            f"({result['end_reason'].replace('_', ' ')})")
-    cols = ("slot", "team", "score", "task", "pos rms mm", "pos max mm", "hdg rms deg", "hdg max deg",
-            "est %", "fouls", "faults")
+    head = (
+        f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
+        f"({result['end_reason'].replace('_', ' ')})"
+    )
+    cols = (
+        "slot",
+        "team",
+        "score",
+        "task",
+        "pos rms mm",
+        "pos max mm",
+        "hdg rms deg",
+        "hdg max deg",
+        "est %",
+        "fouls",
+        "faults",
+    )
     rows = [cols]
     for r in result["robots"]:
         loc = r["localization"]
         faults = ", ".join(f"{safe(f['kind'], 20)}@{f['time']:.2f}s" for f in r["faults"]) or "-"
         fouls = f"{len(r['fouls'])} (-{r['score']['penalties']:.1f})" if r["fouls"] else "-"
-        rows.append((str(r["slot"]), safe(r["team"], 60), f"{r['score']['total']:.1f}", _progress(r["task"]),
-                     _mm(loc["position_rms"]), _mm(loc["position_max"]), _deg(loc["heading_rms"]),
-                     _deg(loc["heading_max"]), f"{100 * loc['fraction']:.0f}", fouls, faults))
+        rows.append(
+            (
+                str(r["slot"]),
+                safe(r["team"], 60),
+                f"{r['score']['total']:.1f}",
+                _progress(r["task"]),
+                _mm(loc["position_rms"]),
+                _mm(loc["position_max"]),
+                _deg(loc["heading_rms"]),
+                _deg(loc["heading_max"]),
+                f"{100 * loc['fraction']:.0f}",
+                fouls,
+                faults,
+            )
+        )
     widths = [max(len(row[i]) for row in rows) for i in range(len(cols))]
     lines = [head] + ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
     return "\n".join(lines)

@@ -68,8 +68,7 @@ class Job:
 
     def key(self) -> tuple:
         """The journal key: everything the result depends on."""
-        return (self.level_hash, self.team, self.code_hash, self.seed, self.software, int(self.ideal),
-                self.secret_id)
+        return (self.level_hash, self.team, self.code_hash, self.seed, self.software, int(self.ideal), self.secret_id)
 
     def replay_name(self) -> str:
         """A readable, unique file name: two teams whose names clean up alike still differ."""
@@ -144,8 +143,10 @@ class Journal:
             version = self.db.execute("PRAGMA user_version").fetchone()[0]
             tables = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             if version != SCHEMA_VERSION and tables:
-                raise UserError(f"{path}: a journal of another LaserArena version (schema {version}, "
-                                f"this is {SCHEMA_VERSION}); grade into a new --db")
+                raise UserError(
+                    f"{path}: a journal of another LaserArena version (schema {version}, "
+                    f"this is {SCHEMA_VERSION}); grade into a new --db"
+                )
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.executescript(SCHEMA)
             self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
@@ -176,9 +177,23 @@ class Journal:
         return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
 
     def record(self, job: Job, result: str, replay: str, wall: float) -> None:
-        self.db.execute("INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                        (job.level, job.level_hash, job.team, job.code_hash, job.seed, job.software,
-                         int(job.ideal), job.secret_id, result, replay, wall, time.time()))
+        self.db.execute(
+            "INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (
+                job.level,
+                job.level_hash,
+                job.team,
+                job.code_hash,
+                job.seed,
+                job.software,
+                int(job.ideal),
+                job.secret_id,
+                result,
+                replay,
+                wall,
+                time.time(),
+            ),
+        )
         self.db.commit()  # at once: a killed run loses nothing that finished
 
     def results(self, jobs: Iterable[Job]) -> list[tuple[Job, dict]]:
@@ -214,15 +229,24 @@ class Progress:
         filled = round(width * self.done / self.total) if self.total else width
         bar = "#" * filled + "." * (width - filled)
         end = "\n" if self.done == self.total or not sys.stderr.isatty() else ""
-        print(f"\r[{bar}] {self.done}/{self.total} matches  {rate * 60:.1f}/min  ETA {left:4.0f} s  "
-              f"{safe(label, 40):<40}", end=end, file=sys.stderr, flush=True)
+        print(
+            f"\r[{bar}] {self.done}/{self.total} matches  {rate * 60:.1f}/min  ETA {left:4.0f} s  "
+            f"{safe(label, 40):<40}",
+            end=end,
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: str, software: str) -> list[Job]:
     """Every (level, team, seed), in a fixed order; `teams` holds (spec, code hash) pairs."""
     sid = secret_id(secret)
-    return [Job(lv.name, str(path), lv.hash, spec, code, seed, software, sid, noise_key(secret, lv.hash, seed))
-            for lv, path in levels for spec, code in teams for seed in range(1, seeds + 1)]
+    return [
+        Job(lv.name, str(path), lv.hash, spec, code, seed, software, sid, noise_key(secret, lv.hash, seed))
+        for lv, path in levels
+        for spec, code in teams
+        for seed in range(1, seeds + 1)
+    ]
 
 
 def _replay_folder(db: Path) -> Path:
@@ -235,8 +259,9 @@ def _replay_folder(db: Path) -> Path:
     return folder
 
 
-def grade(jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | None = None,
-          quiet: bool = False) -> Journal:
+def grade(
+    jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | None = None, quiet: bool = False
+) -> Journal:
     """Run every job not yet in `journal`; replays go to the journal's folder/replays."""
     replay_dir = _replay_folder(journal.path)
     done = journal.done()
@@ -289,8 +314,9 @@ def _worker_init(parent: int) -> None:
 
 def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Generator[tuple[Job, str, float]]:
     # spawn, never fork: a forked worker would inherit the parent's state
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
-                               initializer=_worker_init, initargs=(os.getpid(),))
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
+    )
     try:
         futures = [pool.submit(play, j, replay_dir) for j in todo]
         for f in as_completed(futures):
@@ -318,9 +344,38 @@ def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Generator[tupl
 
 # ---- the leaderboard --------------------------------------------------------------------
 
-T975 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-        2.052, 2.048, 2.045, 2.042]  # Student's t, 97.5 %, df = 1..30
+T975 = [
+    12.706,
+    4.303,
+    3.182,
+    2.776,
+    2.571,
+    2.447,
+    2.365,
+    2.306,
+    2.262,
+    2.228,
+    2.201,
+    2.179,
+    2.160,
+    2.145,
+    2.131,
+    2.120,
+    2.110,
+    2.101,
+    2.093,
+    2.086,
+    2.080,
+    2.074,
+    2.069,
+    2.064,
+    2.060,
+    2.056,
+    2.052,
+    2.048,
+    2.045,
+    2.042,
+]  # Student's t, 97.5 %, df = 1..30
 
 
 def interval(values: list[float]) -> tuple[float, float]:
@@ -343,14 +398,19 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
     for (team, level), robots in groups.items():
         mean, half = interval([r["score"]["total"] for r in robots])
         rms = [r["localization"]["position_rms"] for r in robots if r["localization"]["position_rms"] is not None]
-        rows.append({
-            "team": team, "level": level, "matches": len(robots),
-            "score_mean": round(mean, 3), "score_ci95": round(half, 3),
-            "task_mean": round(sum(r["score"]["task"] for r in robots) / len(robots), 3),
-            "position_rms_mm": round(1000 * sum(rms) / len(rms), 3) if rms else None,
-            "fouls": sum(len(r["fouls"]) for r in robots),
-            "faults": sum(len(r["faults"]) for r in robots),
-        })
+        rows.append(
+            {
+                "team": team,
+                "level": level,
+                "matches": len(robots),
+                "score_mean": round(mean, 3),
+                "score_ci95": round(half, 3),
+                "task_mean": round(sum(r["score"]["task"] for r in robots) / len(robots), 3),
+                "position_rms_mm": round(1000 * sum(rms) / len(rms), 3) if rms else None,
+                "fouls": sum(len(r["fouls"]) for r in robots),
+                "faults": sum(len(r["faults"]) for r in robots),
+            }
+        )
     rows.sort(key=lambda r: (r["level"], -r["score_mean"], r["team"]))
     return rows
 
@@ -364,14 +424,17 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
     w.writerows(rows)
     out.write_text(buf.getvalue())
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
-    md = ["| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
-          "|---|---|---|---|---|---|---|---|"]
+    md = [
+        "| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         rms = "-" if r["position_rms_mm"] is None else f"{r['position_rms_mm']:.1f}"
         team = safe(r["team"]).replace("|", "\\|")
-        md.append(f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
-                  f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |")
+        md.append(
+            f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
+            f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
+        )
     text = "\n".join(md) + "\n"
     out.with_suffix(".md").write_text(text)
     return text
-

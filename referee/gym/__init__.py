@@ -32,9 +32,17 @@ class LaserArenaEnv(gymnasium.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, level: str | Path | Level = "asabe", slot: int = 0, others: list[str] | None = None,
-                 ideal: bool = False, report_estimate: bool = False, replay: str | Path | None = None,
-                 render_mode: str | None = None, render_size: tuple[int, int] = (480, 360)):
+    def __init__(
+        self,
+        level: str | Path | Level = "asabe",
+        slot: int = 0,
+        others: list[str] | None = None,
+        ideal: bool = False,
+        report_estimate: bool = False,
+        replay: str | Path | None = None,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (480, 360),
+    ):
         self.session = AgentSession(level, (slot,), others, ideal, report_estimate, replay)
         self.slot = slot
         enc = self.session.encoders[slot]
@@ -64,6 +72,7 @@ class LaserArenaEnv(gymnasium.Env):
     def render(self):
         if self.render_mode == "rgb_array":
             from referee.gym.view import frame
+
             return frame(self.session, self.render_size)
         return None
 

@@ -39,7 +39,7 @@ class ObservationEncoder:
         high[5] = AGE_MAX
         for k in range(len(self.ids)):
             i = HEADER + PER_BEACON * k
-            low[i:i + 2] = -1.0
+            low[i : i + 2] = -1.0
             high[i + 2] = AGE_MAX
         self.low, self.high = low, high
         self.reset()
@@ -61,7 +61,7 @@ class ObservationEncoder:
             if e.kind == "index":
                 self.index_time = e.time
             elif e.kind == "scan" and self.samples:
-                self.scan = np.asarray(e.samples[:self.samples], dtype=np.float32) / 255.0
+                self.scan = np.asarray(e.samples[: self.samples], dtype=np.float32) / 255.0
             elif e.kind == "hit":
                 hit = (self.bearing(e.time, e.angle), e.time)
                 if e.beacon is not None and e.beacon in self.ids:
@@ -86,5 +86,5 @@ class ObservationEncoder:
             angle, t = hit
             v[i], v[i + 1], v[i + 2], v[i + 3] = math.cos(angle), math.sin(angle), min(AGE_MAX, time - t), 1.0
         if self.samples:
-            v[HEADER + PER_BEACON * len(self.ids):] = self.scan
+            v[HEADER + PER_BEACON * len(self.ids) :] = self.scan
         return np.clip(v, self.low, self.high).astype(np.float32)

@@ -25,9 +25,15 @@ class LaserArenaParallelEnv(ParallelEnv):
 
     metadata = {"name": "laserarena_v0", "render_modes": ["rgb_array"], "render_fps": 30}
 
-    def __init__(self, level: str | Path | Level = "asabe-race", ideal: bool = False, report_estimate: bool = False,
-                 replay: str | Path | None = None, render_mode: str | None = None,
-                 render_size: tuple[int, int] = (480, 360)):
+    def __init__(
+        self,
+        level: str | Path | Level = "asabe-race",
+        ideal: bool = False,
+        report_estimate: bool = False,
+        replay: str | Path | None = None,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (480, 360),
+    ):
         level = load(level)
         n = len(level.robots)
         self.session = AgentSession(level, tuple(range(n)), [], ideal, report_estimate, replay)
@@ -62,8 +68,7 @@ class LaserArenaParallelEnv(ParallelEnv):
         match_seed = seed if seed is not None else int(self._rng.integers(0, 2**31 - 1))
         obs = self.session.reset(match_seed)
         self.agents = list(self.possible_agents)
-        return ({a: obs[self._slot(a)] for a in self.agents},
-                {a: {"seed": match_seed} for a in self.agents})
+        return ({a: obs[self._slot(a)] for a in self.agents}, {a: {"seed": match_seed} for a in self.agents})
 
     def step(self, actions: dict):
         out = self.session.step({self._slot(a): actions[a] for a in self.agents if a in actions})
@@ -72,14 +77,14 @@ class LaserArenaParallelEnv(ParallelEnv):
         def pick(d: dict) -> dict:
             return {a: d[self._slot(a)] for a in live}
 
-        result = (pick(out.observations), pick(out.rewards), pick(out.terminated), pick(out.truncated),
-                  pick(out.infos))
+        result = (pick(out.observations), pick(out.rewards), pick(out.terminated), pick(out.truncated), pick(out.infos))
         self.agents = [a for a in live if not (out.terminated[self._slot(a)] or out.truncated[self._slot(a)])]
         return result
 
     def render(self):
         if self.render_mode == "rgb_array":
             from referee.gym.view import frame
+
             return frame(self.session, self.render_size)
         return None
 

@@ -45,6 +45,7 @@ def load(level: str | Path | Level) -> Level:
     if isinstance(level, Level):
         return level
     from arena.loader import find_level
+
     return find_level(str(level))
 
 
@@ -55,8 +56,15 @@ class AgentSession:
     robot's top speed; with `report_estimate`, followed by the pose estimate that the referee
     scores, x and y scaled so -1..1 spans the field and heading / pi."""
 
-    def __init__(self, level: str | Path | Level, agents: tuple[int, ...], others: list[str] | None = None,
-                 ideal: bool = False, report_estimate: bool = False, replay: str | Path | None = None):
+    def __init__(
+        self,
+        level: str | Path | Level,
+        agents: tuple[int, ...],
+        others: list[str] | None = None,
+        ideal: bool = False,
+        report_estimate: bool = False,
+        replay: str | Path | None = None,
+    ):
         self.level = load(level)
         n = len(self.level.robots)
         if not agents or any(not 0 <= s < n for s in agents) or len(set(agents)) != len(agents):
@@ -84,8 +92,10 @@ class AgentSession:
     def reset(self, seed: int) -> dict[int, np.ndarray]:
         """Start a new match with `seed`; return each agent's first observation."""
         self.close()
-        teams = [self.others[s] if s in self.others else Team(f"agent{s}", AGENT_SPEC, AGENT_HASH, factory=Idle)
-                 for s in range(len(self.level.robots))]
+        teams = [
+            self.others[s] if s in self.others else Team(f"agent{s}", AGENT_SPEC, AGENT_HASH, factory=Idle)
+            for s in range(len(self.level.robots))
+        ]
         self.match = Match(self.level, teams, seed=seed, replay=self.replay, ideal=self.ideal, isolate=False)
         self.match.begin()
         self.result = None
@@ -184,7 +194,7 @@ class AgentSession:
         reward = phi - self.potential[slot]
         self.potential[slot] = phi
         fouls = m.rules.fouls[slot]
-        reward -= sum(f.penalty for f in fouls[self.fouls[slot]:])
+        reward -= sum(f.penalty for f in fouls[self.fouls[slot] :])
         self.fouls[slot] = len(fouls)
         finished = m.tracker.finished[slot]
         if finished is not None and not self.done[slot] and m.tracker.kind != "localize":

@@ -10,12 +10,16 @@ from arena.draw import Painter, RobotView, Scene
 def frame(session, size: tuple[int, int]) -> np.ndarray:
     """The session's match now, drawn with the replay renderer's painter: (height, width, 3) uint8."""
     import pygame
+
     level, match = session.level, session.match
     robots = []
     for slot, r in enumerate(level.robots):
         p = match.world.pose(slot) if match else r.start
-        robots.append(RobotView(slot, p.x, p.y, p.heading, r.model.length, r.model.width,
-                                stopped=bool(match and match.stopped[slot])))
+        robots.append(
+            RobotView(
+                slot, p.x, p.y, p.heading, r.model.length, r.model.width, stopped=bool(match and match.stopped[slot])
+            )
+        )
     paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in level.robots)
     t = match.world.time if match else 0.0
     surface = pygame.Surface(size)

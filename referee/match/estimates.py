@@ -40,7 +40,9 @@ class EstimateStats:
         """The accumulated errors as the robot's localization record."""
         n = self.estimated
         return Localization(
-            ticks=self.ticks, estimates=n, fraction=self.fraction,
+            ticks=self.ticks,
+            estimates=n,
+            fraction=self.fraction,
             position_rms=math.sqrt(self.pos_sq / n) if n else None,
             position_max=self.pos_max if n else None,
             heading_rms=math.sqrt(self.hdg_sq / n) if n else None,

@@ -31,8 +31,15 @@ from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import Team
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 
-NO_LIMITS = ControllerLimits(setup_time=float("inf"), step_time=float("inf"), step_deadline=float("inf"),
-                             overage_bank=float("inf"), max_skips=1 << 62, memory=0, log_bytes=0)
+NO_LIMITS = ControllerLimits(
+    setup_time=float("inf"),
+    step_time=float("inf"),
+    step_deadline=float("inf"),
+    overage_bank=float("inf"),
+    max_skips=1 << 62,
+    memory=0,
+    log_bytes=0,
+)
 
 
 class Hook(Protocol):
@@ -106,10 +113,19 @@ class _RecordHook:
 class Match:
     """One match of a level between teams (one per robot slot), run to its end by `run()`."""
 
-    def __init__(self, level: Level, teams: list[Team], seed: int | None = None,
-                 replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-                 limits: ControllerLimits | None = None, logs: Path | None = None, recorder=None,
-                 noise_key: str | None = None):
+    def __init__(
+        self,
+        level: Level,
+        teams: list[Team],
+        seed: int | None = None,
+        replay: str | Path | None = None,
+        ideal: bool = False,
+        isolate: bool = True,
+        limits: ControllerLimits | None = None,
+        logs: Path | None = None,
+        recorder=None,
+        noise_key: str | None = None,
+    ):
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
@@ -122,20 +138,22 @@ class Match:
         limits = level.limits if limits is None else limits
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate
-                     else InProcessBot(t) for i, t in enumerate(teams)]
+        self.bots = [
+            ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate else InProcessBot(t)
+            for i, t in enumerate(teams)
+        ]
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
         self.rules = Rules(level)
-        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker, level.steps_per_record),
-                                  self.rules]
+        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker, level.steps_per_record), self.rules]
         self.writer = recorder  # anything with ReplayWriter's frame / record / close
         if replay is not None:
-            self.writer = ReplayWriter(replay, level, level.text, self.seed, ideal,
-                                       [(t.label, t.spec) for t in teams], __version__, noise_key)
+            self.writer = ReplayWriter(
+                replay, level, level.text, self.seed, ideal, [(t.label, t.spec) for t in teams], __version__, noise_key
+            )
         if self.writer is not None:
             self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
         self.end_reason = "time_limit"
@@ -236,8 +254,9 @@ class Match:
             for hook in self.hooks:
                 hook.after_step(world)
             if self._over():
-                self.end_reason = "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) \
-                    else "all_stopped"
+                self.end_reason = (
+                    "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) else "all_stopped"
+                )
                 self.ended = True
                 return
             if world.tick >= self.total_steps:
@@ -263,27 +282,43 @@ class Match:
         for slot, team in enumerate(self.teams):
             pose = self.world.pose(slot)
             stats = self.estimates[slot]
-            robots.append(RobotResult(
-                slot=slot,
-                team=team.label,
-                score=score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
-                task=self.tracker.summary(slot),
-                localization=stats.summary(),
-                fouls=[f.to_record() for f in self.rules.fouls[slot]],
-                faults=[f.to_record() for f in self.faults[slot]],
-                stopped=self.stopped[slot],
-                final_pose=[pose.x, pose.y, pose.heading],
-            ))
-        return MatchResult(format=RESULT_FORMAT, version=RESULT_VERSION, software=__version__,
-                           level=LevelRef(name=self.level.name, hash=self.level.hash), seed=self.seed,
-                           ideal=self.ideal, end_time=self.world.time, end_reason=self.end_reason,
-                           robots=robots)
+            robots.append(
+                RobotResult(
+                    slot=slot,
+                    team=team.label,
+                    score=score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
+                    task=self.tracker.summary(slot),
+                    localization=stats.summary(),
+                    fouls=[f.to_record() for f in self.rules.fouls[slot]],
+                    faults=[f.to_record() for f in self.faults[slot]],
+                    stopped=self.stopped[slot],
+                    final_pose=[pose.x, pose.y, pose.heading],
+                )
+            )
+        return MatchResult(
+            format=RESULT_FORMAT,
+            version=RESULT_VERSION,
+            software=__version__,
+            level=LevelRef(name=self.level.name, hash=self.level.hash),
+            seed=self.seed,
+            ideal=self.ideal,
+            end_time=self.world.time,
+            end_reason=self.end_reason,
+            robots=robots,
+        )
 
 
-def run_match(level: Level, teams: list[Team], seed: int | None = None,
-              replay: str | Path | None = None, ideal: bool = False, isolate: bool = True,
-              limits: ControllerLimits | None = None, logs: Path | None = None,
-              noise_key: str | None = None) -> MatchResult:
+def run_match(
+    level: Level,
+    teams: list[Team],
+    seed: int | None = None,
+    replay: str | Path | None = None,
+    ideal: bool = False,
+    isolate: bool = True,
+    limits: ControllerLimits | None = None,
+    logs: Path | None = None,
+    noise_key: str | None = None,
+) -> MatchResult:
     """Run one match and return its result. `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
     their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
@@ -291,4 +326,3 @@ def run_match(level: Level, teams: list[Team], seed: int | None = None,
     `noise_key` (hex) mixes a secret into every random stream, so the public seed alone cannot
     reproduce the noise."""
     return Match(level, teams, seed, replay, ideal, isolate, limits, logs, noise_key=noise_key).run()
-

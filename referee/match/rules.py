@@ -32,8 +32,9 @@ class Foul:
 
     def to_record(self) -> FoulRecord:
         """The foul as it appears in the result and the replay."""
-        return FoulRecord(kind=self.kind, tick=self.tick, time=self.time, place=list(self.place),
-                          penalty=self.penalty, **self.detail)
+        return FoulRecord(
+            kind=self.kind, tick=self.tick, time=self.time, place=list(self.place), penalty=self.penalty, **self.detail
+        )
 
 
 class Rules:
@@ -52,11 +53,12 @@ class Rules:
 
     def _add(self, kind: str, tick: int, robot: int, place: tuple[float, float], **detail) -> None:
         penalty = self.rules.penalties.get(kind, 0.0)
-        self.fouls[robot].append(Foul(kind, tick, tick / self.level.physics_rate, robot,
-                                      (float(place[0]), float(place[1])), penalty, detail))
+        self.fouls[robot].append(
+            Foul(kind, tick, tick / self.level.physics_rate, robot, (float(place[0]), float(place[1])), penalty, detail)
+        )
 
     def after_step(self, world: World) -> None:
-        for c in world.contacts[self.seen_contacts:]:
+        for c in world.contacts[self.seen_contacts :]:
             if c.impulse >= self.rules.min_impulse:
                 if c.other_robot is not None:  # a robot-robot contact
                     self._add("robot_collision", c.tick, c.robot, c.point, impulse=c.impulse, other=c.other_robot)
@@ -82,8 +84,7 @@ class Rules:
 
     def controller(self, slot: int, tick: int, kind: str, place: tuple[float, float], message: str) -> None:
         """A skipped tick or a fault reported by the controller's process."""
-        self._add("skipped_tick" if kind == "skipped_tick" else "fault", tick, slot, place, fault=kind,
-                  message=message)
+        self._add("skipped_tick" if kind == "skipped_tick" else "fault", tick, slot, place, fault=kind, message=message)
 
     def finish(self, world: World) -> None:
         """End of match: contacts still going on count too."""
@@ -98,7 +99,7 @@ class Polyline:
         p = np.asarray(points, dtype=float)
         self.a = p[:-1]
         self.d = p[1:] - p[:-1]
-        self.n2 = np.maximum((self.d ** 2).sum(axis=1), 1e-300)
+        self.n2 = np.maximum((self.d**2).sum(axis=1), 1e-300)
 
     def distance(self, x: float, y: float) -> float:
         """Distance (m) from (x, y) to the polyline."""

@@ -24,11 +24,15 @@ class TaskTracker:
         self.reached_at: list[list[float]] = [[] for _ in level.robots]
         self.finished: list[float | None] = [None] * len(level.robots)
         self.final_distance: list[float] = [math.nan] * len(level.robots)
-        self.start_distance = [math.dist((r.start.x, r.start.y), self.targets(r.slot)[0]) if self.targets(r.slot)
-                               else math.nan for r in level.robots]
+        self.start_distance = [
+            math.dist((r.start.x, r.start.y), self.targets(r.slot)[0]) if self.targets(r.slot) else math.nan
+            for r in level.robots
+        ]
         # the ideal polyline: from the start through every waypoint
-        self.polyline = [Polyline([(r.start.x, r.start.y), *self.targets(r.slot)])
-                         if self.targets(r.slot) else None for r in level.robots]
+        self.polyline = [
+            Polyline([(r.start.x, r.start.y), *self.targets(r.slot)]) if self.targets(r.slot) else None
+            for r in level.robots
+        ]
         self.finished_count = 0
         self.deviation: list[list[float]] = [[] for _ in level.robots]
 
@@ -68,7 +72,11 @@ class TaskTracker:
         if self.kind == "goto":
             if self.done(slot):
                 return 1.0
-            return max(0.0, 1.0 - self.final_distance[slot] / self.start_distance[slot]) if self.start_distance[slot] else 0.0
+            return (
+                max(0.0, 1.0 - self.final_distance[slot] / self.start_distance[slot])
+                if self.start_distance[slot]
+                else 0.0
+            )
         return self.next[slot] / len(targets) if targets else 0.0
 
     def summary(self, slot: int) -> TaskProgress:
@@ -82,8 +90,14 @@ class TaskTracker:
                 mean = sum(dev) / len(dev)
                 std = math.sqrt(sum((d - mean) ** 2 for d in dev) / len(dev))
                 cross = CrossTrack(mean=1000 * mean, std=1000 * std, max=1000 * max(dev))
-            return TaskProgress(kind=self.kind, finished=finished, reached=self.next[slot], total=len(targets),
-                                reached_at=list(self.reached_at[slot]), cross_track_mm=cross)
+            return TaskProgress(
+                kind=self.kind,
+                finished=finished,
+                reached=self.next[slot],
+                total=len(targets),
+                reached_at=list(self.reached_at[slot]),
+                cross_track_mm=cross,
+            )
         if self.kind == "goto":
             return TaskProgress(kind=self.kind, finished=finished, final_distance=self.final_distance[slot])
         return TaskProgress(kind=self.kind, finished=finished)

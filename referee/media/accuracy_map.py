@@ -25,8 +25,13 @@ from arena.level import Level
 from arena.world import CAT_OBSTACLE, World
 
 NO_FIX = (90, 90, 96)
-STOPS = [(0.0, (48, 18, 59)), (0.25, (50, 136, 189)), (0.5, (102, 194, 165)), (0.75, (254, 224, 139)),
-         (1.0, (213, 62, 79))]  # a perceptual-ish ramp from dark blue (good) to red (poor)
+STOPS = [
+    (0.0, (48, 18, 59)),
+    (0.25, (50, 136, 189)),
+    (0.5, (102, 194, 165)),
+    (0.75, (254, 224, 139)),
+    (1.0, (213, 62, 79)),
+]  # a perceptual-ish ramp from dark blue (good) to red (poor)
 
 
 @dataclass(frozen=True)
@@ -53,8 +58,19 @@ def visible_beacons(level: Level, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     dx, dy = bx[beacon] - px, by[beacon] - py
     omega = level.robots[0].laser.angular_velocity
     zeros = np.zeros(n * m)
-    c = Crossings(robot=zeros.astype(int), beacon=beacon, step=zeros.astype(int), s=zeros, t=zeros, x=px, y=py,
-                  phi=zeros, beam_rate=np.full(n * m, omega), distance=np.hypot(dx, dy), bearing=np.arctan2(dy, dx))
+    c = Crossings(
+        robot=zeros.astype(int),
+        beacon=beacon,
+        step=zeros.astype(int),
+        s=zeros,
+        t=zeros,
+        x=px,
+        y=py,
+        phi=zeros,
+        beam_rate=np.full(n * m, omega),
+        distance=np.hypot(dx, dy),
+        bearing=np.arctan2(dy, dx),
+    )
     kind = level.beacons.kind
     ok = det.visible(kind, c, facing, level.beacons.params) if kind != "light" else np.ones(n * m, bool)
     ok &= c.distance > level.beacons.radius
@@ -109,11 +125,17 @@ def compute(level: Level, cells: int = 120, sigma: float | None = None) -> Accur
     ambiguous = None
     if level.beacons.kind == "reflector":  # unlabelled: Vannoy's sector rule must tell them apart
         from robots.toolkit.associate import by_sectors
+
         named = {b.id: (b.x, b.y) for b in level.beacons.items}
         ref = level.field.center
-        ambiguous = np.array([by_sectors(sorted(math.atan2(by - py, bx - px) % (2 * math.pi)
-                                                for bx, by in named.values()), named, ref).ambiguous
-                              for px, py in zip(x, y)]).reshape(gy.shape)
+        ambiguous = np.array(
+            [
+                by_sectors(
+                    sorted(math.atan2(by - py, bx - px) % (2 * math.pi) for bx, by in named.values()), named, ref
+                ).ambiguous
+                for px, py in zip(x, y)
+            ]
+        ).reshape(gy.shape)
     return AccuracyMap(level, xs, ys, err.reshape(gy.shape), mask.sum(axis=1).reshape(gy.shape), sigma, ambiguous)
 
 
@@ -144,8 +166,10 @@ def draw(maps: list[AccuracyMap], out: Path, panel: int = 560) -> None:
     surface.fill(BACKGROUND)
     for k, m in enumerate(maps):
         _panel(surface, m, (k * panel + 10, 50), panel - 20, lo, hi, small)
-        surface.blit(font.render(f"{m.level.name}: CRLB, sigma {1000 * m.sigma:.2f} mrad", True, (235, 235, 235)),
-                     (k * panel + 10, 14))
+        surface.blit(
+            font.render(f"{m.level.name}: CRLB, sigma {1000 * m.sigma:.2f} mrad", True, (235, 235, 235)),
+            (k * panel + 10, 14),
+        )
     _colour_bar(surface, (len(maps) * panel + 10, 50), panel - 40, lo, hi, small)
     pygame.image.save(surface, str(out))
 
@@ -190,7 +214,7 @@ def _panel(surface, m: AccuracyMap, origin, size, lo, hi, font) -> None:
 
 def _contours(surface, m: AccuracyMap, to, lo, hi) -> None:
     """Iso-lines at 1-2-5 steps (mm): a segment across every cell edge pair the level crosses."""
-    levels = [v * 10 ** k for k in range(-3, 5) for v in (1, 2, 5) if lo <= v * 10 ** k <= hi]
+    levels = [v * 10**k for k in range(-3, 5) for v in (1, 2, 5) if lo <= v * 10**k <= hi]
     e = m.error * 1000
     for level in levels:
         above = np.where(np.isfinite(e), e > level, False)
@@ -200,14 +224,23 @@ def _contours(surface, m: AccuracyMap, to, lo, hi) -> None:
                 if all(corners) or not any(corners):
                     continue
                 pts = []
-                coords = ((m.xs[i], m.ys[j]), (m.xs[i + 1], m.ys[j]), (m.xs[i + 1], m.ys[j + 1]), (m.xs[i], m.ys[j + 1]))
+                coords = (
+                    (m.xs[i], m.ys[j]),
+                    (m.xs[i + 1], m.ys[j]),
+                    (m.xs[i + 1], m.ys[j + 1]),
+                    (m.xs[i], m.ys[j + 1]),
+                )
                 vals = (e[j, i], e[j, i + 1], e[j + 1, i + 1], e[j + 1, i])
                 for a in range(4):
                     b = (a + 1) % 4
                     if corners[a] != corners[b] and np.isfinite(vals[a]) and np.isfinite(vals[b]):
                         t = (level - vals[a]) / (vals[b] - vals[a])
-                        pts.append(to(coords[a][0] + t * (coords[b][0] - coords[a][0]),
-                                      coords[a][1] + t * (coords[b][1] - coords[a][1])))
+                        pts.append(
+                            to(
+                                coords[a][0] + t * (coords[b][0] - coords[a][0]),
+                                coords[a][1] + t * (coords[b][1] - coords[a][1]),
+                            )
+                        )
                 if len(pts) >= 2:
                     pygame.draw.line(surface, (20, 20, 20), pts[0], pts[1], 1)
 
@@ -216,7 +249,7 @@ def _colour_bar(surface, origin, height, lo, hi, font) -> None:
     ox, oy = origin
     for k in range(height):
         pygame.draw.line(surface, _colour(1 - k / height), (ox, oy + k), (ox + 18, oy + k))
-    for v in [v * 10 ** k for k in range(-3, 5) for v in (1, 2, 5)]:
+    for v in [v * 10**k for k in range(-3, 5) for v in (1, 2, 5)]:
         if lo <= v <= hi:
             up = (math.log(v) - math.log(lo)) / (math.log(hi) - math.log(lo))
             y = oy + (1 - up) * height
@@ -237,8 +270,14 @@ def _circumcircle(a, b, c):
     d = 2 * (a[0] * (b[1] - c[1]) + b[0] * (c[1] - a[1]) + c[0] * (a[1] - b[1]))
     if abs(d) < 1e-12:
         return None, math.inf
-    ux = ((a[0] ** 2 + a[1] ** 2) * (b[1] - c[1]) + (b[0] ** 2 + b[1] ** 2) * (c[1] - a[1])
-          + (c[0] ** 2 + c[1] ** 2) * (a[1] - b[1])) / d
-    uy = ((a[0] ** 2 + a[1] ** 2) * (c[0] - b[0]) + (b[0] ** 2 + b[1] ** 2) * (a[0] - c[0])
-          + (c[0] ** 2 + c[1] ** 2) * (b[0] - a[0])) / d
+    ux = (
+        (a[0] ** 2 + a[1] ** 2) * (b[1] - c[1])
+        + (b[0] ** 2 + b[1] ** 2) * (c[1] - a[1])
+        + (c[0] ** 2 + c[1] ** 2) * (a[1] - b[1])
+    ) / d
+    uy = (
+        (a[0] ** 2 + a[1] ** 2) * (c[0] - b[0])
+        + (b[0] ** 2 + b[1] ** 2) * (a[0] - c[0])
+        + (c[0] ** 2 + c[1] ** 2) * (b[0] - a[0])
+    ) / d
     return (ux, uy), math.dist((ux, uy), a)

@@ -33,8 +33,7 @@ def truth_at(frames: list, times: list[float], slot: int, t: float) -> tuple[flo
 
 def pose_error(estimate, truth) -> tuple[float, float]:
     """Position error (m) and absolute heading error (rad, 0..pi) of an estimate."""
-    return (math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]),
-            abs(wrap(estimate[2] - truth[2])))
+    return (math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]), abs(wrap(estimate[2] - truth[2])))
 
 
 @dataclass
@@ -56,8 +55,8 @@ class ErrorTrack:
 
     def extend(self, rep: Replay) -> None:
         """Take in the robot's estimate records whose truth is already recorded."""
-        self.frame_times.extend(f[0] for f in rep.frames[len(self.frame_times):])
-        for rec in rep.estimates[self.done:]:
+        self.frame_times.extend(f[0] for f in rep.frames[len(self.frame_times) :])
+        for rec in rep.estimates[self.done :]:
             if rec["r"] == self.slot:
                 truth = truth_at(rep.frames, self.frame_times, self.slot, rec["t"])
                 if truth is None:

@@ -91,12 +91,19 @@ def error_figure(replay: str | Path, out: str | Path | None = None, width: int =
         pos = tuple(1000 * v for v in track.position)
         hdg = tuple(math.degrees(v) for v in track.heading)
         y = (2 * s) * (PANEL_HEIGHT + GAP) + TITLE
-        robots.append(RobotErrors(
-            s, teams[s], tuple(track.times), pos, hdg,
-            tuple(sorted(f["time"] for f in rep.fouls if f["r"] == s)),
-            tuple(sorted(f["time"] for f in rep.faults if f["r"] == s)),
-            Panel((MARGIN_LEFT, y, plot_w, PANEL_HEIGHT), duration, _top(pos)),
-            Panel((MARGIN_LEFT, y + PANEL_HEIGHT + GAP, plot_w, PANEL_HEIGHT), duration, _top(hdg))))
+        robots.append(
+            RobotErrors(
+                s,
+                teams[s],
+                tuple(track.times),
+                pos,
+                hdg,
+                tuple(sorted(f["time"] for f in rep.fouls if f["r"] == s)),
+                tuple(sorted(f["time"] for f in rep.faults if f["r"] == s)),
+                Panel((MARGIN_LEFT, y, plot_w, PANEL_HEIGHT), duration, _top(pos)),
+                Panel((MARGIN_LEFT, y + PANEL_HEIGHT + GAP, plot_w, PANEL_HEIGHT), duration, _top(hdg)),
+            )
+        )
     height = len(robots) * 2 * (PANEL_HEIGHT + GAP) + TITLE
     fig = ErrorFigure(tuple(robots), (width, height), duration)
     if out is not None:
@@ -107,14 +114,17 @@ def error_figure(replay: str | Path, out: str | Path | None = None, width: int =
 def draw(fig: ErrorFigure, out: Path, title: str) -> None:
     """Draw the figure to a PNG file."""
     import pygame
+
     pygame.font.init()
     font = pygame.font.Font(None, 20)
     surface = pygame.Surface(fig.size)
     surface.fill(BACKGROUND)
     surface.blit(font.render(title, True, TEXT), (MARGIN_LEFT, 6))
     for r in fig.robots:
-        for panel, values, unit in ((r.position, r.position_mm, "position error, mm"),
-                                    (r.heading, r.heading_deg, "heading error, deg")):
+        for panel, values, unit in (
+            (r.position, r.position_mm, "position error, mm"),
+            (r.heading, r.heading_deg, "heading error, deg"),
+        ):
             _axes(surface, font, panel, f"{r.slot} {r.team}: {unit}", fig.duration)
             left, top, w, h = panel.rect
             for times, c in ((r.fouls, FOUL), (r.faults, FAULT)):
@@ -137,6 +147,7 @@ def draw(fig: ErrorFigure, out: Path, title: str) -> None:
 
 def _axes(surface, font, panel: Panel, label: str, duration: float) -> None:
     import pygame
+
     left, top, w, h = panel.rect
     for k in range(5):  # horizontal grid at quarters of the axis, labelled
         y = top + h - h * k / 4

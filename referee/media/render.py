@@ -48,13 +48,16 @@ class Scenes:
 
     def update(self) -> None:
         rep = self.rep
-        for e in rep.events[self.seen["e"]:]:
+        for e in rep.events[self.seen["e"] :]:
             if e.get("line"):
                 i = bisect.bisect_right(self.event_times, e["t"])
                 self.event_times.insert(i, e["t"])
                 self.events.insert(i, e)
-        for name, source, target, key in (("est", rep.estimates, self.estimates, "e"), ("dbg", rep.debug, self.debug, "d")):
-            for rec in source[self.seen[name]:]:
+        for name, source, target, key in (
+            ("est", rep.estimates, self.estimates, "e"),
+            ("dbg", rep.debug, self.debug, "d"),
+        ):
+            for rec in source[self.seen[name] :]:
                 times, values = target.setdefault(rec["r"], ([], []))
                 times.append(rec["t"])
                 values.append(rec[key])
@@ -70,16 +73,30 @@ class Scenes:
         robots = []
         for slot, r in enumerate(self.level.robots):
             x, y, h = frames[i][1][slot]
-            trail = tuple((f[1][slot][0], f[1][slot][1]) for f in frames[first:i + 1:2])
-            robots.append(RobotView(slot, float(x), float(y), float(h), r.model.length, r.model.width, trail,
-                                    _latest(self.estimates.get(slot), t), self.stopped_at.get(slot, 1e18) <= t))
+            trail = tuple((f[1][slot][0], f[1][slot][1]) for f in frames[first : i + 1 : 2])
+            robots.append(
+                RobotView(
+                    slot,
+                    float(x),
+                    float(y),
+                    float(h),
+                    r.model.length,
+                    r.model.width,
+                    trail,
+                    _latest(self.estimates.get(slot), t),
+                    self.stopped_at.get(slot, 1e18) <= t,
+                )
+            )
         lo = bisect.bisect_right(self.event_times, t - BEAM_WINDOW)
         hi = bisect.bisect_right(self.event_times, t)
         beams = tuple((e["s"] if e["s"] >= 0 else e["r"], *e["line"]) for e in self.events[lo:hi])
         drawings = tuple((slot, d) for slot in self.debug for d in (_latest(self.debug[slot], t) or []))
         fouls = sum(1 for f in self.foul_times if f <= t)
-        hud = (f"{self.level.name}  seed {self.rep.header['seed']}   t = {t:6.2f} s / {self.duration:.1f} s"
-               f"   fouls {fouls}", *self._standings(t))
+        hud = (
+            f"{self.level.name}  seed {self.rep.header['seed']}   t = {t:6.2f} s / {self.duration:.1f} s"
+            f"   fouls {fouls}",
+            *self._standings(t),
+        )
         return Scene(tuple(robots), beams, self.paths, drawings, hud, (t, self.foul_times, self.duration))
 
     def _standings(self, t: float) -> tuple[str, ...]:
@@ -105,8 +122,15 @@ def _latest(series: tuple[list, list] | None, t: float):
     return series[1][i] if i >= 0 else None
 
 
-def render(replay: Path, out: Path, fps: int = 30, size: tuple[int, int] = (960, 640),
-           start: float = 0.0, end: float | None = None, quiet: bool = False) -> int:
+def render(
+    replay: Path,
+    out: Path,
+    fps: int = 30,
+    size: tuple[int, int] = (960, 640),
+    start: float = 0.0,
+    end: float | None = None,
+    quiet: bool = False,
+) -> int:
     """Write frames (a folder of PNGs, or an .mp4); return how many."""
     try:
         scenes = Scenes(load(replay))
@@ -121,9 +145,17 @@ def render(replay: Path, out: Path, fps: int = 30, size: tuple[int, int] = (960,
     mp4 = out.suffix.lower() == ".mp4"
     if mp4:
         import imageio_ffmpeg
-        writer = imageio_ffmpeg.write_frames(str(out), size, fps=fps, codec="libx264", pix_fmt_in="rgb24",
-                                             macro_block_size=16, quality=None,
-                                             output_params=["-preset", "veryfast", "-crf", "26"])
+
+        writer = imageio_ffmpeg.write_frames(
+            str(out),
+            size,
+            fps=fps,
+            codec="libx264",
+            pix_fmt_in="rgb24",
+            macro_block_size=16,
+            quality=None,
+            output_params=["-preset", "veryfast", "-crf", "26"],
+        )
         writer.send(None)
     else:
         out.mkdir(parents=True, exist_ok=True)
@@ -136,7 +168,9 @@ def render(replay: Path, out: Path, fps: int = 30, size: tuple[int, int] = (960,
                 pygame.image.save(surface, str(out / f"frame_{k:05d}.png"))
             if not quiet and sys.stderr.isatty() and (k % 15 == 0 or k == len(times) - 1):
                 done = (k + 1) / len(times)
-                print(f"\r[{'#' * round(24 * done):<24}] {k + 1}/{len(times)} frames", end="", file=sys.stderr, flush=True)
+                print(
+                    f"\r[{'#' * round(24 * done):<24}] {k + 1}/{len(times)} frames", end="", file=sys.stderr, flush=True
+                )
     finally:
         if mp4:
             writer.close()

@@ -33,7 +33,7 @@ class Standings:
 
     def update(self) -> None:
         """Take in the frames and estimates recorded since the last call."""
-        for t, poses in self.rep.frames[self.frames_done:]:
+        for t, poses in self.rep.frames[self.frames_done :]:
             for slot, (x, y, _) in enumerate(poses):
                 if t > 0:  # the referee tracks after physics steps, never at the start
                     self.tracker.update(slot, x, y, t)
@@ -59,8 +59,7 @@ class Standings:
         n, rms = track.until(t), track.rms_until(t)
         if rms is not None:  # some estimate reported by `t`
             ticks = math.floor(t / self.level.control_period + 1e-9) + 1
-            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * \
-                quality(min(1.0, n / ticks), rms)
+            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality(min(1.0, n / ticks), rms)
         return points - sum(f["penalty"] for f in self.rep.fouls if f["r"] == slot and f["time"] <= t)
 
     def error_now(self, slot: int, t: float) -> tuple[float, float] | None:
@@ -75,7 +74,8 @@ class Standings:
         progress = self.progress[slot][self._frame(t)]
         targets = len(self.tracker.targets(slot))
         task = {"localize": "localize", "goto": f"{100 * progress:.0f} % of the way"}.get(
-            kind, f"{round(progress * targets)}/{targets} waypoints")
+            kind, f"{round(progress * targets)}/{targets} waypoints"
+        )
         err = self.error_now(slot, t)
         shown = f"err {1000 * err[0]:.0f} mm {math.degrees(err[1]):.0f} deg" if err else "no estimate"
         return f"{slot} {team}   score {self.score(slot, t):6.1f}   {task}   {shown}"

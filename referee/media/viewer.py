@@ -34,35 +34,57 @@ def level_geometry(level: Level) -> dict:
     return {
         "name": level.name,
         "field": {"origin": list(f.origin), "size": list(f.size), "walls": f.walls},
-        "obstacles": [{"kind": o.kind, "points": [list(p) for p in o.points], "radius": o.radius}
-                      for o in level.obstacles],
-        "beacons": {"kind": level.beacons.kind, "radius": level.beacons.radius,
-                    "items": [{"id": b.id, "x": b.x, "y": b.y, "facing": b.facing} for b in level.beacons.items]},
+        "obstacles": [
+            {"kind": o.kind, "points": [list(p) for p in o.points], "radius": o.radius} for o in level.obstacles
+        ],
+        "beacons": {
+            "kind": level.beacons.kind,
+            "radius": level.beacons.radius,
+            "items": [{"id": b.id, "x": b.x, "y": b.y, "facing": b.facing} for b in level.beacons.items],
+        },
         "robots": [{"length": r.model.length, "width": r.model.width} for r in level.robots],
         "paths": [[list(p) for p in path] for path in render.paths(level)],
-        "task": {"kind": level.task.kind, "radius": level.task.radius,
-                 "goal": None if level.task.goal is None else [level.task.goal.x, level.task.goal.y]},
+        "task": {
+            "kind": level.task.kind,
+            "radius": level.task.radius,
+            "goal": None if level.task.goal is None else [level.task.goal.x, level.task.goal.y],
+        },
         # what the HUD's standings need (referee/media/standings.py): each slot's start and targets
         "starts": [[r.start.x, r.start.y] for r in level.robots],
         "targets": [[list(p) for p in tracker.targets(r.slot)] for r in level.robots],
-        "time_limit": level.time_limit, "control_period": level.control_period,
+        "time_limit": level.time_limit,
+        "control_period": level.control_period,
     }
 
 
 def _style() -> dict:
     """arena/draw.py's colours and sizes, referee/media/render.py's time windows and the scoring
     constants, so the page and the pygame frames are drawn from one definition."""
-    return {"palette": draw.PALETTE, "background": draw.BACKGROUND, "field": draw.FIELD, "wall": draw.WALL,
-            "obstacle": draw.OBSTACLE, "beacon": draw.BEACON, "hud_height": draw.HUD_HEIGHT,
-            "hud_text": draw.HUD_TEXT, "trail": render.TRAIL, "beam_window": render.BEAM_WINDOW,
-            "points": {"task": scoring.TASK_POINTS, "time": scoring.TIME_POINTS,
-                       "localization": scoring.LOCALIZATION_POINTS, "localize_task": scoring.LOCALIZE_TASK_POINTS,
-                       "rms_scale": scoring.RMS_SCALE}}
+    return {
+        "palette": draw.PALETTE,
+        "background": draw.BACKGROUND,
+        "field": draw.FIELD,
+        "wall": draw.WALL,
+        "obstacle": draw.OBSTACLE,
+        "beacon": draw.BEACON,
+        "hud_height": draw.HUD_HEIGHT,
+        "hud_text": draw.HUD_TEXT,
+        "trail": render.TRAIL,
+        "beam_window": render.BEAM_WINDOW,
+        "points": {
+            "task": scoring.TASK_POINTS,
+            "time": scoring.TIME_POINTS,
+            "localization": scoring.LOCALIZATION_POINTS,
+            "localize_task": scoring.LOCALIZE_TASK_POINTS,
+            "rms_scale": scoring.RMS_SCALE,
+        },
+    }
 
 
 def _font() -> str:
     """pygame's default font (FreeSansBold, shipped with pygame-ce) as base64, or '' if absent."""
     import pygame
+
     path = Path(pygame.__file__).with_name(pygame.font.get_default_font())
     return base64.b64encode(path.read_bytes()).decode("ascii") if path.is_file() else ""
 
@@ -71,17 +93,30 @@ def _fonts(level: Level, size: tuple[int, int]) -> dict:
     """The sizes and metrics of arena/draw.py's two fonts on a frame of `size` (they depend
     on its height only), so the page places text where pygame does."""
     painter = draw.Painter(level, size)
-    return {key: {"size": f.point_size, "ascent": f.get_ascent(), "height": f.get_height(),
-                  "linesize": f.get_linesize(),
-                  "sample": SAMPLE, "sample_width": f.size(SAMPLE)[0]}
-            for key, f in (("big", painter.font), ("small", painter.small))}
+    return {
+        key: {
+            "size": f.point_size,
+            "ascent": f.get_ascent(),
+            "height": f.get_height(),
+            "linesize": f.get_linesize(),
+            "sample": SAMPLE,
+            "sample_width": f.size(SAMPLE)[0],
+        }
+        for key, f in (("big", painter.font), ("small", painter.small))
+    }
 
 
 def page(replay_bytes: bytes, name: str, known: dict[str, dict], fonts: dict, size: tuple[int, int]) -> str:
     """The page's HTML for one replay's bytes (`name` is its title); `known` maps level
     hashes to `level_geometry` (the page draws replays of those levels)."""
-    data = {"size": list(size), "style": _style(), "fonts": fonts, "levels": known, "name": name,
-            "replay": base64.b64encode(replay_bytes).decode("ascii")}
+    data = {
+        "size": list(size),
+        "style": _style(),
+        "fonts": fonts,
+        "levels": known,
+        "name": name,
+        "replay": base64.b64encode(replay_bytes).decode("ascii"),
+    }
     blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     html = (WEB / "viewer.html").read_text(encoding="utf-8")
     script = (WEB / "viewer.js").read_text(encoding="utf-8").replace("</", "<\\/")
@@ -108,8 +143,10 @@ def write_viewer(replay_path: str | Path, out_path: str | Path, size: tuple[int,
         raise UserError("render: need a size of at least 64x64")
     if not out_path.resolve().parent.is_dir():
         raise UserError(f"{out_path}: the folder does not exist")
-    known = {lv.hash: level_geometry(lv) for lv in
-             (load_level(levels.path(n), display=f"levels/{n}.yaml") for n in levels.names())}
+    known = {
+        lv.hash: level_geometry(lv)
+        for lv in (load_level(levels.path(n), display=f"levels/{n}.yaml") for n in levels.names())
+    }
     known[header["level"].get("hash", level.hash)] = level_geometry(level)
     html = page(raw, replay_path.name, known, _fonts(level, size), size)
     tmp = out_path.with_name(f".{out_path.name}.part")

@@ -39,6 +39,7 @@ class Viewer:
 
     def __init__(self, scenes, size: tuple[int, int], speed: float = 1.0):
         from arena.draw import Painter
+
         self.scenes, self.size, self.speed = scenes, size, speed
         self.painter = Painter(scenes.level, size)
         self.t, self.paused = 0.0, False
@@ -53,6 +54,7 @@ class Viewer:
     def key(self, key: int, text: str = "") -> bool:
         """React to a key; False means close."""
         import pygame
+
         if key in (pygame.K_ESCAPE, pygame.K_q):
             return False
         if key == pygame.K_h or text == "?":
@@ -90,13 +92,21 @@ class Viewer:
 
     def draw(self, surface) -> None:
         from arena.draw import help_box
+
         self.painter.draw(surface, self.scenes.at(self.t))
-        self.help_rect = help_box(surface, "LaserArena viewer: keys", KEYS, self.painter.font) \
-            if self.help_shown else None
+        self.help_rect = (
+            help_box(surface, "LaserArena viewer: keys", KEYS, self.painter.font) if self.help_shown else None
+        )
 
 
-def watch(target: str, teams: list[str] | None = None, seed: int | None = None, size: tuple[int, int] = (960, 700),
-          speed: float = 1.0, max_frames: int | None = None) -> int:
+def watch(
+    target: str,
+    teams: list[str] | None = None,
+    seed: int | None = None,
+    size: tuple[int, int] = (960, 700),
+    speed: float = 1.0,
+    max_frames: int | None = None,
+) -> int:
     """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
     import pygame
 
@@ -114,10 +124,12 @@ def watch(target: str, teams: list[str] | None = None, seed: int | None = None, 
         from arena.loader import find_level
         from referee.match.loop import Match
         from referee.sandbox.teams import fill_slots
+
         level = find_level(target)
         resolved = fill_slots(level, teams)
-        recorder = MemoryRecorder(level, level.text, level.seed if seed is None else seed, False,
-                                  [(t.label, t.spec) for t in resolved])
+        recorder = MemoryRecorder(
+            level, level.text, level.seed if seed is None else seed, False, [(t.label, t.spec) for t in resolved]
+        )
         match = Match(level, resolved, seed=seed, recorder=recorder)
         live = threading.Thread(target=match.run, daemon=True)
         live.start()

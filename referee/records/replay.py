@@ -75,6 +75,7 @@ class _Frame(msgspec.Struct):
 def controller_hash(spec: str) -> str:
     """sha256 of a controller's code, found without running it (`referee.sandbox.teams.Team.code_hash`)."""
     from referee.sandbox.teams import code_hash
+
     return code_hash(spec)
 
 
@@ -82,20 +83,38 @@ class ReplayWriter:
     """Writes one match's replay as it runs: to a private file (0600) beside the target,
     moved into place only when the match has ended, so no controller can read it meanwhile."""
 
-    def __init__(self, path: str | Path, level: Level, level_text: str, seed: int, ideal: bool,
-                 teams: list[tuple[str, str]], software: str, noise_key: str | None = None):
+    def __init__(
+        self,
+        path: str | Path,
+        level: Level,
+        level_text: str,
+        seed: int,
+        ideal: bool,
+        teams: list[tuple[str, str]],
+        software: str,
+        noise_key: str | None = None,
+    ):
         self.path = Path(path)
         fd, self.partial = tempfile.mkstemp(dir=self.path.resolve().parent, prefix=".laserarena-", suffix=".part")
         raw = os.fdopen(fd, "wb")
         self.gz = gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=6)
         self.raw = raw
         self.file: IO[str] = io.TextIOWrapper(self.gz, encoding="utf-8", newline="\n")
-        self._write({"format": FORMAT, "version": VERSION, "behaviour": BEHAVIOUR, "software": software,
-                     "level": {"name": level.name, "hash": level.hash, "text": level_text},
-                     "seed": seed, "ideal": ideal, "record_rate": level.record_rate,
-                     "control_period": level.control_period,
-                     "teams": [{"label": label, "spec": spec, "hash": controller_hash(spec)} for label, spec in teams],
-                     **({"noise_key": noise_key} if noise_key else {})})
+        self._write(
+            {
+                "format": FORMAT,
+                "version": VERSION,
+                "behaviour": BEHAVIOUR,
+                "software": software,
+                "level": {"name": level.name, "hash": level.hash, "text": level_text},
+                "seed": seed,
+                "ideal": ideal,
+                "record_rate": level.record_rate,
+                "control_period": level.control_period,
+                "teams": [{"label": label, "spec": spec, "hash": controller_hash(spec)} for label, spec in teams],
+                **({"noise_key": noise_key} if noise_key else {}),
+            }
+        )
 
     def _write(self, obj: dict[str, Any]) -> None:
         self.file.write(dumps(obj, indent=None) + "\n")
@@ -139,17 +158,30 @@ class MemoryRecorder:
     """The ReplayWriter interface, recording into a `Replay` in memory (for live viewing)."""
 
     def __init__(self, level: Level, level_text: str, seed: int, ideal: bool, teams: list[tuple[str, str]]):
-        self.replay = Replay({"format": FORMAT, "version": VERSION, "level": {"name": level.name, "hash": level.hash,
-                              "text": level_text}, "seed": seed, "ideal": ideal, "record_rate": level.record_rate,
-                              "control_period": level.control_period,
-                              "teams": [{"label": label, "spec": spec} for label, spec in teams]})
+        self.replay = Replay(
+            {
+                "format": FORMAT,
+                "version": VERSION,
+                "level": {"name": level.name, "hash": level.hash, "text": level_text},
+                "seed": seed,
+                "ideal": ideal,
+                "record_rate": level.record_rate,
+                "control_period": level.control_period,
+                "teams": [{"label": label, "spec": spec} for label, spec in teams],
+            }
+        )
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         self.replay.frames.append((time, [list(p) for p in poses]))
 
     def record(self, record_kind: str, **fields: Any) -> None:
-        lists = {"e": self.replay.events, "est": self.replay.estimates, "dbg": self.replay.debug,
-                 "foul": self.replay.fouls, "fault": self.replay.faults}
+        lists = {
+            "e": self.replay.events,
+            "est": self.replay.estimates,
+            "dbg": self.replay.debug,
+            "foul": self.replay.fouls,
+            "fault": self.replay.faults,
+        }
         lists[record_kind].append({"k": record_kind, **fields})
 
     def close(self, result: dict[str, Any]) -> None:

@@ -167,8 +167,11 @@ class MatchResult(Record, frozen=True):
 def schema() -> dict[str, Any]:
     """The JSON Schema of a result, generated from the records."""
     generated: dict[str, Any] = msgspec.json.schema(MatchResult)
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
-            "title": f"{RESULT_FORMAT} version {RESULT_VERSION}", **generated}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": f"{RESULT_FORMAT} version {RESULT_VERSION}",
+        **generated,
+    }
 
 
 def schema_text() -> str:

@@ -7,7 +7,7 @@ die with the namespace's init), mount namespace (a read-only view of the interpr
 own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
 to be readable by the controller's user and nothing is written to the host's disk.
-docs/security.md holds the threat model; docs/decisions/s0009-bubblewrap-sandbox-per-slot.md
+docs/security.md holds the threat model; docs/decisions/0013-bubblewrap-sandbox-per-slot.md
 why bubblewrap.
 """
 
@@ -90,8 +90,18 @@ def unavailable() -> str | None:
 
 def _namespaces(own_user_namespace: bool) -> list[str]:
     user = ["--unshare-user", "--disable-userns"] if own_user_namespace else []
-    return ["bwrap", *user, "--unshare-pid", "--unshare-net", "--unshare-ipc", "--unshare-uts",
-            "--unshare-cgroup-try", "--die-with-parent", "--new-session", "--as-pid-1"]
+    return [
+        "bwrap",
+        *user,
+        "--unshare-pid",
+        "--unshare-net",
+        "--unshare-ipc",
+        "--unshare-uts",
+        "--unshare-cgroup-try",
+        "--die-with-parent",
+        "--new-session",
+        "--as-pid-1",
+    ]
 
 
 def _hidden() -> list[str]:
@@ -147,15 +157,46 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
-    args = _namespaces(uid is None) + ["--info-fd", str(info_w)] + _system_view() + team + [
-        "--proc", "/proc", "--dev", "/dev",
-        "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/tmp",
-        "--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", "/dev/shm",
-        "--remount-ro", "/", "--chdir", "/tmp", "--clearenv"]  # only /tmp and /dev/shm stay writable
+    args = (
+        _namespaces(uid is None)
+        + ["--info-fd", str(info_w)]
+        + _system_view()
+        + team
+        + [
+            "--proc",
+            "/proc",
+            "--dev",
+            "/dev",
+            "--perms",
+            "1777",
+            "--size",
+            str(TMP_SIZE),
+            "--tmpfs",
+            "/tmp",
+            "--perms",
+            "1777",
+            "--size",
+            str(TMP_SIZE),
+            "--tmpfs",
+            "/dev/shm",
+            "--remount-ro",
+            "/",
+            "--chdir",
+            "/tmp",
+            "--clearenv",
+        ]
+    )  # only /tmp and /dev/shm stay writable
     for key, value in sorted(env.items()):
         args += ["--setenv", key, value]
     args.append("--")
     if uid is not None:  # root: leave every privilege behind before the interpreter starts
-        args += ["setpriv", f"--reuid={uid}", f"--regid={uid}", "--clear-groups", "--inh-caps=-all",
-                 "--bounding-set=-all", "--no-new-privs"]
+        args += [
+            "setpriv",
+            f"--reuid={uid}",
+            f"--regid={uid}",
+            "--clear-groups",
+            "--inh-caps=-all",
+            "--bounding-set=-all",
+            "--no-new-privs",
+        ]
     return Launch(args + command, tuple(fds), info)

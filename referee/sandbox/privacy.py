@@ -38,8 +38,9 @@ def drop_to() -> pwd.struct_passwd | None:
     try:
         user = pwd.getpwnam(UNPRIVILEGED_USER)
     except KeyError:
-        raise UserError(f"the referee runs as root but there is no user {UNPRIVILEGED_USER!r} "
-                        "to run controllers as") from None
+        raise UserError(
+            f"the referee runs as root but there is no user {UNPRIVILEGED_USER!r} to run controllers as"
+        ) from None
     return None if cannot_drop() else user
 
 
@@ -72,8 +73,10 @@ def check_readable_by_others(*paths: str) -> None:
             mode = part.stat().st_mode
             need = stat.S_IXOTH if part.is_dir() else stat.S_IROTH
             if not mode & need:
-                raise UserError(f"controllers run as {UNPRIVILEGED_USER!r} when the referee is root, but "
-                                f"{part} is closed to other users; install laserarena where they can read it")
+                raise UserError(
+                    f"controllers run as {UNPRIVILEGED_USER!r} when the referee is root, but "
+                    f"{part} is closed to other users; install laserarena where they can read it"
+                )
 
 
 def share_team_files(files: tuple[tuple[str, Path], ...], folder: Path) -> None:

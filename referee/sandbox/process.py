@@ -35,10 +35,17 @@ from robots.loading import is_file_spec
 
 FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
-RUNNER_ENV = {"PYTHONHASHSEED": "0", "PYTHONDONTWRITEBYTECODE": "1", "PYTHONSAFEPATH": "1",
-              "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-UNENFORCED = ("controllers share one uid and see each other's processes, the file system "
-              "their user can read, and the network")
+RUNNER_ENV = {
+    "PYTHONHASHSEED": "0",
+    "PYTHONDONTWRITEBYTECODE": "1",
+    "PYTHONSAFEPATH": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+UNENFORCED = (
+    "controllers share one uid and see each other's processes, the file system their user can read, and the network"
+)
 
 
 @functools.cache
@@ -55,8 +62,14 @@ class ProcessBot:
     `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
     sandbox (for the benchmark that measures what it costs)."""
 
-    def __init__(self, team: Team, limits: ControllerLimits = ControllerLimits(), log: Path | None = None,
-                 slot: int = 0, sandboxed: bool = True):
+    def __init__(
+        self,
+        team: Team,
+        limits: ControllerLimits = ControllerLimits(),
+        log: Path | None = None,
+        slot: int = 0,
+        sandboxed: bool = True,
+    ):
         if not team.entry:
             raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
@@ -75,8 +88,14 @@ class ProcessBot:
     def _spawn(self) -> None:
         reason = kernel.unavailable() if self.sandboxed else None
         if reason:
-            _warn_unsandboxed(reason + ("; controllers run as root: root cannot become nobody here"
-                                        if os.geteuid() == 0 and drop_to() is None else ""))
+            _warn_unsandboxed(
+                reason
+                + (
+                    "; controllers run as root: root cannot become nobody here"
+                    if os.geteuid() == 0 and drop_to() is None
+                    else ""
+                )
+            )
         # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
         stderr = open(self.log, "wb") if self.log else tempfile.TemporaryFile()
         limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
@@ -92,19 +111,29 @@ class ProcessBot:
         entry = self.team.entry
         if is_file_spec(entry):
             entry = f"{kernel.TEAM_DIR}/{entry}"
-        env = dict(RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8",
-                   PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}")
+        env = dict(
+            RUNNER_ENV,
+            PATH="/usr/bin:/bin",
+            HOME="/tmp",
+            LANG="C.UTF-8",
+            PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}",
+        )
         uid = slot_uid(self.slot) if switches_users() else None
         if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
             limits = [*limits, "--max-procs", str(MAX_PROCS)]
-        launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits],
-                                self.team.files, env, uid)
+        launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], self.team.files, env, uid)
         self.info, self.in_sandbox = launch.info, True
         try:
             self.proc = subprocess.Popen(
-                launch.argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr,
-                env={"PATH": os.environ.get("PATH", "/usr/bin:/bin")}, start_new_session=True,
-                close_fds=True, pass_fds=launch.pass_fds)
+                launch.argv,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=stderr,
+                env={"PATH": os.environ.get("PATH", "/usr/bin:/bin")},
+                start_new_session=True,
+                close_fds=True,
+                pass_fds=launch.pass_fds,
+            )
         finally:
             for fd in launch.pass_fds:
                 os.close(fd)
@@ -123,13 +152,21 @@ class ProcessBot:
         env = {k: v for k, v in os.environ.items() if k in ("PATH", "LANG", "LC_ALL", "TZ")}
         # the child imports the very `robots` package this referee uses, installed or not, and
         # finds a module team in the copy of its package
-        path = os.pathsep.join([self.folder.name, ROBOTS_HOME] +
-                               [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
+        path = os.pathsep.join(
+            [self.folder.name, ROBOTS_HOME] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+        )
         env.update(RUNNER_ENV, PYTHONPATH=path)
         self.proc = subprocess.Popen(
             [sys.executable, "-s", "-m", "robots.runner", entry, *limits],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=stderr, cwd=self.folder.name,
-            env=env, start_new_session=True, close_fds=True, **as_user)
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            cwd=self.folder.name,
+            env=env,
+            start_new_session=True,
+            close_fds=True,
+            **as_user,
+        )
 
     def _process(self) -> subprocess.Popen[bytes]:
         """The controller process, started by `launch`."""
@@ -162,7 +199,7 @@ class ProcessBot:
                     self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
                     return "protocol"
                 if len(self.buf) >= 4 + size:
-                    frame, self.buf = self.buf[4:4 + size], self.buf[4 + size:]
+                    frame, self.buf = self.buf[4 : 4 + size], self.buf[4 + size :]
                     try:
                         return protocol.parse(frame)
                     except protocol.ProtocolError as e:
@@ -190,9 +227,11 @@ class ProcessBot:
             self._process().wait()
             code = self._status()
             kind = "load"
-            message = (f"team {self.team.label}: " +
-                       (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}") +
-                       " while its code was loading")
+            message = (
+                f"team {self.team.label}: "
+                + (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}")
+                + " while its code was loading"
+            )
         elif what == "crash":
             self._process().wait()
             code = self._status()
@@ -200,13 +239,20 @@ class ProcessBot:
                 kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
             else:
                 kind = "crash"
-                message = (f"in {where}: killed by {signal.Signals(-code).name}" if code < 0
-                           else f"in {where}: exited with code {code}")
+                message = (
+                    f"in {where}: killed by {signal.Signals(-code).name}"
+                    if code < 0
+                    else f"in {where}: exited with code {code}"
+                )
         elif what == "timeout":
             kind = "timeout"
-            message = (f"in {where}: {self.skips} skipped ticks in a row" if self.skips >= self.limits.max_skips
-                       else f"in {where}: overage bank exhausted" if where == "step"
-                       else f"in {where}: no answer within {self.limits.setup_time:g} s")
+            message = (
+                f"in {where}: {self.skips} skipped ticks in a row"
+                if self.skips >= self.limits.max_skips
+                else f"in {where}: overage bank exhausted"
+                if where == "step"
+                else f"in {where}: no answer within {self.limits.setup_time:g} s"
+            )
         else:
             kind, message = "protocol", f"in {where}: {self.problem or 'malformed message'}"
         self.close()
@@ -247,8 +293,9 @@ class ProcessBot:
             reply = self._receive(deadline - time.monotonic())
         if isinstance(reply, dict) and reply["type"] == "ready" and self.loaded:
             return None
-        return self._fault(0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault"
-                           else "protocol", "setup")
+        return self._fault(
+            0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault" else "protocol", "setup"
+        )
 
     def _drain(self, obs: Observation) -> Fault | None:
         """Wait for the late answer to a skipped tick, charging the wait to the overage bank."""
@@ -260,8 +307,9 @@ class ProcessBot:
         if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == self.pending:
             self.pending = None  # too late: dropped, the tick was skipped
             return None
-        return self._fault(obs.tick, obs.time, reply if not isinstance(reply, dict) or reply["type"] == "fault"
-                           else "protocol", "step")
+        return self._fault(
+            obs.tick, obs.time, reply if not isinstance(reply, dict) or reply["type"] == "fault" else "protocol", "step"
+        )
 
     def step(self, obs: Observation) -> Command | Fault:
         """The controller's answer, a skipped tick (non-fatal Fault) or a fatal Fault.
@@ -284,8 +332,9 @@ class ProcessBot:
             self.skips += 1
             if self.skips >= self.limits.max_skips or self.bank <= 0:
                 return self._fault(obs.tick, obs.time, "timeout", "step")
-            return Fault(obs.tick, obs.time, "skipped_tick",
-                         f"no answer within {self.limits.step_deadline:g} s", fatal=False)
+            return Fault(
+                obs.tick, obs.time, "skipped_tick", f"no answer within {self.limits.step_deadline:g} s", fatal=False
+            )
         self.skips = 0
         if took > self.limits.step_time:
             self.bank -= took - self.limits.step_time

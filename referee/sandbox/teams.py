@@ -83,7 +83,7 @@ def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
     found, path = None, None
     parts = name.split(".")
     for i in range(len(parts)):
-        prefix = ".".join(parts[:i + 1])
+        prefix = ".".join(parts[: i + 1])
         loaded = sys.modules.get(prefix)  # already imported (our own `robots`): where it really is
         found = getattr(loaded, "__spec__", None) or importlib.machinery.PathFinder.find_spec(prefix, path)
         if found is None:
@@ -111,8 +111,13 @@ def _module_team(label: str, spec: str, target: str) -> Team:
     source = Path(found.origin) if found.origin and Path(found.origin).is_file() else None
     top = module.split(".")[0]
     if top == BUILT_IN:
-        return Team(label, spec, _file_hash(source) if source else "sha256:" + hashlib.sha256(spec.encode()).hexdigest(),
-                    (), target)
+        return Team(
+            label,
+            spec,
+            _file_hash(source) if source else "sha256:" + hashlib.sha256(spec.encode()).hexdigest(),
+            (),
+            target,
+        )
     top_spec = find_module(top)
     if top_spec is None:
         raise TeamError(f"team {label}: cannot find package {top!r} on the path")
@@ -139,8 +144,9 @@ def resolve(spec: str) -> Team:
         if not source.is_file():
             raise TeamError(f"team {spec}: no such file {source}")
         absolute = str(source.resolve()) + rest
-        return Team(source.name + rest, absolute, _file_hash(source), ((source.name, source.resolve()),),
-                    source.name + rest)
+        return Team(
+            source.name + rest, absolute, _file_hash(source), ((source.name, source.resolve()),), source.name + rest
+        )
     if ":" not in spec:
         return _module_team(spec, spec, _entry_point(spec))
     return _module_team(spec, spec, spec)

@@ -116,17 +116,22 @@ class BacSeed(Controller):
         x0, y0, _ = self.brief.start
         (x1, y1) = self.path[-1]
         length = math.dist((x0, y0), (x1, y1))
-        return length > 0 and all(abs((x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)) / length < 0.005
-                                  for px, py in self.path)
+        return length > 0 and all(
+            abs((x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)) / length < 0.005 for px, py in self.path
+        )
 
     def _guide(self) -> tuple[float, float]:
         if self.straight and self.brief.start:  # "started with both wheels set to move at the same velocity"
             x0, y0, _ = self.brief.start
             x1, y1 = self.path[-1]
             done = self.position is not None and (
-                (self.position[0] - x1) * (x1 - x0) + (self.position[1] - y1) * (y1 - y0) >= 0)
-            while self.position is not None and self.target < len(self.path) and \
-                    math.dist(self.position, self.path[self.target]) < self.brief.task.radius:
+                (self.position[0] - x1) * (x1 - x0) + (self.position[1] - y1) * (y1 - y0) >= 0
+            )
+            while (
+                self.position is not None
+                and self.target < len(self.path)
+                and math.dist(self.position, self.path[self.target]) < self.brief.task.radius
+            ):
                 self.target += 1
             return (0.0, 0.0) if done else (CRUISE, CRUISE)
         if self.turn_until is not None:  # a rotation command in progress

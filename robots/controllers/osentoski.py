@@ -97,4 +97,8 @@ class Osentoski(Controller):
             return
         k = 1.0 / self.fixes
         x, y, h = self.pose
-        self.pose = (x + k * (fix[0] - x), y + k * (fix[1] - y), math.remainder(h + k * math.remainder(fix[2] - h, 2 * math.pi), 2 * math.pi))
+        self.pose = (
+            x + k * (fix[0] - x),
+            y + k * (fix[1] - y),
+            math.remainder(h + k * math.remainder(fix[2] - h, 2 * math.pi), 2 * math.pi),
+        )

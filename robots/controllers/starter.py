@@ -44,8 +44,13 @@ SPIN_ABOVE = 0.5  # rad: heading errors above this turn on the spot
 MAX_JUMP = 0.10  # m: a fix further than this from the estimate needs a second one to agree
 
 
-def fix(hits: list[tuple[float, str]], beacons: dict[str, tuple[float, float]], omega: float,
-        guess: tuple[float, float], velocity: tuple[float, float] = (0.0, 0.0)) -> tuple[float, float] | None:
+def fix(
+    hits: list[tuple[float, str]],
+    beacons: dict[str, tuple[float, float]],
+    omega: float,
+    guess: tuple[float, float],
+    velocity: tuple[float, float] = (0.0, 0.0),
+) -> tuple[float, float] | None:
     """Position at the last hit's time from one revolution's hits [(time, beacon id)]: a
     least-squares fit of bearing_i = alpha0 + omega * t_i, with the robot moving at `velocity`
     meanwhile. Two hits at the same instant are a merged pulse (Bac's hardware error): both
@@ -62,7 +67,7 @@ def fix(hits: list[tuple[float, str]], beacons: dict[str, tuple[float, float]], 
         if converged and abs(residuals[worst]) <= MAX_RESIDUAL:
             # three hits always fit exactly: after trimming, only a redundant fit is evidence
             return (x, y) if len(hits) > 3 or not trimmed else None
-        hits = hits[:worst] + hits[worst + 1:]
+        hits = hits[:worst] + hits[worst + 1 :]
         trimmed = True
     return None
 
@@ -102,10 +107,14 @@ def _gauss_newton(hits, beacons, omega, guess, velocity):
 
 def solve3(a: list[list[float]], b: list[float]) -> list[float] | None:
     """Solve a 3x3 linear system by Cramer's rule; None if it is singular."""
+
     def det(m: list[list[float]]) -> float:
-        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+        return (
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        )
+
     d = det(a)
     if abs(d) < 1e-18:
         return None

@@ -69,9 +69,15 @@ class IndexRevolutions:
         for e in events:
             if e.kind == "index":
                 if self.last_click is not None:
-                    hits = tuple((h.angle if h.angle is not None else
-                                  (self.sign * angle_in(self.last_click, e.time, h.time)) % TWO_PI, h.beacon)
-                                 for h in self.pending)
+                    hits = tuple(
+                        (
+                            h.angle
+                            if h.angle is not None
+                            else (self.sign * angle_in(self.last_click, e.time, h.time)) % TWO_PI,
+                            h.beacon,
+                        )
+                        for h in self.pending
+                    )
                     done.append(Revolution(self.last_click, e.time, hits))
                 self.last_click, self.pending = e.time, []
             elif e.kind == "hit" and self.last_click is not None:
@@ -97,7 +103,8 @@ class BeaconRevolutions:
             if e.beacon == self.reference:
                 if self.last is not None:
                     hits = ((0.0, self.reference),) + tuple(
-                        (angle_in(self.last, e.time, h.time), h.beacon) for h in self.pending)
+                        (angle_in(self.last, e.time, h.time), h.beacon) for h in self.pending
+                    )
                     done.append(Revolution(self.last, e.time, hits))
                 self.last, self.pending = e.time, []
             elif self.last is not None:

@@ -31,8 +31,12 @@ def _gaps(angles: list[float]) -> list[float]:
     return [(angles[(i + 1) % n] - angles[i]) % TWO_PI or TWO_PI for i in range(n)]
 
 
-def by_sectors(angles: list[float], beacons: dict[str, tuple[float, float]],
-               reference: tuple[float, float], margin: float = math.radians(5)) -> Association:
+def by_sectors(
+    angles: list[float],
+    beacons: dict[str, tuple[float, float]],
+    reference: tuple[float, float],
+    margin: float = math.radians(5),
+) -> Association:
     """Vannoy's sector-order rule for any layout: `angles` of one revolution's returns in the
     order seen (counter-clockwise), `beacons` by id, `reference` a point inside the layout."""
     ids = list(beacons)
@@ -46,7 +50,7 @@ def by_sectors(angles: list[float], beacons: dict[str, tuple[float, float]],
     measured = _gaps(sorted(angles))
     rank = lambda g: sorted(range(n), key=lambda i: g[i])  # noqa: E731
     matches = [s for s in range(n) if rank([measured[(i + s) % n] for i in range(n)]) == rank(predicted)]
-    close = min(abs(a - b) for i, a in enumerate(sorted(measured)) for b in sorted(measured)[i + 1:])
+    close = min(abs(a - b) for i, a in enumerate(sorted(measured)) for b in sorted(measured)[i + 1 :])
     if len(matches) != 1 or close < margin:
         return Association((None,) * n, True)
     shift = matches[0]
@@ -57,14 +61,16 @@ def by_sectors(angles: list[float], beacons: dict[str, tuple[float, float]],
     return Association(tuple(out))
 
 
-def by_prediction(bearings: list[float], beacons: dict[str, tuple[float, float]],
-                  pose: tuple[float, float, float], gate: float) -> Association:
+def by_prediction(
+    bearings: list[float], beacons: dict[str, tuple[float, float]], pose: tuple[float, float, float], gate: float
+) -> Association:
     """Each return to the beacon whose bearing from `pose` (x, y, heading) is nearest, if within
     `gate` rad and not taken by a nearer return; others stay None."""
     x, y, h = pose
     predicted = {b: math.atan2(by - y, bx - x) - h for b, (bx, by) in beacons.items()}
-    pairs = sorted((abs(math.remainder(z - p, TWO_PI)), i, b)
-                   for i, z in enumerate(bearings) for b, p in predicted.items())
+    pairs = sorted(
+        (abs(math.remainder(z - p, TWO_PI)), i, b) for i, z in enumerate(bearings) for b, p in predicted.items()
+    )
     out: list[str | None] = [None] * len(bearings)
     used: set[str] = set()
     for err, i, b in pairs:

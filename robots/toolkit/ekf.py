@@ -23,10 +23,23 @@ TWO_PI = 2 * math.pi
 class BearingEKF:
     """The filter; `P` is the 5 x 5 covariance of (x, y, heading, phase, rate)."""
 
-    def __init__(self, x: float, y: float, heading: float, phase: float, rate: float,
-                 var_xy: float, var_heading: float, var_sum: float, var_rate: float,
-                 q_xy: float = 1e-4, q_heading: float = 3e-3, q_drift: float = 0.0,
-                 wobble: float = 0.005, wobble_time: float = 1.0):
+    def __init__(
+        self,
+        x: float,
+        y: float,
+        heading: float,
+        phase: float,
+        rate: float,
+        var_xy: float,
+        var_heading: float,
+        var_sum: float,
+        var_rate: float,
+        q_xy: float = 1e-4,
+        q_heading: float = 3e-3,
+        q_drift: float = 0.0,
+        wobble: float = 0.005,
+        wobble_time: float = 1.0,
+    ):
         """`rate` is the laser's nominal spin rate; its true rate wanders around it by a relative
         `wobble` with correlation time `wobble_time` (a mean-reverting process). Tying the rate
         to its nominal value is what lets the filter tell a robot that does not turn as
@@ -55,8 +68,15 @@ class BearingEKF:
         x, y, h, phase, rate = self.s
         mid = h + w * dt / 2
         a = math.exp(-dt / self.wobble_time)
-        self.s = np.array([x + v * math.cos(mid) * dt, y + v * math.sin(mid) * dt, h + w * dt,
-                           phase + rate * dt, self.nominal + (rate - self.nominal) * a])
+        self.s = np.array(
+            [
+                x + v * math.cos(mid) * dt,
+                y + v * math.sin(mid) * dt,
+                h + w * dt,
+                phase + rate * dt,
+                self.nominal + (rate - self.nominal) * a,
+            ]
+        )
         F = np.eye(5)
         F[0, 2] = -v * math.sin(mid) * dt
         F[1, 2] = v * math.cos(mid) * dt
@@ -64,9 +84,15 @@ class BearingEKF:
         F[4, 4] = a
         q_xy, q_h, q_d = self.q
         moving = abs(v) + abs(w) * 0.05
-        Q = np.diag([q_xy * moving * dt + 1e-12, q_xy * moving * dt + 1e-12,
-                     (q_h * abs(w) + q_d * abs(v)) * dt + 1e-12,
-                     1e-12, self.wobble_var * (1 - a * a)])
+        Q = np.diag(
+            [
+                q_xy * moving * dt + 1e-12,
+                q_xy * moving * dt + 1e-12,
+                (q_h * abs(w) + q_d * abs(v)) * dt + 1e-12,
+                1e-12,
+                self.wobble_var * (1 - a * a),
+            ]
+        )
         self.P = F @ self.P @ F.T + Q
 
     def _update(self, innovation: float, H: np.ndarray, r: float, gate: float) -> bool:

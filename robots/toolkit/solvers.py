@@ -63,6 +63,7 @@ def _collinear(p1, p2, p3) -> bool:
 
 # ---- ToTal ---------------------------------------------------------------------------------
 
+
 def total(beacons: list[tuple[float, float]], bearings: list[float], heading: bool = True) -> Fix:
     """ToTal three-object triangulation (Pierlot & Van Droogenbroeck, IEEE T-RO 2014),
     from the paper's formulas: beacons shifted to the second one, three cotangents, the three
@@ -115,8 +116,10 @@ def total_batch(beacons: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, 
     beacons = np.asarray(beacons, dtype=float)
     n = len(bearings)
     if n > CHUNK:
-        parts = [_total_chunk(beacons if beacons.ndim == 2 else beacons[i:i + CHUNK], bearings[i:i + CHUNK])
-                 for i in range(0, n, CHUNK)]
+        parts = [
+            _total_chunk(beacons if beacons.ndim == 2 else beacons[i : i + CHUNK], bearings[i : i + CHUNK])
+            for i in range(0, n, CHUNK)
+        ]
         x, y, reliability = (np.concatenate(p) for p in zip(*parts))
         return x, y, reliability
     return _total_chunk(beacons, bearings)
@@ -151,6 +154,7 @@ def _total_chunk(beacons: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray,
 
 
 # ---- geometric circle intersection (Vannoy; Simi appendix A) ------------------------------
+
 
 def circle_through(p: tuple[float, float], q: tuple[float, float], angle: float) -> tuple[float, float, float]:
     """Centre and radius of the circle of points that see the chord p -> q under `angle`
@@ -195,6 +199,7 @@ def circles(beacons: list[tuple[float, float]], bearings: list[float]) -> Fix:
 
 # ---- Bac et al. 2011, appendix A -----------------------------------------------------------
 
+
 def bac(alpha: float, beta: float, length: float, width: float) -> Fix:
     """Bac's closed form for the corner table: arrays at O (0, 0), (L, 0) and (0, W); `alpha` is
     the angle the robot sees between (L, 0) and O, `beta` between (0, W) and O (both 0..pi).
@@ -211,8 +216,14 @@ def bac(alpha: float, beta: float, length: float, width: float) -> Fix:
 
 # ---- Simi 2000: Newton-Raphson for x, y and heading ----------------------------------------
 
-def newton(beacons: list[tuple[float, float]], bearings: list[float],
-           guess: tuple[float, float, float], tolerance: float = 1e-12, iterations: int = 50) -> Fix:
+
+def newton(
+    beacons: list[tuple[float, float]],
+    bearings: list[float],
+    guess: tuple[float, float, float],
+    tolerance: float = 1e-12,
+    iterations: int = 50,
+) -> Fix:
     """Simi's method: solve atan2(yi - y, xi - x) - heading - bearing_i = 0 for (x, y, heading)
     by Newton-Raphson from `guess` (his was (57, -57.5, 0.1) in)."""
     if len(beacons) < 3:
@@ -243,6 +254,7 @@ def newton(beacons: list[tuple[float, float]], bearings: list[float],
 
 # ---- Ubersetzig 1999: three targets on one wall ---------------------------------------------
 
+
 def wall(spacing: float, a12: float, a23: float) -> Fix:
     """Ubersetzig's wall-target method: targets at (0, -s), (0, 0), (0, +s) on the wall x = 0,
     the robot at x > 0 seeing angle `a12` between targets 1 and 2 and `a23` between 2 and 3.
@@ -265,6 +277,7 @@ def wall(spacing: float, a12: float, a23: float) -> Fix:
 
 # ---- Osentoski: three lights in a line, law of sines ---------------------------------------
 
+
 def law_of_sines(spacing: float, a: float, b: float) -> Fix:
     """Osentoski's three lights L (-s, 0), M (0, 0), R (s, 0): the robot (y < 0) sees angle `a`
     between L and M and `b` between M and R. With phi the angle at L, the law of sines in both
@@ -281,8 +294,10 @@ def law_of_sines(spacing: float, a: float, b: float) -> Fix:
 
 # ---- least squares for three or more beacons ------------------------------------------------
 
-def least_squares(beacons: list[tuple[float, float]], bearings: list[float], sigma: float,
-                  guess: tuple[float, float] | None = None) -> Fix:
+
+def least_squares(
+    beacons: list[tuple[float, float]], bearings: list[float], sigma: float, guess: tuple[float, float] | None = None
+) -> Fix:
     """Gauss-Newton fit of (x, y, heading) to any number of bearings, with the position
     covariance sigma^2 (J^T J)^-1 (sigma: the bearing noise, rad). Started from ToTal on the
     first three beacons unless a guess is given."""
@@ -305,5 +320,4 @@ def least_squares(beacons: list[tuple[float, float]], bearings: list[float], sig
     except np.linalg.LinAlgError:
         return failed("robot on the circle through the beacons")
     pos = ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1])))
-    return Fix(fit.x, fit.y, fit.heading, float(1.0 / math.sqrt(max(cov[0, 0] + cov[1, 1], 1e-300))),
-               covariance=pos)
+    return Fix(fit.x, fit.y, fit.heading, float(1.0 / math.sqrt(max(cov[0, 0] + cov[1, 1], 1e-300))), covariance=pos)

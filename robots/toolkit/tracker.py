@@ -62,16 +62,27 @@ class HitTracker:
     drive may stray from its commands in heading. `first_fix` replaces the labelled
     revolution fix for starts and restarts."""
 
-    def __init__(self, brief: Brief, bearing_sigma: float = 2e-3, gate: float = 5.0, lost_after: int = 8,
-                 window: int = 16, q_xy: float = 2e-4, q_heading: float = 0.03, q_drift: float = 0.02,
-                 track_check: float = 0.02, heading_check: float = 0.5, first_fix: FirstFix | None = None):
+    def __init__(
+        self,
+        brief: Brief,
+        bearing_sigma: float = 2e-3,
+        gate: float = 5.0,
+        lost_after: int = 8,
+        window: int = 16,
+        q_xy: float = 2e-4,
+        q_heading: float = 0.03,
+        q_drift: float = 0.02,
+        track_check: float = 0.02,
+        heading_check: float = 0.5,
+        first_fix: FirstFix | None = None,
+    ):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
         self.period = 2 * math.pi / abs(self.omega)
         self.time_out = TIME_OUT_TURNS * self.period
         self.top = brief.robot.max_wheel_speed
         self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
-        self.var, self.gate, self.lost_after = bearing_sigma ** 2, gate, lost_after
+        self.var, self.gate, self.lost_after = bearing_sigma**2, gate, lost_after
         self.q = dict(q_xy=q_xy, q_heading=q_heading, q_drift=q_drift)
         self.turn_rate = 0.0  # the robot's own turn rate (rad/s) over the last prediction
         self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
@@ -125,15 +136,33 @@ class HitTracker:
             return
         travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
         if abs(wrap(travel - h)) > self.heading_check:  # keep the beam's world angle, turn the heading
-            self.ekf = self._filter(x, y, travel, wrap(h + self.ekf.s[3] - travel), var_xy=float(self.ekf.P[0, 0]),
-                                    var_heading=0.05, var_sum=1e-4)
+            self.ekf = self._filter(
+                x,
+                y,
+                travel,
+                wrap(h + self.ekf.s[3] - travel),
+                var_xy=float(self.ekf.P[0, 0]),
+                var_heading=0.05,
+                var_sum=1e-4,
+            )
             self.restarts += 1
         self.run_from = (x, y)
 
-    def _filter(self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float,
-                var_sum: float) -> BearingEKF:
-        return BearingEKF(x, y, heading, phase, self.omega, var_xy=var_xy, var_heading=var_heading,
-                          var_sum=var_sum, var_rate=(0.005 * self.omega) ** 2, **self.q)
+    def _filter(
+        self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float, var_sum: float
+    ) -> BearingEKF:
+        return BearingEKF(
+            x,
+            y,
+            heading,
+            phase,
+            self.omega,
+            var_xy=var_xy,
+            var_heading=var_heading,
+            var_sum=var_sum,
+            var_rate=(0.005 * self.omega) ** 2,
+            **self.q,
+        )
 
     def _advance(self, time: float) -> None:
         dt, v, w = self.wheels.advance(time)
@@ -173,8 +202,11 @@ class HitTracker:
         else:
             beacon = e.beacon
         bx, by = self.beacons[beacon]
-        ok = ekf.relative(bx, by, e.angle, self.var, self.gate) if e.angle is not None else \
-            ekf.hit(bx, by, self.var, self.gate)
+        ok = (
+            ekf.relative(bx, by, e.angle, self.var, self.gate)
+            if e.angle is not None
+            else ekf.hit(bx, by, self.var, self.gate)
+        )
         self.verdicts.append(ok)
         return ok or self.verdicts.count(False) < self.lost_after
 
@@ -211,7 +243,7 @@ class HitTracker:
         rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
         if duration > self.time_out:
             return None  # a pulse of the closing array itself went missing
-        hits = self.recent[begin + 1:]
+        hits = self.recent[begin + 1 :]
         times = [self.recent[begin][0]] + [t for t, _ in hits]
         smallest = min(b - a for a, b in zip(times, times[1:]))
         if abs(duration - 2 * math.pi / rate) > smallest or len({b for _, b in hits}) != len(hits) or len(hits) < 3:
@@ -222,7 +254,12 @@ class HitTracker:
         fix = least_squares(points, bearings, sigma=1e-3)
         if not fix.ok:
             return None
-        if len(hits) > 3 and max(abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a))
-                                 for (bx, by), a in zip(points, bearings)) > FIT_RESIDUAL:
+        if (
+            len(hits) > 3
+            and max(
+                abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a)) for (bx, by), a in zip(points, bearings)
+            )
+            > FIT_RESIDUAL
+        ):
             return None
         return fix.x, fix.y, fix.heading

@@ -85,9 +85,13 @@ def sandboxed_processes(referee: int | None = None) -> list[int]:
 
 def _describe(pid: int) -> str:
     try:
-        status = dict(line.split(":\t", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines() if ":\t" in line)
-        return (f"{pid} ({status.get('State', '?')}, parent {status.get('PPid', '?')}): "
-                + Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()[:200])
+        status = dict(
+            line.split(":\t", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines() if ":\t" in line
+        )
+        return (
+            f"{pid} ({status.get('State', '?')}, parent {status.get('PPid', '?')}): "
+            + Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()[:200]
+        )
     except OSError:
         return f"{pid}: gone"
 
@@ -102,8 +106,9 @@ def wait_until_gone(referee: int | None = None, timeout: float = 10.0) -> list[i
 
 def laserarena(*args: str, **popen) -> subprocess.CompletedProcess:
     """Run the command line as a user would (`python -m referee ARGS`), bounded in time."""
-    return subprocess.run([sys.executable, "-m", "referee", *args], capture_output=True, text=True,
-                          timeout=300, **popen)
+    return subprocess.run(
+        [sys.executable, "-m", "referee", *args], capture_output=True, text=True, timeout=300, **popen
+    )
 
 
 def tmp_entries() -> set[str]:

@@ -26,7 +26,10 @@ def daemonize():
 
 
 def test_a_setsid_daemon_dies_with_its_slot(tmp_path):
-    result = hostile_match(tmp_path, DAEMON + """
+    result = hostile_match(
+        tmp_path,
+        DAEMON
+        + """
 class Daemon(Controller):
     def setup(self, brief):
         daemonize()
@@ -34,12 +37,16 @@ class Daemon(Controller):
         if obs.tick == 3:
             raise RuntimeError("contained: the daemon is on its own now")
         return Command(0.05, 0.05)
-""")
+""",
+    )
     assert_contained(result)  # and (the fixture) no process of any slot is left
 
 
 def test_children_of_a_healthy_controller_end_with_the_match(tmp_path):
-    result = hostile_match(tmp_path, DAEMON + """
+    result = hostile_match(
+        tmp_path,
+        DAEMON
+        + """
 class Parent(Controller):
     def setup(self, brief):
         daemonize()
@@ -48,21 +55,31 @@ class Parent(Controller):
             time.sleep(600)
     def step(self, obs):
         return Command(0.05, 0.05, estimate=(0.3, 0.25, 0.0))
-""", seconds=3)
+""",
+        seconds=3,
+    )
     assert all(not r["faults"] for r in result["robots"])
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
 def test_stopping_the_referee_ends_every_sandbox(tmp_path, sig):
-    daemon = team_file(tmp_path, DAEMON + """
+    daemon = team_file(
+        tmp_path,
+        DAEMON
+        + """
 class Daemon(Controller):
     def setup(self, brief):
         daemonize()
     def step(self, obs):
         return Command(0.05, 0.05)
-""")
-    referee = subprocess.Popen([sys.executable, "-m", "referee", "run", "asabe-race", "--team", daemon, "--quiet"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+""",
+    )
+    referee = subprocess.Popen(
+        [sys.executable, "-m", "referee", "run", "asabe-race", "--team", daemon, "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         deadline, seen = time.monotonic() + 60, []
         while seen[-2:] != [True, True] and time.monotonic() < deadline:  # twice: not a passing fork

@@ -36,7 +36,10 @@ except ImportError:
 def test_module_code_never_runs_in_the_referee(tmp_path):
     scoring = Path(referee.match.scoring.__file__)
     digest, score = hashlib.sha256(scoring.read_bytes()).hexdigest(), referee.match.scoring.score
-    result = hostile_match(tmp_path, SUBVERT + """
+    result = hostile_match(
+        tmp_path,
+        SUBVERT
+        + """
 found = []
 for attempt in (lambda: open(referee.match.scoring.__file__, "a").write("# pwned"),   # the installed code
                 lambda: os.listdir(os.path.dirname(os.path.dirname(referee.match.scoring.__file__)) + "/levels")[0],
@@ -52,7 +55,9 @@ class Subvert(Controller):
         if obs.tick == 3:
             raise RuntimeError("LEAK: " + repr(found) if found else "contained: nothing reached")
         return Command(0.05, 0.05)
-""", replay=tmp_path / "match.replay")
+""",
+        replay=tmp_path / "match.replay",
+    )
     assert_contained(result, words="contained: nothing reached")
     assert not hasattr(builtins, "LASERARENA_PWNED")  # the module ran, but never here
     assert referee.match.scoring.score is score and hashlib.sha256(scoring.read_bytes()).hexdigest() == digest
@@ -61,14 +66,17 @@ class Subvert(Controller):
     assert not hasattr(builtins, "LASERARENA_PWNED")
 
 
-@pytest.mark.parametrize("body, words", [
-    ("os._exit(0)\n", "exited with code 0 while its code was loading"),
-    ("sys.exit()\n", "SystemExit"),
-    ("def broken(:\n", "SyntaxError"),
-    ("import no_such_module_anywhere\n", "ModuleNotFoundError"),
-    ("X = 1\n", "found 0 Controller classes"),
-    ("class A(Controller): pass\nclass B(Controller): pass\n", "found 2 Controller classes: A, B"),
-])
+@pytest.mark.parametrize(
+    "body, words",
+    [
+        ("os._exit(0)\n", "exited with code 0 while its code was loading"),
+        ("sys.exit()\n", "SystemExit"),
+        ("def broken(:\n", "SyntaxError"),
+        ("import no_such_module_anywhere\n", "ModuleNotFoundError"),
+        ("X = 1\n", "found 0 Controller classes"),
+        ("class A(Controller): pass\nclass B(Controller): pass\n", "found 2 Controller classes: A, B"),
+    ],
+)
 def test_a_team_that_cannot_load_is_a_load_fault_of_its_slot(tmp_path, body, words):
     result = hostile_match(tmp_path, body)
     bad = assert_contained(result, kind="load", words=words)
@@ -104,7 +112,8 @@ def test_a_package_team_is_shipped_whole_and_never_imported_here(tmp_path, monke
     (package / "sub" / "helper.py").write_text("SPEED = 0.05\n")
     (package / "team.py").write_text(
         "from robots.api import Command, Controller\nfrom evilpkg.sub.helper import SPEED\n\n"
-        "class Team(Controller):\n    def step(self, obs):\n        return Command(SPEED, SPEED, estimate=(0.3, 0.25, 0.0))\n")
+        "class Team(Controller):\n    def step(self, obs):\n        return Command(SPEED, SPEED, estimate=(0.3, 0.25, 0.0))\n"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
     team = resolve("evilpkg.team:Team")
     assert "evilpkg" not in sys.modules and not hasattr(builtins, "LASERARENA_PWNED")

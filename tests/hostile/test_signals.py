@@ -5,7 +5,9 @@ from hostile.hostile_kit import assert_contained, hostile_match
 
 def test_kill_minus_one_kills_nobody_else(tmp_path):
     # the classic: SIGKILL to every process the caller may signal, at its 4th step
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Killer(Controller):
             def step(self, obs):
                 if obs.tick == 3:
@@ -15,13 +17,16 @@ def test_kill_minus_one_kills_nobody_else(tmp_path):
                         pass  # no other process in its PID namespace
                     raise RuntimeError(f"contained: still alive as pid {os.getpid()}")
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     assert_contained(result)
     assert result["robots"][0]["faults"][0]["tick"] == 3
 
 
 def test_sigstop_of_every_pid_stops_nobody_else(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         class Freezer(Controller):
             def step(self, obs):
                 if obs.tick == 3:
@@ -40,12 +45,15 @@ def test_sigstop_of_every_pid_stops_nobody_else(tmp_path):
                             pass
                     raise RuntimeError(f"contained: stopped {stopped}" if not stopped else f"LEAK: stopped {stopped}")
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     assert_contained(result, words="contained: stopped []")
 
 
 def test_ptrace_reaches_nothing(tmp_path):
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import ctypes
         PTRACE_ATTACH = 16
         class Tracer(Controller):
@@ -63,14 +71,17 @@ def test_ptrace_reaches_nothing(tmp_path):
                     raise RuntimeError(f"contained: traced {traced} peeked {len(peeked)}"
                                        if not traced and not peeked else f"LEAK: traced {traced} peeked {peeked}")
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     assert_contained(result, words="contained: traced [] peeked 0")
 
 
 def test_a_fork_bomb_stops_at_the_slots_process_limit(tmp_path):
     # forks until the kernel refuses; every child sleeps. The slot's own uid has a process
     # limit, its PID namespace takes every child down with it at the end
-    result = hostile_match(tmp_path, """
+    result = hostile_match(
+        tmp_path,
+        """
         import time
 
         class Bomb(Controller):
@@ -87,6 +98,7 @@ def test_a_fork_bomb_stops_at_the_slots_process_limit(tmp_path):
                         raise RuntimeError(f"contained: fork refused after {children} children ({e.errno})")
                     raise RuntimeError(f"LEAK: {children} children")
                 return Command(0.05, 0.05)
-    """)
+    """,
+    )
     bad = assert_contained(result)
     assert "fork refused after" in bad["faults"][0]["message"]

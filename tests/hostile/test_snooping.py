@@ -17,9 +17,12 @@ def test_reads_nothing_but_its_own_code(tmp_path, shared_dir):
     sqlite3.connect(journal).execute("CREATE TABLE secret (x)").connection.commit()
     journal.chmod(0o644)
     replay = shared_dir / "match.replay"
-    other = team_file(shared_dir, "class Other(Controller):\n    def step(self, obs): return Command(0, 0)\n",
-                      "other_team.py")
-    snoop = team_file(tmp_path, f"""
+    other = team_file(
+        shared_dir, "class Other(Controller):\n    def step(self, obs): return Command(0, 0)\n", "other_team.py"
+    )
+    snoop = team_file(
+        tmp_path,
+        f"""
 TARGETS = [{str(other)!r}, "/team/other_team.py", {str(journal)!r}, {str(shared_dir)!r}, "/etc/passwd",
            "/root", "/proc/1/root/etc/hostname"]
 class Snoop(Controller):
@@ -35,9 +38,15 @@ class Snoop(Controller):
             raise RuntimeError(("contained: only its own code" if not found and "class Snoop" in mine
                                 else f"LEAK: {{found}}"))
         return Command(0.0, 0.0)
-""")
-    result = run_match(short_race(), [resolve(snoop), resolve(other), resolve(HONEST), resolve(HONEST)],
-                       seed=2, replay=replay, limits=FAST)
+""",
+    )
+    result = run_match(
+        short_race(),
+        [resolve(snoop), resolve(other), resolve(HONEST), resolve(HONEST)],
+        seed=2,
+        replay=replay,
+        limits=FAST,
+    )
     bad = result["robots"][0]
     assert [f["message"] for f in bad["faults"]] == ["in step: RuntimeError: contained: only its own code"]
     assert all(not r["faults"] for r in result["robots"][1:])
@@ -45,7 +54,13 @@ class Snoop(Controller):
 
 
 def test_writes_land_in_its_private_tmp_only(tmp_path, shared_dir):
-    result = run_match(short_race(), [resolve(team_file(tmp_path, f"""
+    result = run_match(
+        short_race(),
+        [
+            resolve(
+                team_file(
+                    tmp_path,
+                    f"""
 class Writer(Controller):
     def step(self, obs):
         if obs.tick < 3:
@@ -61,7 +76,14 @@ class Writer(Controller):
                 pass
         raise RuntimeError(("contained: " if wrote == ["/tmp/planted", "/dev/shm/laserarena-planted"]
                             else "LEAK: ") + repr(wrote))
-"""))] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+""",
+                )
+            )
+        ]
+        + [resolve(HONEST)] * 3,
+        seed=2,
+        limits=FAST,
+    )
     assert_contained(result)
     # what it wrote stayed in its sandbox, which is gone
     assert not (shared_dir / "planted").exists() and not (tmp_path / "planted").exists()
@@ -75,7 +97,13 @@ def test_no_network_not_even_the_hosts_loopback(tmp_path):
     server.setblocking(False)
     port = server.getsockname()[1]
     try:
-        result = run_match(short_race(), [resolve(team_file(tmp_path, f"""
+        result = run_match(
+            short_race(),
+            [
+                resolve(
+                    team_file(
+                        tmp_path,
+                        f"""
 import socket
 class Caller(Controller):
     def step(self, obs):
@@ -89,7 +117,14 @@ class Caller(Controller):
             except OSError:
                 pass
         raise RuntimeError("contained: reached " + repr(reached))
-"""))] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+""",
+                    )
+                )
+            ]
+            + [resolve(HONEST)] * 3,
+            seed=2,
+            limits=FAST,
+        )
         assert_contained(result, words="contained: reached []")
         try:
             server.accept()
