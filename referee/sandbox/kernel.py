@@ -112,9 +112,14 @@ def _hidden() -> list[str]:
 
 def _parents(paths: list[str]) -> list[str]:
     """`--dir` for every folder above the mount points in `paths`: bwrap would create the missing
-    ones closed to all but root (0700), and the controller's uid must pass through them."""
+    ones closed to all but root (0700), and the controller's uid must pass through them. They
+    are made 0711, so it can pass through but not list them: the host's folder names (the
+    checkout's path, say) stay unseen. The import roots and the team's own folders stay
+    listable, as imports need."""
     folders = sorted({str(p) for path in paths for p in Path(path).parents if str(p) != "/"})
-    return [arg for folder in folders for arg in ("--dir", folder)]
+    mine = tuple(f"{root}/" for root in (LIB_DIR, TEAM_DIR))
+    return [arg for f in folders
+            for arg in ("--perms", "0755" if f in (LIB_DIR, TEAM_DIR) or f.startswith(mine) else "0711", "--dir", f)]
 
 
 def _system_view() -> list[str]:
