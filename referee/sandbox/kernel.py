@@ -118,8 +118,11 @@ def _parents(paths: list[str]) -> list[str]:
     listable, as imports need."""
     folders = sorted({str(p) for path in paths for p in Path(path).parents if str(p) != "/"})
     mine = tuple(f"{root}/" for root in (LIB_DIR, TEAM_DIR))
-    return [arg for f in folders
-            for arg in ("--perms", "0755" if f in (LIB_DIR, TEAM_DIR) or f.startswith(mine) else "0711", "--dir", f)]
+    return [
+        arg
+        for f in folders
+        for arg in ("--perms", "0755" if f in (LIB_DIR, TEAM_DIR) or f.startswith(mine) else "0711", "--dir", f)
+    ]
 
 
 def _system_view() -> list[str]:
