@@ -10,7 +10,7 @@ SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' 
 export SDL_VIDEODRIVER ?= dummy
 export SDL_AUDIODRIVER ?= dummy
 
-.PHONY: demo test bench fidelity clean
+.PHONY: demo lint test bench fidelity clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,7 +27,14 @@ demo: $(VENV)/.installed
 	$(VENV)/bin/laserarena render out/demo.replay --out out/demo.mp4 --fps 15
 	$(VENV)/bin/laserarena verify out/demo.replay
 
-test: $(VENV)/.installed
+# Lint, format and types (settings in pyproject.toml).
+LINT_PATHS := arena robots referee levels tests benchmarks
+lint: $(VENV)/.installed
+	$(VENV)/bin/ruff check $(LINT_PATHS)
+	$(VENV)/bin/ruff format --check $(LINT_PATHS)
+	$(VENV)/bin/mypy
+
+test: lint
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
 
 bench: $(VENV)/.installed

@@ -10,12 +10,13 @@ are listed in docs/sensors.md; `ideal` turns every noise and failure source off.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
-from arena.laser import TWO_PI, Crossings, wrap_angle
+from arena.angles import TWO_PI, wrap_angle
+from arena.laser import Crossings
 
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {

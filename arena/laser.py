@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-TWO_PI = 2.0 * np.pi
+from arena.angles import TWO_PI, wrap_angle
+
 NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
 
 
@@ -161,8 +162,3 @@ def segment_hits_circles(
     length2 = ux * ux + uy * uy
     u = np.clip(((cx - px) * ux + (cy - py) * uy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
     return np.hypot(px + u * ux - cx, py + u * uy - cy) <= radius
-
-
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo)."""
-    return a - TWO_PI * np.round(a * (1.0 / TWO_PI))

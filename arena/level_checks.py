@@ -48,7 +48,7 @@ def text_problem(data: bytes) -> Problem | None:
     depth = values = 0
     try:
         for event in yaml.parse(data.decode("utf-8", errors="replace"), Loader=yaml.SafeLoader):
-            line = event.start_mark.line + 1
+            line = event.start_mark.line + 1 if event.start_mark else None  # the parser marks every event
             if isinstance(event, yaml.AliasEvent):
                 return Problem("(yaml)", f"aliases (*{event.anchor}) are not allowed in levels", line)
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):

@@ -11,15 +11,15 @@ import dataclasses
 import hashlib
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Callable
+from typing import Any
 
 import yaml
 
 import levels
-
 from arena import level_checks
 from arena.errors import LaserArenaError
 from arena.level import (
@@ -344,8 +344,8 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         raise LevelError(source, None, "(file)", f"not UTF-8 text ({e.reason})") from None
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise LevelError(source, mark.line + 1 if mark else None, "(yaml)", f"malformed YAML: {problem}") from None
+        reason = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise LevelError(source, mark.line + 1 if mark else None, "(yaml)", f"malformed YAML: {reason}") from None
     if root is None:
         raise LevelError(source, 1, "(top)", "the file is empty")
     located = _locate(root, source)
@@ -409,7 +409,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     if not robot_nodes:
         raise ctx.fail(top.raw("robots").line, "robots", "at least one robot is required")
     robots = [_robot(ctx, n, k, i, fld, default_laser, task, shared_path) for i, (n, k) in enumerate(robot_nodes)]
-    for r, (node, key) in zip(robots, robot_nodes):
+    for r, (node, _key) in zip(robots, robot_nodes):
         turn = (abs(r.laser.angular_velocity) + 2 * r.model.max_wheel_speed / r.model.track) / physics_rate
         if turn >= math.pi / 2:
             where = top.raw("laser") if r.laser is default_laser else node

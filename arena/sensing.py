@@ -16,15 +16,8 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena.laser import (
-    TWO_PI,
-    Crossings,
-    Trajectory,
-    find_crossings,
-    find_phase_marks,
-    segment_hits_circles,
-    wrap_angle,
-)
+from arena.angles import TWO_PI, wrap_angle
+from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_circles
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
@@ -174,8 +167,8 @@ class Sensing:
         if self.has_obstacles:
             space = self.world.space
             for i in np.nonzero(~blocked)[0]:
-                hit = space.segment_query_first((px[i], py[i]), (qx[i], qy[i]), 0.0, self.obstacle_filter)
-                blocked[i] = hit is not None
+                first = space.segment_query_first((px[i], py[i]), (qx[i], qy[i]), 0.0, self.obstacle_filter)
+                blocked[i] = first is not None
         return blocked
 
     # ---- beam-beacon hits -----------------------------------------------------------------

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import pymunk
 
+from arena.angles import wrap
 from arena.drive import DiffDrive
 from arena.level import Level, Pose
 from arena.rng import RandomTree
@@ -53,19 +54,20 @@ class World:
         if level.field.walls:
             self._add_walls()
         for ob in level.obstacles:
+            solid: pymunk.Shape
             if ob.kind == "circle":
-                shape = pymunk.Circle(self.space.static_body, ob.radius, ob.points[0])
+                solid = pymunk.Circle(self.space.static_body, ob.radius, ob.points[0])
             else:
-                shape = pymunk.Poly(self.space.static_body, ob.points)
-            self._static(shape, CAT_OBSTACLE)
+                solid = pymunk.Poly(self.space.static_body, ob.points)
+            self._static(solid, CAT_OBSTACLE)
         self.beacon_shapes = []
         for b in level.beacons.items:
             body = pymunk.Body(body_type=pymunk.Body.STATIC)
             body.position = (b.x, b.y)
-            shape = pymunk.Circle(body, level.beacons.radius)
+            disc = pymunk.Circle(body, level.beacons.radius)
             self.space.add(body)
-            self._static(shape, CAT_BEACON)
-            self.beacon_shapes.append(shape)
+            self._static(disc, CAT_BEACON)
+            self.beacon_shapes.append(disc)
         self.bodies: list[pymunk.Body] = []
         self.shapes: list[pymunk.Poly] = []
         self.drives: list[DiffDrive] = []
@@ -95,6 +97,7 @@ class World:
         contact normal, reduced mass x closing speed x (1 + restitution). Measured once here,
         so no Python callback runs on every step of a long contact."""
         a, b = arbiter.shapes
+        assert a.body is not None and b.body is not None  # shapes in a space are attached to bodies
         cps = arbiter.contact_point_set
         point = tuple(cps.points[0].point_a) if cps.points else tuple(a.body.position)
         ma = a.body.mass
@@ -170,4 +173,4 @@ class World:
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""
         x, y, h = self.state[3 * slot : 3 * slot + 3]
-        return Pose(x, y, math.atan2(math.sin(h), math.cos(h)))
+        return Pose(x, y, wrap(h))

@@ -19,15 +19,15 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-import grading  # noqa: E402
-import render  # noqa: E402
-import sensing  # noqa: E402
-import solvers  # noqa: E402
+import grading
+import render
+import sensing
+import solvers
 
-import levels  # noqa: E402
-from arena.loader import load_level  # noqa: E402
-from referee.match.loop import run_match  # noqa: E402
-from referee.sandbox.teams import resolve  # noqa: E402
+import levels
+from arena.loader import load_level
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
 
 
 def world_vs_match() -> dict:

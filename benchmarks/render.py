@@ -14,16 +14,16 @@ from pathlib import Path
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import imageio_ffmpeg  # noqa: E402
-import pygame  # noqa: E402
+import imageio_ffmpeg
+import pygame
 
-import levels  # noqa: E402
-from arena.draw import Painter  # noqa: E402
-from arena.loader import parse_level  # noqa: E402
-from referee.match.loop import run_match  # noqa: E402
-from referee.media.render import Scenes  # noqa: E402
-from referee.records.replay import load  # noqa: E402
-from referee.sandbox.teams import resolve  # noqa: E402
+import levels
+from arena.draw import Painter
+from arena.loader import parse_level
+from referee.match.loop import run_match
+from referee.media.render import Scenes
+from referee.records.replay import load
+from referee.sandbox.teams import resolve
 
 SIZE = (960, 640)
 

@@ -16,9 +16,9 @@ import time
 import levels
 from arena.loader import load_level
 from referee.match.loop import brief_for
-from referee.sandbox.process import ProcessBot
 from referee.sandbox import kernel
 from referee.sandbox.privacy import slot_uid
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
 

@@ -13,6 +13,7 @@ import inspect
 import sys
 from importlib import metadata
 from pathlib import Path
+from types import ModuleType
 
 from robots.api import Controller
 from robots.controllers import REFERENCE
@@ -73,6 +74,8 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
     if name in sys.modules:
         return _pick(sys.modules[name], cls, spec)
     module_spec = importlib.util.spec_from_file_location(name, path)
+    if module_spec is None or module_spec.loader is None:
+        raise LoadError(f"team {spec}: {path.name} cannot be imported as a Python module")
     module = importlib.util.module_from_spec(module_spec)
     sys.modules[name] = module
     try:
@@ -89,7 +92,7 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
     return _pick(module, cls, spec)
 
 
-def _pick(module: object, cls: str, spec: str) -> type[Controller]:
+def _pick(module: ModuleType, cls: str, spec: str) -> type[Controller]:
     if cls:
         found = getattr(module, cls, None)
         if not (inspect.isclass(found) and issubclass(found, Controller)):

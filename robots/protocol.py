@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import numbers
 import struct
-from typing import Annotated, Any, BinaryIO, Literal, Union
+from typing import IO, Annotated, Any, Literal
 
 import msgspec
 
@@ -50,26 +50,22 @@ Name = Annotated[str, msgspec.Meta(max_length=256)]
 Point = tuple[Real, Real]
 
 
-def _many(item: Any, n: int) -> Any:
-    return Annotated[list[item], msgspec.Meta(max_length=n)]
-
-
 class _Data(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
     """A payload record: a fixed set of fields, nothing else."""
 
 
-class _Beacon(_Data):
+class _Beacon(_Data, frozen=True):
     id: Name
     x: Real
     y: Real
 
 
-class _Laser(_Data):
+class _Laser(_Data, frozen=True):
     angular_velocity: Real
     index: bool
 
 
-class _Robot(_Data):
+class _Robot(_Data, frozen=True):
     model: Name
     length: Real
     width: Real
@@ -78,18 +74,18 @@ class _Robot(_Data):
     max_wheel_accel: Real
 
 
-class _Task(_Data):
+class _Task(_Data, frozen=True):
     kind: Name
     radius: Real
-    path: _many(Point, 1 << 16) = []
+    path: Annotated[list[Point], msgspec.Meta(max_length=1 << 16)] = []
     goal: Point | None = None
 
 
-class _Brief(_Data):
+class _Brief(_Data, frozen=True):
     slot: Count
     field: tuple[Real, Real, Real, Real]
     beacon_kind: Name
-    beacons: _many(_Beacon, 4096)
+    beacons: Annotated[list[_Beacon], msgspec.Meta(max_length=4096)]
     laser: _Laser
     robot: _Robot
     task: _Task
@@ -98,33 +94,33 @@ class _Brief(_Data):
     start: tuple[Real, Real, Real] | None = None
 
 
-class _Event(_Data):
+class _Event(_Data, frozen=True):
     time: Real
     kind: Name
     beacon: Name | None = None
     angle: Real | None = None
-    samples: _many(Byte, 1 << 16) = []
+    samples: Annotated[list[Byte], msgspec.Meta(max_length=1 << 16)] = []
 
 
-class _Observation(_Data):
+class _Observation(_Data, frozen=True):
     tick: Count
     time: Real
-    events: _many(_Event, 1 << 16) = []
+    events: Annotated[list[_Event], msgspec.Meta(max_length=1 << 16)] = []
 
 
-class _Drawing(_Data):
+class _Drawing(_Data, frozen=True):
     kind: Name
-    points: _many(Point, 4096) = []
+    points: Annotated[list[Point], msgspec.Meta(max_length=4096)] = []
     radius: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
     text: Annotated[str, msgspec.Meta(max_length=4096)] = ""
     color: tuple[Byte, Byte, Byte] = (255, 0, 255)
 
 
-class _Command(_Data):
+class _Command(_Data, frozen=True):
     left: Real
     right: Real
     estimate: tuple[Real, Real, Real] | None = None
-    debug: _many(_Drawing, 4096) = []
+    debug: Annotated[list[_Drawing], msgspec.Meta(max_length=4096)] = []
 
 
 class _Message(msgspec.Struct, tag_field="type", forbid_unknown_fields=True):
@@ -161,8 +157,10 @@ class _Fault(_Message, tag="fault"):
     message: Annotated[str, msgspec.Meta(max_length=4096)]
 
 
-_MESSAGE = msgspec.json.Decoder(Union[_Setup, _Step, _Stop, _Loaded, _Ready, _CommandMsg, _Fault])
-_DECODERS = {t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)}
+_MESSAGE = msgspec.json.Decoder(_Setup | _Step | _Stop | _Loaded | _Ready | _CommandMsg | _Fault)
+_DECODERS: dict[type[_Data], msgspec.json.Decoder[Any]] = {
+    t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)
+}
 _ENCODER = msgspec.json.Encoder()
 
 
@@ -173,7 +171,7 @@ class ProtocolError(Exception):
 # ---- frames ---------------------------------------------------------------------------------
 
 
-def write(stream: BinaryIO, msg: dict) -> None:
+def write(stream: IO[bytes], msg: dict) -> None:
     """Send one message (plain data: dicts, lists, tuples, text, numbers; see `to_plain`)."""
     try:
         data = _ENCODER.encode({"v": PROTOCOL_VERSION, **msg})
@@ -185,7 +183,7 @@ def write(stream: BinaryIO, msg: dict) -> None:
     stream.flush()
 
 
-def read(stream: BinaryIO) -> dict | None:
+def read(stream: IO[bytes]) -> dict | None:
     """Receive one message, or None at end of stream."""
     head = stream.read(4)
     if not head:
@@ -221,7 +219,7 @@ def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
         raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
-    except Exception as e:  # noqa: BLE001 - a team's bytes must raise nothing else
+    except Exception as e:
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
 
 
@@ -243,7 +241,7 @@ def parse(data: bytes) -> dict:
     return out
 
 
-def _payload(d: Any, cls: type, what: str) -> Any:
+def _payload(d: Any, cls: type[_Data], what: str) -> Any:
     """A payload from raw JSON (as `parse` leaves it) or from plain data, decoded as `cls`."""
     if type(d) is msgspec.Raw or isinstance(d, bytes):
         return _decode(_DECODERS[cls], d, what)
@@ -253,7 +251,7 @@ def _payload(d: Any, cls: type, what: str) -> Any:
         raise _invalid(e, what) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
-    except Exception as e:  # noqa: BLE001
+    except Exception as e:
         raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
 
 
@@ -442,6 +440,6 @@ def _show(v: object) -> str:
     """A short, safe rendering of a team's value for a fault message."""
     try:
         text = repr(v)
-    except Exception:  # noqa: BLE001 - a team's __repr__ may raise
+    except Exception:
         text = f"<{type(v).__name__}>"
     return text[:60] + ("..." if len(text) > 60 else "")

@@ -15,6 +15,8 @@ import os
 import signal
 import sys
 import traceback
+from collections.abc import Callable
+from typing import Any
 
 from robots import protocol
 from robots.loading import LoadError, load_class
@@ -64,11 +66,11 @@ def _built(cls, brief):
     return controller
 
 
-def _guarded(out, where: str, call) -> tuple[bool, object]:
-    """Run the team's code: (True, its value), or report a fault (memory or exception) and
-    return (False, None). A team's SystemExit counts too: it ends the controller."""
+def _guarded(out, where: str, call: Callable[..., Any], *args: object) -> tuple[bool, Any]:
+    """Run the team's code, `call(*args)`: (True, its value), or report a fault (memory or
+    exception) and return (False, None). A team's SystemExit counts too: it ends the controller."""
     try:
-        return True, call()
+        return True, call(*args)
     except MemoryError as e:
         _fault(out, "memory", where, e)
     except BaseException as e:
@@ -138,13 +140,13 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if msg["type"] == "setup":
             brief = protocol.brief_from(msg["brief"])
-            ok, controller = _guarded(out, "setup", lambda: _built(cls, brief))
+            ok, controller = _guarded(out, "setup", _built, cls, brief)
             if not ok:
                 return 1
             protocol.write(out, {"type": "ready"})
         elif msg["type"] == "step" and controller is not None:
             obs = protocol.observation_from(msg["obs"])
-            ok, cmd = _guarded(out, "step", lambda: controller.step(obs))
+            ok, cmd = _guarded(out, "step", controller.step, obs)
             if not ok:
                 return 1
             cmd = protocol.sendable(cmd)  # drawings that cannot be drawn travel as warnings

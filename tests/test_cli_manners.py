@@ -8,8 +8,8 @@ import subprocess
 import sys
 
 import pytest
-
 from helpers import MINI_LEVEL, run_cli
+
 from referee.errors import EXIT_BAD_INPUT, EXIT_PIPE
 
 

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from helpers import ONE, TWO, hits, make, sense
 
 IN = 0.0254  # m
@@ -31,9 +30,10 @@ def test_reflector_range_limit_and_unlabelled_returns():
 
 def with_facing(kind, beacon_line, degrees, params=""):
     """The test table with one beacon facing `degrees`."""
+    from helpers import TABLE
+
     from arena.loader import parse_level
     from arena.world import World
-    from test_laser import TABLE
 
     text = TABLE.format(kind=kind, omega=60.0, robots=ONE, params=params, obstacles="")
     text = text.replace(beacon_line, beacon_line[:-1] + f", facing: {degrees}}}")
@@ -441,6 +441,7 @@ def test_simi_detection_rate_past_the_limit_follows_the_light_statistics():
     `light_noise` of its log) lifts the response over the comparator's threshold; the rate
     measured over 600 sweeps matches that probability within binomial error."""
     from statistics import NormalDist
+
     from arena.world import World
 
     x, y = 93.465, -82.116  # detector 1 sees the laser 33.3 deg off its axis at 6.7 ft (limit 27.8)

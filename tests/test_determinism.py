@@ -2,13 +2,14 @@
 
 import json
 
+from helpers import run_cli
+
+import levels
 from arena.loader import load_level
-from referee.records.canonical import dumps
 from referee.match.loop import run_match
+from referee.records.canonical import dumps
 from referee.records.replay import load
 from referee.sandbox.teams import resolve
-import levels
-from helpers import run_cli
 
 
 def test_two_processes_give_identical_bytes(tmp_path):

@@ -7,8 +7,8 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from helpers import MINI_LEVEL, run_cli
+
 from referee.records.replay import load
 
 BAD = """from robots.api import Command, Controller, Drawing

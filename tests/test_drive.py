@@ -6,6 +6,7 @@ import math
 import statistics
 
 import pytest
+from helpers import MINI_LEVEL, edited
 
 import levels
 from arena.level import DriveErrors, Pose
@@ -14,7 +15,6 @@ from arena.rng import RandomTree
 from arena.world import World
 from referee.match.loop import Match, run_match
 from referee.sandbox.teams import resolve
-from helpers import MINI_LEVEL, edited
 
 BIG = edited(MINI_LEVEL, {"field.size": [4.0, 4.0], "robots.0.start": [2.0, 2.0, 0]})
 
@@ -313,7 +313,7 @@ def test_seeds_drift_differently_and_each_reproduces_exactly():
     ideal = world()
     ideal.command(0, 0.12, 0.12)
     run(ideal, 4.0)
-    for x, y, _ in runs.values():
+    for _x, y, _ in runs.values():
         assert abs(y - 2.0) > 1e-4  # no seed drives the perfect straight line
 
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from helpers import MINI_LEVEL, run_cli
 
 BOOM = """from robots.api import Command, Controller

@@ -12,10 +12,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+from helpers import variant
+
 from referee.match.loop import run_match
 from referee.records.replay import BEHAVIOUR, VERSION
 from referee.sandbox.teams import resolve
-from helpers import variant
 
 GOLDEN = Path(__file__).parent / "golden" / "replay.json"
 

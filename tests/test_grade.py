@@ -10,9 +10,9 @@ import sys
 import time
 
 import pytest
+from helpers import run_cli
 
 from referee.contest.grade import interval
-from helpers import run_cli
 
 ARGS = [
     "bac-line",
@@ -236,6 +236,7 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
     import hashlib
     import hmac
     import stat
+
     from referee.records.replay import load
 
     assert run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1").returncode == 0

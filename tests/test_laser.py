@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from helpers import ONE, TABLE, TWO, hits, make, sense
 
 from arena.loader import parse_level
 from arena.world import World
-from helpers import ONE, TABLE, TWO, hits, make, sense
 
 
 @pytest.mark.parametrize("omega", [20.0, -81.0, 1.5707963267948966])

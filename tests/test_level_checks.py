@@ -8,9 +8,9 @@ import sys
 
 import pytest
 import yaml
+from helpers import MINI_LEVEL, run_cli
 
 from arena.loader import LevelError, load_level
-from helpers import MINI_LEVEL, run_cli
 
 
 def base() -> dict:

@@ -1,9 +1,9 @@
 """Every kind of bad level file gives exit 2 and one line naming the file, the line and the key."""
 
 import pytest
+from helpers import MINI_LEVEL, run_cli
 
 from arena.loader import LevelError, parse_level
-from helpers import MINI_LEVEL, run_cli
 
 
 def line_of(text: str, needle: str) -> int:

@@ -4,10 +4,10 @@ import json
 import math
 
 import pytest
+from helpers import run_cli
 
 import levels
 from arena.loader import load_level
-from helpers import run_cli
 
 FT, IN = 0.3048, 0.0254
 ALL = ["asabe", "asabe-race", "bac-line", "bac-static", "osentoski", "simi", "ubersetzig", "vannoy"]

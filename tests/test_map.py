@@ -5,12 +5,12 @@ import math
 import numpy as np
 import pygame
 import pytest
+from helpers import run_cli
 
 import levels
 from arena.loader import load_level
 from referee.media import accuracy_map as am
 from robots.toolkit.solvers import least_squares
-from helpers import run_cli
 
 
 @pytest.mark.parametrize(

@@ -4,13 +4,13 @@ import hashlib
 import textwrap
 
 import pytest
+from helpers import MINI_LEVEL, edited
 
 from arena.loader import parse_level
 from referee.errors import TeamError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.loading import load_class
-from helpers import MINI_LEVEL, edited
 
 TWO = edited(
     MINI_LEVEL,

@@ -6,13 +6,13 @@ import json
 import textwrap
 
 import pytest
+from helpers import edited, run_cli
 
+import levels
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
-import levels
-from helpers import edited, run_cli
 
 RECORDER = """
     import json

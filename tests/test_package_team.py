@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 
 import pytest
-
 from helpers import MINI_LEVEL, run_cli
 
 INIT = "from .brain import Reader\n"

@@ -5,9 +5,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+from helpers import run_cli
+
 import levels
 import robots
-from helpers import run_cli
 
 
 def test_levels_ship_inside_the_package():

@@ -6,11 +6,11 @@ import math
 import pygame
 import pytest
 import yaml
+from helpers import run_cli
 
 import levels
 from arena.draw import color
 from arena.loader import parse_level
-from helpers import run_cli
 from referee.match.loop import run_match
 from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
 from referee.records.replay import load

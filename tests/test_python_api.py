@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import textwrap
 
 import pytest
-
 from helpers import MINI_LEVEL
 
 SCRIPT = """
@@ -56,7 +54,7 @@ def test_classes_from_a_script_and_a_cell_run_isolated(shared_dir):
     assert out.returncode == 0, out.stderr
     rows = [line.split() for line in out.stdout.splitlines()]
     assert [r[0] for r in rows] == ["Straight", "Straight", "Cell"]
-    for team, faults, x, y, heading, _ in rows:
+    for _team, faults, x, y, heading, _ in rows:
         assert faults == "0"  # the script's top-level match calls were NOT shipped and re-run
         # both wheels at 0.1 m/s with ideal drive: a straight line along +x from (0.5, 0.5, 0),
         # at most 0.1 m/s x the 4 s of the match

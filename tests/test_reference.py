@@ -19,7 +19,7 @@ IN = 0.0254
 SEEDS = (1, 2, 3)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def result(level, team, seed=None, ideal=False):
     """Every robot's result of `team` driving all of the level's robots (cached: several
     tests read the same matches)."""

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import jsonschema
 import pytest
-
 from helpers import MINI_LEVEL, edited, variant
+
+from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
 from referee.records.results import SCHEMA_FILE, MatchResult, schema_text
 from referee.sandbox.teams import resolve
-from arena.loader import parse_level
 
 SCHEMA = Path(__file__).resolve().parent.parent / "docs" / "schema" / SCHEMA_FILE
 

@@ -105,6 +105,7 @@ def test_bearings_in_the_observation_match_the_geometry():
 
 def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     from pettingzoo.test import parallel_api_test
+
     from referee.gym.parallel import LaserArenaParallelEnv
 
     env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))

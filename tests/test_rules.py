@@ -4,11 +4,11 @@ import math
 import textwrap
 
 import pytest
+from helpers import MINI_LEVEL
 
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
-from helpers import MINI_LEVEL
 
 
 def level(text):

@@ -7,7 +7,6 @@ import subprocess
 import sys
 
 import pytest
-
 from helpers import MINI_LEVEL, run_cli
 
 BOMB = "".join(

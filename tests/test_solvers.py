@@ -53,14 +53,18 @@ def test_round_trip_to_1e_9(solver):
         assert abs(math.remainder(fix.heading - h, 2 * math.pi)) < 1e-9
 
 
+def _seen(x, y, p):
+    """The absolute direction of point `p` seen from (x, y)."""
+    return math.atan2(p[1] - y, p[0] - x)
+
+
 def test_bac_closed_form_round_trip_on_the_table():
     L, W = 1.83, 1.22
     rng = random.Random(5)
     for _ in range(300):
         x, y = rng.uniform(0.02, L - 0.02), rng.uniform(0.02, W - 0.02)
-        seen = lambda p: math.atan2(p[1] - y, p[0] - x)  # noqa: E731
-        alpha = abs(math.remainder(seen((L, 0)) - seen((0, 0)), 2 * math.pi))
-        beta = abs(math.remainder(seen((0, W)) - seen((0, 0)), 2 * math.pi))
+        alpha = abs(math.remainder(_seen(x, y, (L, 0)) - _seen(x, y, (0, 0)), 2 * math.pi))
+        beta = abs(math.remainder(_seen(x, y, (0, W)) - _seen(x, y, (0, 0)), 2 * math.pi))
         fix = S.bac(alpha, beta, L, W)
         assert math.dist((fix.x, fix.y), (x, y)) < 1e-9
         # and it agrees with ToTal on the same three arrays
@@ -128,7 +132,7 @@ def test_total_batch_matches_scalar():
     poses = random_poses(2000, seed=11)
     z = np.array([bearings(x, y, h, TRI) for x, y, h in poses])
     x, y, rel = S.total_batch(np.array(TRI), z)
-    for i, (px, py, _) in enumerate(poses):
+    for i in range(len(poses)):
         one = S.total(TRI, list(z[i]))
         assert (x[i], y[i]) == pytest.approx((one.x, one.y), abs=1e-9)
         assert rel[i] == pytest.approx(one.reliability, rel=1e-6)

@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from helpers import run_cli
+
 from referee.records.replay import load
 
 

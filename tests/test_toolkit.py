@@ -8,10 +8,9 @@ import pytest
 
 from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, TaskInfo
 from robots.controllers.bac import Bac
-from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible
+from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible, wrap
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels, heading_change
-from robots.toolkit.steering import wrap
 from robots.toolkit.tracker import HitTracker
 
 

@@ -17,16 +17,16 @@ from pathlib import Path
 import numpy as np
 import pygame
 import pytest
+from helpers import MINI_LEVEL, run_cli
 
 import levels
 from arena.draw import BEACON, Painter, color
 from arena.loader import parse_level
-from helpers import MINI_LEVEL, run_cli
 from referee.match.loop import run_match
 from referee.media.render import Scenes
+from referee.media.viewer import write_viewer
 from referee.records.replay import load
 from referee.sandbox.teams import resolve
-from referee.media.viewer import write_viewer
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 ARGS = [

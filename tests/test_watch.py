@@ -15,9 +15,9 @@ from arena.draw import HUD_TEXT, OVERLAY_TEXT, _mix, color
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
+from referee.media.watch import HELP_SECONDS, KEYS, Viewer
 from referee.records.replay import load
 from referee.sandbox.teams import resolve
-from referee.media.watch import HELP_SECONDS, KEYS, Viewer
 
 SIZE = (960, 700)
 

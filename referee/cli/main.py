@@ -18,16 +18,15 @@ from typing import NoReturn
 import numpy as np
 
 import levels
-from arena.level import Level
+from arena.errors import LaserArenaError
 from arena.loader import find_level, load_level
 from referee import __version__
-from referee.records.canonical import dumps
-from arena.errors import LaserArenaError
-from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
-from referee.match.loop import NO_LIMITS, run_match
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
-from referee.sandbox.teams import resolve
+from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
+from referee.match.loop import NO_LIMITS, run_match
+from referee.records.canonical import dumps
+from referee.sandbox.teams import fill_slots, resolve
 from referee.terminal import safe
 
 
@@ -53,11 +52,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     level = find_level(args.level)
-    specs = list(args.team or [])
-    if len(specs) > len(level.robots):
-        raise UserError(f"{level.name} has {len(level.robots)} robot slot(s); got {len(specs)} --team")
-    specs += [level.default_controller] * (len(level.robots) - len(specs))
-    teams = [resolve(s) for s in specs]
+    teams = fill_slots(level, args.team)
     if args.seed is not None and args.seed < 0:
         raise UserError(f"--seed {args.seed}: a seed is a whole number >= 0")
     if args.replay == "-":

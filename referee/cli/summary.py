@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from referee.records.results import MatchResult
 from referee.terminal import safe
 
 
@@ -27,7 +28,7 @@ def _progress(task: dict) -> str:
 FAULT_WIDTH = 100  # a fault's message under the table, cut to this many characters
 
 
-def table(result: dict, logs: dict[int, str] | None = None) -> str:
+def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error;
     under it each fault's message on one line, and where the faulted slot's log is (`logs`)."""
     head = (

@@ -25,11 +25,11 @@ import signal
 import sqlite3
 import sys
 import time
+from collections.abc import Generator, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Iterable, Iterator
 
 from referee.errors import UserError
 from referee.terminal import safe
@@ -89,8 +89,8 @@ def noise_key(secret: str, level_hash: str, seed: int) -> str:
 def play(job: Job, replay_dir: str) -> tuple[Job, str, float]:
     """Run one job (in a worker); return it with its canonical result JSON and wall time."""
     from arena.loader import load_level
-    from referee.records.canonical import dumps
     from referee.match.loop import run_match
+    from referee.records.canonical import dumps
     from referee.sandbox.teams import resolve
 
     start = time.perf_counter()
@@ -269,6 +269,7 @@ def grade(
     if not todo:
         return journal
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
+    results: Generator[tuple[Job, str, float]]  # closed below, so a pool ends on an interrupt
     if scheduler:
         results = _on_dask(todo, str(replay_dir), scheduler)
     elif workers <= 1:
@@ -293,7 +294,7 @@ class _Stopped(BaseException):
     """A pool worker was told to stop (SIGTERM) in the middle of a match."""
 
 
-def _worker_stop(signum: int, frame) -> None:  # noqa: ANN001
+def _worker_stop(signum: int, frame) -> None:
     if _playing:
         raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
     os._exit(143)
@@ -314,7 +315,7 @@ def _worker_init(parent: int) -> None:
         os._exit(143)
 
 
-def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[Job, str, float]]:
+def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Generator[tuple[Job, str, float]]:
     # spawn, never fork: a forked worker would inherit the parent's state
     pool = ProcessPoolExecutor(
         max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
@@ -335,9 +336,10 @@ def _on_pool(todo: list[Job], replay_dir: str, workers: int) -> Iterator[tuple[J
 SCHEDULER_TIMEOUT = "10s"  # a scheduler that does not answer by then is a bad --scheduler
 
 
-def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Iterator[tuple[Job, str, float]]:
+def _on_dask(todo: list[Job], replay_dir: str, scheduler: str) -> Generator[tuple[Job, str, float]]:
     try:
-        from dask.distributed import Client, as_completed as dask_completed
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
     except ImportError:
         raise UserError("--scheduler needs Dask: pip install 'laserarena[dask]'") from None
     try:

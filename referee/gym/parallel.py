@@ -10,7 +10,6 @@ Needs the `rl` extra.
 
 from __future__ import annotations
 
-import functools
 from pathlib import Path
 
 import gymnasium
@@ -42,15 +41,22 @@ class LaserArenaParallelEnv(ParallelEnv):
         self.agents: list[str] = []
         self.render_mode, self.render_size = render_mode, render_size
         self._rng = np.random.default_rng()
+        self._observation_spaces: dict[str, gymnasium.spaces.Box] = {}
+        self._action_spaces: dict[str, gymnasium.spaces.Box] = {}
 
-    @functools.lru_cache(maxsize=None)
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
-        enc = self.session.encoders[self._slot(agent)]
-        return gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
+        """`agent`'s observation space: the same object on every call, as PettingZoo expects."""
+        if agent not in self._observation_spaces:
+            enc = self.session.encoders[self._slot(agent)]
+            self._observation_spaces[agent] = gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
+        return self._observation_spaces[agent]
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> gymnasium.spaces.Box:
-        return gymnasium.spaces.Box(-1.0, 1.0, (self.session.action_size(),), dtype=np.float32)
+        """`agent`'s action space (wheel commands in [-1, 1]): the same object on every call."""
+        if agent not in self._action_spaces:
+            size = (self.session.action_size(),)
+            self._action_spaces[agent] = gymnasium.spaces.Box(-1.0, 1.0, size, dtype=np.float32)
+        return self._action_spaces[agent]
 
     def _slot(self, agent: str) -> int:
         return self.possible_agents.index(agent)
@@ -67,7 +73,10 @@ class LaserArenaParallelEnv(ParallelEnv):
     def step(self, actions: dict):
         out = self.session.step({self._slot(a): actions[a] for a in self.agents if a in actions})
         live = list(self.agents)
-        pick = lambda d: {a: d[self._slot(a)] for a in live}
+
+        def pick(d: dict) -> dict:
+            return {a: d[self._slot(a)] for a in live}
+
         result = (pick(out.observations), pick(out.rewards), pick(out.terminated), pick(out.truncated), pick(out.infos))
         self.agents = [a for a in live if not (out.terminated[self._slot(a)] or out.truncated[self._slot(a)])]
         return result

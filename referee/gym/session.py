@@ -20,7 +20,8 @@ from arena.level import Level
 from referee.gym.observation import ObservationEncoder
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
-from referee.sandbox.teams import Team, resolve
+from referee.records.results import MatchResult
+from referee.sandbox.teams import Team, fill_slots
 from robots.api import Command
 from robots.controllers.idle import Idle
 
@@ -69,18 +70,14 @@ class AgentSession:
         if not agents or any(not 0 <= s < n for s in agents) or len(set(agents)) != len(agents):
             raise ValueError(f"{self.level.name} has robot slots 0..{n - 1}; agents {agents} do not fit")
         self.agents = tuple(agents)
-        specs = list(others or [])
         rest = [s for s in range(n) if s not in self.agents]
-        if len(specs) > len(rest):
-            raise ValueError(f"{len(specs)} other controllers for {len(rest)} non-agent slot(s)")
-        specs += [self.level.default_controller] * (len(rest) - len(specs))
-        self.others = dict(zip(rest, (resolve(s) for s in specs)))
+        self.others = dict(zip(rest, fill_slots(self.level, others, len(rest))))
         self.ideal, self.report_estimate, self.replay = ideal, report_estimate, replay
         samples = int(self.level.beacons.params.get("samples_per_turn", 0))
         self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}
         self.total_ticks = math.ceil(self.level.time_limit / self.level.control_period - 1e-9)
         self.match: Match | None = None
-        self.result: dict | None = None
+        self.result: MatchResult | None = None
 
     def action_size(self) -> int:
         """2 (wheel speeds), or 5 with a pose estimate; every component is in -1..1."""
@@ -109,9 +106,15 @@ class AgentSession:
         self.fouls = {s: 0 for s in self.agents}
         return self._observe()
 
+    def _live(self) -> Match:
+        """The match in play (reset() starts one)."""
+        if self.match is None:
+            raise RuntimeError("no match in play: call reset()")
+        return self.match
+
     def _observe(self) -> dict[int, np.ndarray]:
         """The control tick's first half: deliver events, let the other slots answer."""
-        m = self.match
+        m = self._live()
         observations = m.observe()
         for slot, obs in enumerate(observations):
             if obs is None:
@@ -146,14 +149,15 @@ class AgentSession:
             self.encoders[slot].command = (left, right)
         m.advance()
         terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
-        truncated = {s: m.ended and not terminated[s] for s in self.agents}
+        truncated: dict[int, bool] = {s: m.ended and not terminated[s] for s in self.agents}
         if m.ended or all(terminated.values()):
             self.result = m.end()  # the rules' last fouls count in this last reward
             m.ended = True
             observations = {s: self.encoders[s].encode(m.world.time) for s in self.agents}
         else:
             observations = self._observe()
-        rewards, infos = {}, {}
+        rewards: dict[int, float] = {}
+        infos: dict[int, dict] = {}
         for slot in self.agents:
             rewards[slot] = self._reward(slot) + float(loc[slot])
             infos[slot] = {"progress": m.tracker.progress(slot), "time": m.world.time}
@@ -168,7 +172,7 @@ class AgentSession:
 
     def _potential(self, slot: int) -> float:
         """Task points reached so far plus the fraction of the current leg covered (shaping)."""
-        m = self.match
+        m = self._live()
         tracker = m.tracker
         if tracker.kind == "localize":
             return 0.0
@@ -185,7 +189,7 @@ class AgentSession:
         return value
 
     def _reward(self, slot: int) -> float:
-        m = self.match
+        m = self._live()
         phi = self._potential(slot)
         reward = phi - self.potential[slot]
         self.potential[slot] = phi

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from arena.angles import wrap
 from arena.level import Pose
 from referee.records.results import Localization
 
@@ -24,7 +25,7 @@ class EstimateStats:
             return
         self.estimated += 1
         d = math.hypot(estimate[0] - truth.x, estimate[1] - truth.y)
-        h = abs(math.atan2(math.sin(estimate[2] - truth.heading), math.cos(estimate[2] - truth.heading)))
+        h = abs(wrap(estimate[2] - truth.heading))
         self.pos_sq += d * d
         self.hdg_sq += h * h
         self.pos_max = max(self.pos_max, d)

@@ -14,21 +14,21 @@ import sys
 from pathlib import Path
 from typing import Protocol
 
-from arena.level import ControllerLimits, Level
 from arena.detectors import Detection
+from arena.level import ControllerLimits, Level
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
 from referee import __version__
-from referee.sandbox.bot import Fault, InProcessBot
-from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.match.estimates import EstimateStats
-from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
-from referee.records.replay import ReplayWriter
 from referee.match.rules import Rules
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
+from referee.records.replay import ReplayWriter
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
+from referee.sandbox.bot import Fault, InProcessBot
+from referee.sandbox.privacy import make_undumpable
+from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.sandbox.teams import Team
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 from robots.protocol import drawing_problem

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from arena.level import Level
-from referee.records.results import FoulRecord
 from arena.world import World
+from referee.records.results import FoulRecord
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,7 @@ class Rules:
     def after_step(self, world: World) -> None:
         for c in world.contacts[self.seen_contacts :]:
             if c.impulse >= self.rules.min_impulse:
-                if c.other == "robot":
+                if c.other_robot is not None:  # a robot-robot contact
                     self._add("robot_collision", c.tick, c.robot, c.point, impulse=c.impulse, other=c.other_robot)
                     self._add("robot_collision", c.tick, c.other_robot, c.point, impulse=c.impulse, other=c.robot)
                 else:

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from arena.level import Level, Pose
 from msgspec import UNSET, UnsetType
 
+from arena.level import Level, Pose
 from referee.match.rules import Polyline
 from referee.records.results import CrossTrack, TaskProgress
 
@@ -38,8 +38,8 @@ class TaskTracker:
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
         """The points robot `slot` must reach in order."""
-        if self.kind == "goto":
-            g = self.level.task.goal
+        g = self.level.task.goal
+        if self.kind == "goto" and g is not None:  # the loader requires the goal of a goto task
             return ((g.x, g.y),)
         return self.level.robots[slot].path if self.kind in ("waypoints", "race") else ()
 
@@ -58,9 +58,10 @@ class TaskTracker:
 
     def sample_path(self, slot: int, pose: Pose | tuple[float, float]) -> None:
         """Record the robot's distance from the ideal path (at the record rate, until it finishes)."""
-        if self.kind in ("waypoints", "race") and not self.done(slot):
+        line = self.polyline[slot]  # present for every robot of a waypoints or race task
+        if line is not None and self.kind in ("waypoints", "race") and not self.done(slot):
             x, y = (pose.x, pose.y) if isinstance(pose, Pose) else pose
-            self.deviation[slot].append(self.polyline[slot].distance(x, y))
+            self.deviation[slot].append(line.distance(x, y))
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None

@@ -12,16 +12,14 @@ layout beside it on the same colour scale.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
-
 
 import numpy as np
 import pygame
 
 from arena import detectors as det
-from arena.draw import BEACON, BACKGROUND
+from arena.draw import BACKGROUND, BEACON
 from arena.laser import Crossings
 from arena.level import Level
 from arena.world import CAT_OBSTACLE, World
@@ -145,7 +143,8 @@ def _colour(v: float) -> tuple[int, int, int]:
     for (t0, c0), (t1, c1) in zip(STOPS, STOPS[1:]):
         if v <= t1:
             k = (v - t0) / (t1 - t0)
-            return tuple(round(a + (b - a) * k) for a, b in zip(c0, c1))
+            red, green, blue = (round(a + (b - a) * k) for a, b in zip(c0, c1))
+            return red, green, blue
     return STOPS[-1][1]
 
 
@@ -252,8 +251,8 @@ def _colour_bar(surface, origin, height, lo, hi, font) -> None:
         pygame.draw.line(surface, _colour(1 - k / height), (ox, oy + k), (ox + 18, oy + k))
     for v in [v * 10**k for k in range(-3, 5) for v in (1, 2, 5)]:
         if lo <= v <= hi:
-            k = (math.log(v) - math.log(lo)) / (math.log(hi) - math.log(lo))
-            y = oy + (1 - k) * height
+            up = (math.log(v) - math.log(lo)) / (math.log(hi) - math.log(lo))
+            y = oy + (1 - up) * height
             pygame.draw.line(surface, (235, 235, 235), (ox + 18, y), (ox + 24, y))
             surface.blit(font.render(f"{v:g} mm", True, (235, 235, 235)), (ox + 27, y - 6))
     surface.fill(NO_FIX, (ox, oy + height + 12, 18, 12))

@@ -12,6 +12,7 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
+from arena.angles import wrap
 from referee.records.replay import Replay
 
 
@@ -26,16 +27,13 @@ def truth_at(frames: list, times: list[float], slot: int, t: float) -> tuple[flo
     (t0, p0), (t1, p1) = frames[i - 1], frames[i]
     a, b = p0[slot], p1[slot]
     w = (t - t0) / (t1 - t0)
-    dh = math.remainder(b[2] - a[2], 2 * math.pi)
-    return (a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), math.remainder(a[2] + w * dh, 2 * math.pi))
+    dh = wrap(b[2] - a[2])
+    return (a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), wrap(a[2] + w * dh))
 
 
 def pose_error(estimate, truth) -> tuple[float, float]:
     """Position error (m) and absolute heading error (rad, 0..pi) of an estimate."""
-    return (
-        math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]),
-        abs(math.remainder(estimate[2] - truth[2], 2 * math.pi)),
-    )
+    return (math.hypot(estimate[0] - truth[0], estimate[1] - truth[1]), abs(wrap(estimate[2] - truth[2])))
 
 
 @dataclass

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from arena.draw import color
-from referee.media.error_series import tracks
 from referee.errors import UserError
+from referee.media.error_series import tracks
 from referee.records.replay import load
 
 BACKGROUND, AXIS, GRID, TEXT = (255, 255, 255), (60, 60, 60), (225, 225, 225), (30, 30, 30)

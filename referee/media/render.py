@@ -11,15 +11,14 @@ import bisect
 import sys
 from pathlib import Path
 
-
 import pygame
 
 from arena.draw import Painter, RobotView, Scene
 from arena.level import Level
 from arena.loader import parse_level
 from referee.errors import UserError
-from referee.records.replay import Replay, load
 from referee.media.standings import Standings
+from referee.records.replay import Replay, load
 
 TRAIL = 8.0  # s of trail behind each robot
 BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams

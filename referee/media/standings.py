@@ -13,10 +13,10 @@ import bisect
 import math
 
 from arena.level import Level
-from referee.media.error_series import ErrorTrack
-from referee.records.replay import Replay
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS, quality
 from referee.match.tasks import TaskTracker
+from referee.media.error_series import ErrorTrack
+from referee.records.replay import Replay
 
 
 class Standings:
@@ -56,12 +56,10 @@ class Standings:
         if finished is not None and finished <= t and not localize:
             points += TIME_POINTS * (1.0 - finished / self.level.time_limit)
         track = self.errors[slot]
-        n = track.until(t)
-        if n:
+        n, rms = track.until(t), track.rms_until(t)
+        if rms is not None:  # some estimate reported by `t`
             ticks = math.floor(t / self.level.control_period + 1e-9) + 1
-            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality(
-                min(1.0, n / ticks), track.rms_until(t)
-            )
+            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality(min(1.0, n / ticks), rms)
         return points - sum(f["penalty"] for f in self.rep.fouls if f["r"] == slot and f["time"] <= t)
 
     def error_now(self, slot: int, t: float) -> tuple[float, float] | None:

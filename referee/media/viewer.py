@@ -16,11 +16,11 @@ import levels
 from arena import draw
 from arena.level import Level
 from arena.loader import LevelError, load_level, parse_level
-from referee.media import render
-from referee.match import scoring
 from referee.errors import UserError
-from referee.records.replay import load
+from referee.match import scoring
 from referee.match.tasks import TaskTracker
+from referee.media import render
+from referee.records.replay import load
 
 WEB = Path(__file__).with_name("web")
 # a line of HUD-like text: the page sizes its font so that this line is as wide as pygame draws it

@@ -13,8 +13,12 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from referee.errors import UserError
+
+if TYPE_CHECKING:  # pygame is imported where the viewer opens its window
+    import pygame
 
 KEYS_HELP = "space pause   <- -> step/seek   up/down speed   click timeline to seek   h help   q quit"
 KEYS = (
@@ -41,7 +45,7 @@ class Viewer:
         self.t, self.paused = 0.0, False
         self.help_left = HELP_SECONDS  # s of wall time the start-up help still shows
         self.help_pinned = False
-        self.help_rect = None  # where the help was last drawn
+        self.help_rect: pygame.Rect | None = None  # where the help was last drawn
 
     @property
     def help_shown(self) -> bool:
@@ -105,6 +109,7 @@ def watch(
 ) -> int:
     """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
     import pygame
+
     from referee.media.render import Scenes
     from referee.records.replay import MemoryRecorder, load
 
@@ -118,12 +123,10 @@ def watch(
     else:
         from arena.loader import find_level
         from referee.match.loop import Match
-        from referee.sandbox.teams import resolve
+        from referee.sandbox.teams import fill_slots
 
         level = find_level(target)
-        specs = list(teams or [])
-        specs += [level.default_controller] * (len(level.robots) - len(specs))
-        resolved = [resolve(s) for s in specs]
+        resolved = fill_slots(level, teams)
         recorder = MemoryRecorder(
             level, level.text, level.seed if seed is None else seed, False, [(t.label, t.spec) for t in resolved]
         )

@@ -20,9 +20,10 @@ import json
 import os
 import tempfile
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Annotated, Iterator
+from typing import IO, Annotated, Any
 
 import msgspec
 
@@ -115,17 +116,17 @@ class ReplayWriter:
             }
         )
 
-    def _write(self, obj: dict) -> None:
+    def _write(self, obj: dict[str, Any]) -> None:
         self.file.write(dumps(obj, indent=None) + "\n")
 
-    def _fast(self, obj: dict) -> None:
+    def _fast(self, obj: dict[str, Any]) -> None:
         """The hot records (frames, events, estimates): floats already rounded, flat values."""
         self.file.write(json.dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         self._fast({"k": "f", "t": round(time, DECIMALS), "p": [[round(v, DECIMALS) for v in p] for p in poses]})
 
-    def record(self, record_kind: str, **fields) -> None:
+    def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind in ("e", "est"):
             line, est = fields.get("line"), fields.get("e")
             fields["t"] = round(fields["t"], DECIMALS)
@@ -146,7 +147,7 @@ class ReplayWriter:
             pass
         Path(self.partial).unlink(missing_ok=True)
 
-    def close(self, result: dict) -> None:
+    def close(self, result: dict[str, Any]) -> None:
         self._write({"k": "result", "result": result})
         self.file.close()  # closes the gzip stream and the file beneath
         self.raw.close()
@@ -173,7 +174,7 @@ class MemoryRecorder:
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         self.replay.frames.append((time, [list(p) for p in poses]))
 
-    def record(self, record_kind: str, **fields) -> None:
+    def record(self, record_kind: str, **fields: Any) -> None:
         lists = {
             "e": self.replay.events,
             "est": self.replay.estimates,
@@ -183,7 +184,7 @@ class MemoryRecorder:
         }
         lists[record_kind].append({"k": record_kind, **fields})
 
-    def close(self, result: dict) -> None:
+    def close(self, result: dict[str, Any]) -> None:
         self.replay.result = result
 
 
@@ -191,21 +192,21 @@ class MemoryRecorder:
 class Replay:
     """A replay read back: the header, the frames, and the other records by kind."""
 
-    header: dict
+    header: dict[str, Any]
     frames: list[tuple[float, list[list[float]]]] = field(default_factory=list)
-    events: list[dict] = field(default_factory=list)
-    estimates: list[dict] = field(default_factory=list)
-    debug: list[dict] = field(default_factory=list)
-    fouls: list[dict] = field(default_factory=list)
-    faults: list[dict] = field(default_factory=list)
-    result: dict | None = None
+    events: list[dict[str, Any]] = field(default_factory=list)
+    estimates: list[dict[str, Any]] = field(default_factory=list)
+    debug: list[dict[str, Any]] = field(default_factory=list)
+    fouls: list[dict[str, Any]] = field(default_factory=list)
+    faults: list[dict[str, Any]] = field(default_factory=list)
+    result: dict[str, Any] | None = None
 
     @property
     def duration(self) -> float:
         return self.frames[-1][0] if self.frames else 0.0
 
 
-def records(path: str | Path) -> Iterator[dict]:
+def records(path: str | Path) -> Iterator[dict[str, Any]]:
     """Stream a replay's records (dicts), header first; ReplayError (a ValueError, one line) on a record
     that is too long, not JSON, nested too deeply or not an object."""
     with gzip.open(path, "rb") as f:
@@ -231,7 +232,7 @@ def records(path: str | Path) -> Iterator[dict]:
             yield rec
 
 
-def check_header(header: dict, path: str | Path) -> None:
+def check_header(header: dict[str, Any], path: str | Path) -> None:
     """Raise ReplayError (one line) unless `header` is a replay header this version reads."""
     if header.get("format") != FORMAT:
         raise ReplayError(f"{path}: not a LaserArena replay")

@@ -13,9 +13,9 @@ import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
-from referee.sandbox.teams import Team
 from referee.records.results import FaultRecord
-from robots.api import API_VERSION, Brief, Command, Observation
+from referee.sandbox.teams import Team
+from robots.api import API_VERSION, Brief, Command, Controller, Observation
 from robots.loading import LoadError, is_file_spec, load_class
 from robots.protocol import ProtocolError, api_problem, command_from, command_problem, sendable, to_plain
 
@@ -73,7 +73,7 @@ class InProcessBot:
 
     def __init__(self, team: Team):
         self.team = team
-        self.controller = None
+        self.controller: Controller | None = None
 
     def launch(self) -> None:
         """Nothing to start: the controller lives in this process."""
@@ -92,8 +92,8 @@ class InProcessBot:
         if problem:
             return Fault(0, 0.0, "load", problem)
         try:
-            self.controller = cls()
-            self.controller.setup(brief)
+            self.controller = controller = cls()
+            controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
             return Fault(
                 0, 0.0, "exception", f"in setup: {one_line(e)}", traceback=traceback_tail(traceback.format_exc())
@@ -101,6 +101,8 @@ class InProcessBot:
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
+        if self.controller is None:
+            return Fault(obs.tick, obs.time, "protocol", "a step before the controller's setup")
         try:
             cmd = self.controller.step(obs)
         except Exception as e:

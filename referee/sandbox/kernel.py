@@ -7,7 +7,7 @@ die with the namespace's init), mount namespace (a read-only view of the interpr
 own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
 to be readable by the controller's user and nothing is written to the host's disk.
-docs/security.md holds the threat model; docs/decisions/s0009-bubblewrap-sandbox-per-slot.md
+docs/security.md holds the threat model; docs/decisions/0013-bubblewrap-sandbox-per-slot.md
 why bubblewrap.
 """
 
@@ -112,9 +112,17 @@ def _hidden() -> list[str]:
 
 def _parents(paths: list[str]) -> list[str]:
     """`--dir` for every folder above the mount points in `paths`: bwrap would create the missing
-    ones closed to all but root (0700), and the controller's uid must pass through them."""
+    ones closed to all but root (0700), and the controller's uid must pass through them. They
+    are made 0711, so it can pass through but not list them: the host's folder names (the
+    checkout's path, say) stay unseen. The import roots and the team's own folders stay
+    listable, as imports need."""
     folders = sorted({str(p) for path in paths for p in Path(path).parents if str(p) != "/"})
-    return [arg for folder in folders for arg in ("--dir", folder)]
+    mine = tuple(f"{root}/" for root in (LIB_DIR, TEAM_DIR))
+    return [
+        arg
+        for f in folders
+        for arg in ("--perms", "0755" if f in (LIB_DIR, TEAM_DIR) or f.startswith(mine) else "0711", "--dir", f)
+    ]
 
 
 def _system_view() -> list[str]:

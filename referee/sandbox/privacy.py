@@ -13,8 +13,12 @@ import shutil
 import stat
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from referee.errors import UserError
+
+if TYPE_CHECKING:  # imported where used: Windows has no pwd module
+    import pwd
 
 PR_SET_DUMPABLE = 4
 UNPRIVILEGED_USER = "nobody"
@@ -36,7 +40,7 @@ def is_root() -> bool:
     return getattr(os, "geteuid", lambda: -1)() == 0
 
 
-def drop_to() -> "pwd.struct_passwd | None":
+def drop_to() -> pwd.struct_passwd | None:
     """The user controllers run as without a kernel sandbox: `nobody` when the referee is root,
     else None (same user). None too where root cannot become `nobody` (a container's user
     namespace that maps root alone): `cannot_drop` then says so."""

@@ -21,6 +21,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import IO, Any
 
 import robots
 from arena.level import ControllerLimits
@@ -86,7 +87,7 @@ class ProcessBot:
             raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
         self.sandboxed = sandboxed
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
         self.buf = b""
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
         self.bank = limits.overage_bank
@@ -150,7 +151,7 @@ class ProcessBot:
                 os.close(fd)
 
     def _spawn_plain(self, limits: list[str], stderr) -> None:
-        user, as_user = drop_to(), {}
+        user, as_user = drop_to(), dict[str, Any]()
         self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
         share_team_files(self.team.files, Path(self.folder.name))
         entry = self.team.entry
@@ -179,9 +180,22 @@ class ProcessBot:
             **as_user,
         )
 
+    def _process(self) -> subprocess.Popen[bytes]:
+        """The controller process, started by `launch`."""
+        if self.proc is None:
+            raise RuntimeError("the controller process has not been launched")
+        return self.proc
+
+    def _pipes(self) -> tuple[IO[bytes], IO[bytes]]:
+        """The controller's stdin and stdout (`launch` pipes both)."""
+        stdin, stdout = self._process().stdin, self._process().stdout
+        if stdin is None or stdout is None:
+            raise RuntimeError("the controller process has no pipes")
+        return stdin, stdout
+
     def _send(self, msg: dict) -> bool:
         try:
-            protocol.write(self.proc.stdin, msg)
+            protocol.write(self._pipes()[0], msg)
             return True
         except (BrokenPipeError, OSError):
             return False
@@ -189,7 +203,7 @@ class ProcessBot:
     def _receive(self, timeout: float) -> dict | str:
         """The next message, or a fault kind: `timeout`, `crash` (the process ended), `protocol`."""
         deadline = time.monotonic() + timeout  # inf: wait for ever (--no-limits)
-        fd = self.proc.stdout.fileno()
+        fd = self._pipes()[1].fileno()
         while True:
             if len(self.buf) >= 4:
                 (size,) = struct.unpack(">I", self.buf[:4])
@@ -216,13 +230,13 @@ class ProcessBot:
     def _fault(self, tick: int, t: float, what: str | dict, where: str) -> Fault:
         """A Fault from a failed exchange; the process is ended."""
         if isinstance(what, dict):
-            kind = what.get("kind") if what.get("kind") in FAULT_KINDS else "protocol"
+            kind = str(what["kind"]) if what.get("kind") in FAULT_KINDS else "protocol"
             message = str(what.get("message", ""))[:500]
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
         elif what == "crash" and not self.loaded:
-            self.proc.wait()
+            self._process().wait()
             code = self._status()
             kind = "load"
             message = (
@@ -231,7 +245,7 @@ class ProcessBot:
                 + " while its code was loading"
             )
         elif what == "crash":
-            self.proc.wait()
+            self._process().wait()
             code = self._status()
             if code == -signal.SIGXFSZ:
                 kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
@@ -272,7 +286,7 @@ class ProcessBot:
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
         passes a signal on as 128 + its number, and the runner ends so on an output flood."""
-        code = self.proc.returncode
+        code = self._process().returncode
         if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
             return -(code - 128)
         return code
@@ -395,7 +409,8 @@ class ProcessBot:
         self.proc.wait()
         for stream in (self.proc.stdin, self.proc.stdout):
             try:
-                stream.close()
+                if stream is not None:
+                    stream.close()
             except OSError:
                 pass
         if self.folder is not None:

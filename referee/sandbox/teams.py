@@ -14,11 +14,13 @@ from __future__ import annotations
 import hashlib
 import importlib.machinery
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
+from arena.level import Level
 from referee.errors import TeamError
+from robots.api import Controller
 from robots.controllers import REFERENCE
 from robots.loading import LoadError, entry_point, is_file_spec
 
@@ -43,7 +45,7 @@ class Team:
     code_hash: str
     files: tuple[tuple[str, Path], ...] = ()
     entry: str = ""
-    factory: Callable[[], object] | None = None
+    factory: Callable[[], Controller] | None = None
 
 
 def _file_hash(path: Path) -> str:
@@ -119,9 +121,13 @@ def _module_team(label: str, spec: str, target: str) -> Team:
             target,
         )
     top_spec = find_module(top)
+    if top_spec is None:
+        raise TeamError(f"team {label}: cannot find package {top!r} on the path")
     if top_spec.submodule_search_locations:  # a package: ship all of it
         files = _package_files(Path(list(top_spec.submodule_search_locations)[0]), label)
         return Team(label, spec, _tree_hash(files), files, target)
+    if top_spec.origin is None:
+        raise TeamError(f"team {label}: module {top!r} has no file to ship")
     origin = Path(top_spec.origin)
     return Team(label, spec, _file_hash(origin), ((origin.name, origin),), target)
 
@@ -183,3 +189,14 @@ def resolve(spec: str) -> Team:
 def code_hash(spec: str) -> str:
     """The `Team.code_hash` of a spec (for replays and verification), without running anything."""
     return resolve(spec).code_hash
+
+
+def fill_slots(level: Level, specs: list[str] | None, slots: int | None = None) -> list[Team]:
+    """The teams of `slots` robot slots (all of the level's by default), in slot order: the
+    specs given, then the level's default controller for the rest; TeamError (one line) if
+    more specs are given than there are slots, or one cannot be resolved."""
+    n = len(level.robots) if slots is None else slots
+    given = list(specs or [])
+    if len(given) > n:
+        raise TeamError(f"{level.name}: {len(given)} teams for {n} robot slot(s)")
+    return [resolve(s) for s in given + [level.default_controller] * (n - len(given))]

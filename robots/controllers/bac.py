@@ -29,10 +29,10 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation
-from robots.toolkit.angles import BeaconRevolutions, Revolution
+from robots.toolkit.angles import BeaconRevolutions, Revolution, wrap
 from robots.toolkit.motion import heading_change
 from robots.toolkit.solvers import bac, total
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
@@ -78,7 +78,8 @@ class BacSeed(Controller):
         durations = [b - a for a, b in zip(times, times[1:])]
         if abs(rev.period - self.nominal) > min(durations) / (2 * math.pi) * rev.period:
             return None  # "compared to a manually defined value": tolerance = smallest pulse duration
-        ccw = {b: (self.sign * a) % (2 * math.pi) for a, b in rev.hits}  # counter-clockwise from O
+        # counter-clockwise from O; an unlabelled pulse leaves ccw short, so no fix
+        ccw = {b: (self.sign * a) % (2 * math.pi) for a, b in rev.hits if b is not None}
         if len(ccw) != len(rev.hits) or len(ccw) < 3:
             return None
         if self.a in ccw and self.c in ccw:
@@ -120,7 +121,7 @@ class BacSeed(Controller):
         )
 
     def _guide(self) -> tuple[float, float]:
-        if self.straight:  # "started with both wheels set to move at the same velocity"
+        if self.straight and self.brief.start:  # "started with both wheels set to move at the same velocity"
             x0, y0, _ = self.brief.start
             x1, y1 = self.path[-1]
             done = self.position is not None and (
@@ -205,14 +206,14 @@ class Bac(Controller):
             if abs(left) <= DEAD_BAND or (near and abs(left) <= SPIN):
                 return cruise, cruise
             self.turning = int(math.copysign(1 if abs(left) <= SPIN else 2, left))
-        return self._turn(error, cruise)
+        return self._turn(self.turning, error, cruise)
 
-    def _turn(self, error: float, cruise: float) -> tuple[float, float]:
-        """The wheel command of the turn in progress for this control period. Its strength s
+    def _turn(self, mode: int, error: float, cruise: float) -> tuple[float, float]:
+        """The wheel command of the turn in progress (`mode`, as in `turning`) for this control period. Its strength s
         (0..1) is solved so that this period plus the ramp back to driving straight at `cruise`
         turns exactly `error` (rad, from now) on the nominal wheel model; a turn longer than
         that goes at full strength and is solved again at the next tick."""
-        mode, wheels, top = self.turning, self.tracker.wheels, self.brief.robot.max_wheel_speed
+        wheels, top = self.tracker.wheels, self.brief.robot.max_wheel_speed
         period = self.brief.control_period
 
         def command(s: float) -> tuple[float, float]:

@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation, SensorEvent
-from robots.toolkit.angles import IndexRevolutions
+from robots.toolkit.angles import IndexRevolutions, wrap
 from robots.toolkit.associate import by_sectors
 from robots.toolkit.solvers import circles
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.steering import next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 APPROACH = 2.0  # 1/s: the speed (m/s) is at most this times the distance (m) to the waypoint
@@ -47,7 +47,7 @@ class Best(Controller):
             assoc = by_sectors([a % (2 * math.pi) for a in rel], self.beacons, ref)
             if assoc.ambiguous:
                 continue
-            fix = circles([self.beacons[b] for b in assoc.ids], rel)
+            fix = circles([self.beacons[b] for b in assoc.ids if b is not None], rel)
             if fix.ok:  # at the click the beam points straight ahead: its world angle is the heading
                 return fix.x, fix.y, fix.heading, fix.heading
         return None

@@ -11,7 +11,8 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation
-from robots.toolkit.steering import next_waypoint, wrap
+from robots.toolkit.angles import wrap
+from robots.toolkit.steering import next_waypoint
 
 SUBSTEPS = 20  # integration steps per control period
 SPIN_ABOVE = 0.3  # rad: heading errors above this turn on the spot
@@ -31,12 +32,12 @@ class DeadReckoning(Controller):
         if self.pose is None:
             return Command(0.0, 0.0)
         now = self.pose  # where we believe we are at this tick, before the new command acts
-        left, right = self._steer()
-        self._integrate(left, right)
+        left, right = self._steer(now)
+        self._integrate(now, left, right)
         return Command(left, right, estimate=now)
 
-    def _steer(self) -> tuple[float, float]:
-        x, y, h = self.pose
+    def _steer(self, pose: tuple[float, float, float]) -> tuple[float, float]:
+        x, y, h = pose
         self.target = next_waypoint(self.path, self.target, x, y, self.brief.task.radius / 2)
         if self.target >= len(self.path):
             return 0.0, 0.0
@@ -53,11 +54,11 @@ class DeadReckoning(Controller):
         scale = max(1.0, abs(left) / vmax, abs(right) / vmax)
         return left / scale, right / scale
 
-    def _integrate(self, left: float, right: float) -> None:
-        """Advance the pose over one control period the way the drive ramps the wheels."""
+    def _integrate(self, pose: tuple[float, float, float], left: float, right: float) -> None:
+        """Advance `pose` over one control period the way the drive ramps the wheels."""
         dt = self.brief.control_period / SUBSTEPS
         dv = self.brief.robot.max_wheel_accel * dt
-        x, y, h = self.pose
+        x, y, h = pose
         wl, wr = self.wheels
         for _ in range(SUBSTEPS):
             wl += max(-dv, min(dv, left - wl))

@@ -8,7 +8,6 @@ task) or drives its path by the same stop-and-go as Vannoy's and Ubersetzig's ro
 
 from __future__ import annotations
 
-
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
 from robots.toolkit.solvers import newton

@@ -13,8 +13,7 @@ from __future__ import annotations
 import math
 
 from robots.api import Brief, Command, Controller, Observation, SensorEvent
-from robots.toolkit.angles import IndexRevolutions, Revolution, plausible
-from robots.toolkit.steering import wrap
+from robots.toolkit.angles import IndexRevolutions, Revolution, plausible, wrap
 from robots.toolkit.tracker import HitTracker
 
 LEG = 0.6  # m driven between scans at most

@@ -3,7 +3,6 @@ heading from the click-to-first-reflection time; stop-and-scan to the charger.""
 
 from __future__ import annotations
 
-
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
 from robots.toolkit.associate import by_sectors
@@ -21,7 +20,7 @@ class Vannoy(StopAndScan):
         assoc = by_sectors(rel, self.beacons, reference)
         if assoc.ambiguous:
             return None  # Vannoy: "the robot would have to move ... to resolve the problem"
-        fix = circles([self.beacons[b] for b in assoc.ids], rel)
+        fix = circles([self.beacons[b] for b in assoc.ids if b is not None], rel)
         if not fix.ok or not (xmin <= fix.x <= xmax and ymin <= fix.y <= ymax):
             return None
         return fix.x, fix.y, fix.heading

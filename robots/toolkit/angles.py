@@ -15,6 +15,11 @@ from robots.api import SensorEvent
 TWO_PI = 2 * math.pi
 
 
+def wrap(angle: float) -> float:
+    """An angle wrapped to [-pi, pi]."""
+    return math.remainder(angle, TWO_PI)
+
+
 @dataclass(frozen=True)
 class Revolution:
     """One laser turn: its start and end times and its hits as (angle, beacon id or None).

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from robots.toolkit.steering import wrap
+from robots.toolkit.angles import wrap
 
 TWO_PI = 2 * math.pi
 

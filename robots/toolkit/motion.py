@@ -40,7 +40,7 @@ class Wheels:
         self.time, self.speeds = time, (ends[0], ends[1])
         return dt, (means[0] + means[1]) / 2, (means[1] - means[0]) / self.track
 
-    def copy(self) -> "Wheels":
+    def copy(self) -> Wheels:
         """An independent copy, to try commands on without touching this one."""
         out = Wheels(self.track, self.accel, self.time)
         out.speeds, out.target = self.speeds, self.target

@@ -120,7 +120,8 @@ def total_batch(beacons: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, 
             _total_chunk(beacons if beacons.ndim == 2 else beacons[i : i + CHUNK], bearings[i : i + CHUNK])
             for i in range(0, n, CHUNK)
         ]
-        return tuple(np.concatenate(p) for p in zip(*parts))
+        x, y, reliability = (np.concatenate(p) for p in zip(*parts))
+        return x, y, reliability
     return _total_chunk(beacons, bearings)
 
 

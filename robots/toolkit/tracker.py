@@ -33,14 +33,13 @@ from __future__ import annotations
 
 import math
 from collections import Counter, deque
-
-from typing import Callable
+from collections.abc import Callable
 
 from robots.api import Brief, SensorEvent
+from robots.toolkit.angles import wrap
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels
 from robots.toolkit.solvers import least_squares
-from robots.toolkit.steering import wrap
 
 # "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
 # same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
@@ -177,13 +176,14 @@ class HitTracker:
             self.recent.append((e.time, e.beacon))
             while self.recent[0][0] < e.time - 2 * self.time_out:
                 self.recent.pop(0)
-        lost = self.ekf is None or not self._update(e)
+        ekf = self.ekf
+        lost = ekf is None or not self._update(ekf, e)
         fix = self.first_fix(e)
         if fix is None:
             return
-        if lost:
+        if ekf is None or lost:
             self.restart(*fix)
-        elif abs(self.turn_rate) > STEADY_TURN or math.dist(fix[:2], self.ekf.pose[:2]) <= self.fix_check:
+        elif abs(self.turn_rate) > STEADY_TURN or math.dist(fix[:2], ekf.pose[:2]) <= self.fix_check:
             self.disagree_since = None  # agreed, or turning: the laser lags its motor, fixes are poor
         elif self.disagree_since is None:
             self.disagree_since = e.time
@@ -192,9 +192,8 @@ class HitTracker:
             # overlapping revolutions, but a filter that is wrong
             self.restart(*fix)
 
-    def _update(self, e: SensorEvent) -> bool:
-        """The EKF update for one event; False once the filter is lost."""
-        ekf = self.ekf
+    def _update(self, ekf: BearingEKF, e: SensorEvent) -> bool:
+        """The EKF update of `ekf` for one event; False once the filter is lost."""
         if e.kind == "index":
             ekf.index(self.var, self.gate)
             return True  # a click is no evidence of being lost or not

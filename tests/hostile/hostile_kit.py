@@ -14,8 +14,8 @@ import levels
 from arena.level import ControllerLimits
 from arena.loader import parse_level
 from referee.match.loop import run_match
-from referee.sandbox.privacy import slot_uid
 from referee.sandbox.kernel import unavailable
+from referee.sandbox.privacy import slot_uid
 from referee.sandbox.teams import resolve
 
 FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)

@@ -18,8 +18,8 @@ from hostile.hostile_kit import (
     team_file,
 )
 from referee.match.loop import run_match
-from referee.sandbox.teams import resolve
 from referee.match.verify import verify
+from referee.sandbox.teams import resolve
 
 # module-level code that, run anywhere, leaves a mark and rewrites the scoring
 SUBVERT = """

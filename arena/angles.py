@@ -1,0 +1,20 @@
+"""Angles of the world, in one place: a full turn, and wrapping to (-pi, pi] for one angle or
+an array of them (the team side has its own, in robots.toolkit.angles)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap(angle: float) -> float:
+    """One angle wrapped to [-pi, pi]."""
+    return math.remainder(angle, TWO_PI)
+
+
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo)."""
+    return a - TWO_PI * np.round(a * (1.0 / TWO_PI))
