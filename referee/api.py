@@ -63,7 +63,7 @@ def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
     return lines + defined
 
 
-def _source_file(cls: type) -> str | None:
+def _source_file(cls: object) -> str | None:
     """The file or notebook cell that defines `cls`, from its methods' code objects (a class
     in `__main__` has no module file to ask), or None."""
     if inspect.isfunction(cls):
@@ -78,7 +78,7 @@ def _source_file(cls: type) -> str | None:
 def _definitions(text: str) -> str:
     """A module's definitions only: imports, functions, classes and literal constants; any
     statement that does something (running a match, say) is left out."""
-    kept = []
+    kept: list[ast.stmt] = []
     for node in ast.parse(text).body:
         if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             kept.append(node)
@@ -95,14 +95,15 @@ def _definitions(text: str) -> str:
     return "\n\n".join(ast.get_source_segment(text, n, padded=True) or ast.unparse(n) for n in kept) + "\n"
 
 
-def _definition(cls: type) -> str:
+def _definition(cls: object) -> str:
     """The source of a class defined in `__main__`, found in its file or cell."""
     filename = _source_file(cls)
+    name = getattr(cls, "__name__", "")
     text = "".join(linecache.getlines(filename)) if filename else ""
     for node in ast.parse(text).body:
-        if isinstance(node, ast.ClassDef) and node.name == cls.__name__:
+        if isinstance(node, ast.ClassDef) and node.name == name:
             return ast.get_source_segment(text, node) or ast.unparse(node)
-    raise OSError(f"no source for {cls.__name__}")
+    raise OSError(f"no source for {name}")
 
 
 def _class_source(cls: type) -> str:
@@ -110,7 +111,7 @@ def _class_source(cls: type) -> str:
     module's file. A class from a script or a notebook (`__main__`): the definitions of its
     file or cell (`_definitions`), after the imports its module's globals show."""
     module = inspect.getmodule(cls)
-    if cls.__module__ != "__main__":
+    if cls.__module__ != "__main__" and module is not None:
         try:
             return inspect.getsource(module)
         except (OSError, TypeError):

@@ -26,6 +26,7 @@ from referee.cli.summary import table
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
+from referee.records.results import MatchResult
 from referee.sandbox.teams import fill_slots, resolve
 from referee.terminal import safe
 
@@ -94,13 +95,15 @@ def cmd_run(args: argparse.Namespace) -> int:
 FAILED_LOGS = Path("laserarena-logs")  # where a failed slot's output is kept when --logs is not given
 
 
-def _failed_logs(result: dict, given: Path | None, scratch: Path | None) -> dict[int, str]:
+def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) -> dict[int, str]:
     """The log of each slot that faulted, by slot: in the --logs folder, else copied from the
     scratch folder to ./laserarena-logs/slotN.log (the other slots' logs are not kept)."""
     failed = [r["slot"] for r in result["robots"] if r["faults"]]
     if given is not None:
         return {slot: str(given / f"slot{slot}.log") for slot in failed}
-    kept = {}
+    kept: dict[int, str] = {}
+    if scratch is None:
+        return kept
     for slot in failed:
         source = scratch / f"slot{slot}.log"
         if not source.is_file() or not source.stat().st_size:  # in-process (output on this terminal), or silent

@@ -113,12 +113,12 @@ class InProcessBot:
                 f"in step: {one_line(e)}",
                 traceback=traceback_tail(traceback.format_exc()),
             )
-        cmd = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
-        problem = command_problem(cmd)
+        sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
+        problem = command_problem(sent)
         if problem:
             return Fault(obs.tick, obs.time, "bad_command", problem)
         try:  # the very checks and conversions of the wire (numpy scalars become floats, caps apply)
-            return command_from(to_plain(cmd))
+            return command_from(to_plain(sent))
         except ProtocolError as e:
             return Fault(obs.tick, obs.time, "bad_command", str(e))
 

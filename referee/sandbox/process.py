@@ -96,7 +96,7 @@ class ProcessBot:
         self.loaded = False  # the controller process has loaded the team's code
         self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
-        self.log_file = None  # the team's output, as the controller writes it
+        self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
         self.in_sandbox = False
 
     def _spawn(self) -> None:

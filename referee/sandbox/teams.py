@@ -175,11 +175,15 @@ def resolve(spec: str) -> Team:
         )
     package = _package_dir(spec)
     if package:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
-        path, cls = package
-        root = path.resolve()
+        folder, cls = package
+        root = folder.resolve()
         files = _package_files(root, spec)
         return Team(
-            label_of(path) + (f":{cls}" if cls else ""), f"{root}:{cls}", _tree_hash(files), files, f"{root.name}:{cls}"
+            label_of(folder) + (f":{cls}" if cls else ""),
+            f"{root}:{cls}",
+            _tree_hash(files),
+            files,
+            f"{root.name}:{cls}",
         )
     if ":" not in spec:
         return _module_team(spec, spec, _entry_point(spec))
