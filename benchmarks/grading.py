@@ -17,9 +17,9 @@ from pathlib import Path
 
 import levels
 from arena.loader import load_level
-from referee import __version__
 from referee.contest import grade as g
 from referee.sandbox.teams import resolve
+from referee.version import __version__
 
 
 def cpu() -> float:

@@ -7,12 +7,9 @@ maps), `gym` (RL environments, optional) and `cli` (the `laserarena` command). d
 draws the rooms and what flows between them.
 """
 
-from importlib import metadata
+from referee.version import __version__
 
-try:
-    __version__ = metadata.version("laserarena")
-except metadata.PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0+unknown"
+__all__ = ["__version__", "run_match"]
 
 
 def __getattr__(name: str) -> object:

@@ -20,7 +20,6 @@ import numpy as np
 import levels
 from arena.errors import LaserArenaError
 from arena.loader import find_level, load_level
-from referee import __version__
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
@@ -29,6 +28,7 @@ from referee.records.canonical import dumps
 from referee.records.results import MatchResult
 from referee.sandbox.teams import fill_slots, resolve
 from referee.terminal import safe
+from referee.version import __version__
 
 
 def cmd_levels(args: argparse.Namespace) -> int:

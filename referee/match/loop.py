@@ -19,7 +19,6 @@ from arena.level import ControllerLimits, Level
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
-from referee import __version__
 from referee.match.estimates import EstimateStats
 from referee.match.rules import Rules
 from referee.match.scoring import score
@@ -30,6 +29,7 @@ from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.sandbox.teams import Team
+from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
 from robots.protocol import drawing_problem
 
