@@ -1,0 +1,167 @@
+"""The SQLite journal of finished matches: one file (0600) per grading or tournament run, held by
+one run at a time, every finished match committed at once so a killed run resumes where it
+stopped. `matches` holds grading's one-team matches, `heats` a tournament's heats; a row is
+keyed by everything its result depends on, so an edited team or level is run again and an old
+row never mixes in. The run's noise secret lives in `meta` (docs/integrity.md).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import sqlite3
+import sys
+import time
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from referee.errors import UserError
+from referee.terminal import safe
+
+if TYPE_CHECKING:
+    from referee.contest.grade import Job
+
+SCHEMA_VERSION = 2
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS matches (
+    level TEXT NOT NULL, level_hash TEXT NOT NULL, team TEXT NOT NULL, code_hash TEXT NOT NULL,
+    seed INTEGER NOT NULL, software TEXT NOT NULL, ideal INTEGER NOT NULL, secret_id TEXT NOT NULL,
+    result TEXT NOT NULL, replay TEXT NOT NULL, wall_seconds REAL NOT NULL, graded_at REAL NOT NULL,
+    PRIMARY KEY (level_hash, team, code_hash, seed, software, ideal, secret_id)
+);
+CREATE TABLE IF NOT EXISTS heats (
+    level TEXT NOT NULL, level_hash TEXT NOT NULL, lineup TEXT NOT NULL, seed INTEGER NOT NULL,
+    software TEXT NOT NULL, ideal INTEGER NOT NULL, secret_id TEXT NOT NULL,
+    result TEXT NOT NULL, replay TEXT NOT NULL, wall_seconds REAL NOT NULL, graded_at REAL NOT NULL,
+    PRIMARY KEY (level_hash, lineup, seed, software, ideal, secret_id)
+);
+"""
+KEY = "level_hash, team, code_hash, seed, software, ideal, secret_id"
+
+
+HEAT_KEY = "level_hash, lineup, seed, software, ideal, secret_id"
+
+
+def _private_file(path: Path) -> None:
+    """Create `path` (0600) unless it exists; tighten it to 0600 if it does."""
+    try:
+        os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+    except FileExistsError:
+        if not path.is_file():
+            raise UserError(f"{path}: not a journal file") from None
+        os.chmod(path, 0o600)
+
+
+class Journal:
+    """The SQLite journal of finished matches (0600), held by one grading run at a time."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        try:
+            _private_file(path)
+            self.lock = open(path, "rb")
+        except OSError as e:
+            raise UserError(f"{path}: cannot open the journal: {e.strerror or e}") from None
+        try:
+            import fcntl  # POSIX only: without it (Windows) two runs on one journal are not kept apart
+
+            fcntl.flock(self.lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except ImportError:
+            print(f"laserarena: warning: {path}: no file locks here; run one grading per journal", file=sys.stderr)
+        except BlockingIOError:
+            raise UserError(f"{path}: another grading run is using this journal") from None
+        try:
+            self.db = sqlite3.connect(path)
+            version = self.db.execute("PRAGMA user_version").fetchone()[0]
+            tables = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            if version != SCHEMA_VERSION and tables:
+                raise UserError(
+                    f"{path}: a journal of another LaserArena version (schema {version}, "
+                    f"this is {SCHEMA_VERSION}); grade into a new --db"
+                )
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.executescript(SCHEMA)
+            self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+            self.db.commit()
+        except sqlite3.DatabaseError as e:
+            raise UserError(f"{path}: not a readable LaserArena journal ({e})") from None
+
+    def _query(self, sql: str, args: tuple = ()) -> list:
+        try:
+            return self.db.execute(sql, args).fetchall()
+        except sqlite3.DatabaseError as e:
+            raise UserError(f"{self.path}: a damaged journal ({e})") from None
+
+    def secret(self, given: str | None) -> str:
+        """The run's noise secret: `given`, else the journal's own (made on first use with
+        `secrets`, kept in the journal so a resumed run draws the same noise)."""
+        if given:
+            return given
+        row = self._query("SELECT value FROM meta WHERE key='secret'")
+        if row:
+            return row[0][0]
+        made = secrets.token_hex(32)
+        self.db.execute("INSERT INTO meta VALUES ('secret', ?)", (made,))
+        self.db.commit()
+        return made
+
+    def done(self) -> set[tuple]:
+        return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
+
+    def record(self, job: Job, result: str, replay: str, wall: float) -> None:
+        self.db.execute(
+            "INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (
+                job.level,
+                job.level_hash,
+                job.team,
+                job.code_hash,
+                job.seed,
+                job.software,
+                int(job.ideal),
+                job.secret_id,
+                result,
+                replay,
+                wall,
+                time.time(),
+            ),
+        )
+        self.db.commit()  # at once: a killed run loses nothing that finished
+
+    def results(self, jobs: Iterable[Job]) -> list[tuple[Job, dict]]:
+        out = []
+        where = " AND ".join(f"{k.strip()}=?" for k in KEY.split(","))
+        for job in jobs:
+            row = self._query(f"SELECT result FROM matches WHERE {where}", job.key())
+            if row:
+                try:
+                    out.append((job, json.loads(row[0][0])))
+                except ValueError:
+                    raise UserError(f"{self.path}: a damaged result for {safe(job.team)} seed {job.seed}") from None
+        return out
+
+    def heats_done(self) -> set[tuple]:
+        """The keys of the tournament heats already in the journal."""
+        return {tuple(r) for r in self._query(f"SELECT {HEAT_KEY} FROM heats")}
+
+    def record_heat(self, level: str, key: tuple, result: str, replay: str, wall: float) -> None:
+        """Commit one finished heat; `key` is its HEAT_KEY tuple."""
+        self.db.execute(
+            "INSERT OR REPLACE INTO heats VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (level, *key, result, replay, wall, time.time()),
+        )
+        self.db.commit()  # at once: a killed run loses nothing that finished
+
+    def heat(self, key: tuple) -> tuple[dict, str, float] | None:
+        """A finished heat's result, replay path and wall time, or None if it has not run."""
+        where = " AND ".join(f"{k.strip()}=?" for k in HEAT_KEY.split(","))
+        row = self._query(f"SELECT result, replay, wall_seconds FROM heats WHERE {where}", key)
+        if not row:
+            return None
+        try:
+            return json.loads(row[0][0]), row[0][1], row[0][2]
+        except ValueError:
+            raise UserError(f"{self.path}: a damaged heat result ({safe(key[0])} seed {key[2]})") from None

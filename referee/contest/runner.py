@@ -1,0 +1,203 @@
+"""Playing many matches: in this process, on a local pool whose workers die with it, or on a
+Dask cluster. A job carries everything a match needs as data (the level's text, each team's
+code as bytes, the seed and noise key); a worker returns the result and the replay's bytes, and
+only the client writes files and the journal -- so Dask workers need no shared folder, and a
+worker that dies mid-match is retried without its match ever being counted twice.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import sys
+import tempfile
+import time
+from collections.abc import Generator, Hashable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import TypeVar
+
+from referee.contest.shipping import Shipped, unship
+from referee.errors import UserError
+from referee.version import __version__
+
+K = TypeVar("K", bound=Hashable)  # what the caller names each job by
+
+
+@dataclass(frozen=True)
+class MatchJob:
+    """One match as data: the level file's name, bytes and sha256, the team of each slot, the
+    seed, the secret noise key (hex), ideal or not, and the software version that must run it."""
+
+    level: str
+    level_text: bytes
+    level_hash: str
+    teams: tuple[Shipped, ...]
+    seed: int
+    noise_key: str
+    ideal: bool
+    software: str
+
+
+@dataclass(frozen=True)
+class Played:
+    """A finished match: its canonical result JSON, the replay's bytes, the wall time it took."""
+
+    result: str
+    replay: bytes
+    wall: float
+
+
+class VersionMismatch(UserError):
+    """A worker runs another LaserArena than the client: its results would not be comparable."""
+
+
+def play(job: MatchJob) -> Played:
+    """Run one job (in a worker), its team files and replay in a scratch folder of its own."""
+    from arena.loader import parse_level
+    from referee.match.loop import run_match
+    from referee.records.canonical import dumps
+
+    if job.software != __version__:
+        raise VersionMismatch(f"a worker runs laserarena {__version__}, the client {job.software}; install the same")
+    start = time.perf_counter()
+    level = parse_level(job.level_text, job.level)
+    if level.hash != job.level_hash:
+        raise UserError(f"{job.level}: the level arrived damaged")
+    global _playing
+    with tempfile.TemporaryDirectory(prefix="laserarena-job-") as scratch:
+        folder = Path(scratch)
+        os.chmod(folder, 0o711)  # the sandbox's user reaches the team files below, lists nothing
+        teams = []
+        for slot, shipped in enumerate(job.teams):
+            code = folder / f"slot{slot}"
+            code.mkdir(mode=0o755)
+            teams.append(unship(shipped, code))
+        replay = folder / "match.replay"
+        try:
+            _playing = True
+            result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
+        except _Stopped:  # the match has stopped its controllers on the way out; leave now, not
+            os._exit(143)  # back into the pool's loop (which would wait for work for ever)
+        finally:
+            _playing = False
+        data = replay.read_bytes()
+    return Played(dumps(result), data, time.perf_counter() - start)
+
+
+def write_replay(folder: Path, name: str, data: bytes) -> Path:
+    """Write a replay (0600) into `folder` whole or not at all; return its path."""
+    path = folder / name
+    part = folder / f".laserarena-{name}.part"
+    fd = os.open(part, os.O_CREAT | os.O_TRUNC | os.O_WRONLY, 0o600)
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.replace(part, path)
+    return path
+
+
+def replay_folder(db: Path) -> Path:
+    """The journal's replay folder (0700), cleared of replays a killed run left unfinished."""
+    folder = db.resolve().parent / "replays"
+    folder.mkdir(mode=0o700, exist_ok=True)
+    os.chmod(folder, 0o700)
+    for part in folder.glob(".laserarena-*.part"):  # we hold the journal's lock: no run writes these
+        part.unlink(missing_ok=True)
+    return folder
+
+
+def run_jobs(
+    todo: list[tuple[K, MatchJob]], workers: int = 1, scheduler: str | None = None
+) -> Generator[tuple[K, Played]]:
+    """Play every (key, job), yielding (key, played) as each finishes. Close the generator to
+    stop: a local pool's workers end at once, and so do their matches."""
+    if scheduler:
+        return _on_dask(todo, scheduler)
+    if workers <= 1:
+        return ((key, play(job)) for key, job in todo)
+    return _on_pool(todo, workers)
+
+
+PR_SET_PDEATHSIG = 1
+_playing = False  # a pool worker is inside a match
+
+
+class _Stopped(BaseException):
+    """A pool worker was told to stop (SIGTERM) in the middle of a match."""
+
+
+def _worker_stop(signum: int, frame: object) -> None:
+    if _playing:
+        raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
+    os._exit(143)
+
+
+def _worker_init(parent: int) -> None:
+    """In each pool worker: die with the grading process, however it ends (even SIGKILL).
+    The kernel sends SIGTERM when the parent goes; SIGTERM ends the match cleanly (its
+    controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_stop)
+    if not sys.platform.startswith("linux"):
+        return  # no parent-death signal elsewhere: the pool's own shutdown ends the workers
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
+        raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+    if os.getppid() != parent:  # the parent died before the line above: follow it now
+        os._exit(143)
+
+
+def _on_pool(todo: list[tuple[K, MatchJob]], workers: int) -> Generator[tuple[K, Played]]:
+    # spawn, never fork: a forked worker would inherit the parent's state
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)
+    )
+    try:
+        futures = {pool.submit(play, job): key for key, job in todo}
+        for f in as_completed(futures):
+            yield futures[f], f.result()
+    except BaseException:
+        # stop now, not after the running matches: end the workers (each stops its match)
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+SCHEDULER_TIMEOUT = "10s"  # a scheduler that does not answer by then is a bad --scheduler
+RETRIES = 2  # a match whose worker died is run again on another, this many times at most
+
+
+def worker_version() -> str:
+    """The LaserArena version installed where this runs (asked of every Dask worker)."""
+    return __version__
+
+
+def _on_dask(todo: list[tuple[K, MatchJob]], scheduler: str) -> Generator[tuple[K, Played]]:
+    try:
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
+    except ImportError:
+        raise UserError("--scheduler needs Dask: pip install 'laserarena[dask]'") from None
+    try:
+        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise UserError(
+            f"--scheduler {scheduler}: cannot reach the Dask scheduler ({' '.join(str(e).split()) or type(e).__name__})"
+        ) from None
+    with client:
+        versions = client.run(worker_version)
+        other = {addr: v for addr, v in versions.items() if v != __version__}
+        if other:
+            addr, v = sorted(other.items())[0]
+            raise VersionMismatch(
+                f"--scheduler {scheduler}: worker {addr} runs laserarena {v}, this client {__version__}; "
+                f"install the same version on every worker"
+            )
+        futures = {client.submit(play, job, pure=False, retries=RETRIES): key for key, job in todo}
+        for f in dask_completed(futures):
+            yield futures[f], f.result()
