@@ -19,6 +19,7 @@ import numpy as np
 
 import levels
 from arena.errors import LaserArenaError
+from arena.level import Level
 from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
@@ -121,14 +122,33 @@ def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) 
     return kept
 
 
-def cmd_grade(args: argparse.Namespace) -> int:
-    from referee.contest import grade as g
-
+def _levels(names: list[str]) -> list[tuple[Level, Path]]:
+    """Each level named on the command line, loaded (one line on a bad one), with its file."""
     found = []
-    for name in args.level:
+    for name in names:
         lv = find_level(name)
         path = Path(name) if Path(name).is_file() else levels.path(name)
         found.append((lv, path.resolve()))
+    return found
+
+
+def _secret(args: argparse.Namespace) -> str | None:
+    """The noise secret given by --secret or --secret-file, or None (the journal's own)."""
+    if not args.secret_file:
+        return args.secret
+    try:
+        given = Path(args.secret_file).read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError) as e:
+        raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
+    if not given:
+        raise UserError(f"{args.secret_file}: the secret file is empty")
+    return given
+
+
+def cmd_grade(args: argparse.Namespace) -> int:
+    from referee.contest import grade as g
+
+    found = _levels(args.level)
     teams = []
     for spec in args.team:
         team = resolve(spec)  # a bad spec fails here, in one line, before any match
@@ -139,18 +159,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
     for path in (db, Path(args.out)):  # before any match: a leaderboard that cannot be written loses nothing
         if not path.resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
-    given = args.secret
-    if args.secret_file:
-        try:
-            given = Path(args.secret_file).read_text(encoding="utf-8").strip()
-        except (OSError, UnicodeDecodeError) as e:
-            raise UserError(
-                f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}"
-            ) from None
-        if not given:
-            raise UserError(f"{args.secret_file}: the secret file is empty")
     journal = g.Journal(db)
-    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(given), __version__)
+    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(_secret(args)), __version__)
     start = time.perf_counter()
     g.grade(jobs, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
     rows = g.leaderboard(journal, jobs)
@@ -160,6 +170,48 @@ def cmd_grade(args: argparse.Namespace) -> int:
         print(
             f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
             f"{time.perf_counter() - start:.1f} s",
+            file=sys.stderr,
+        )
+    return 0
+
+
+def cmd_tournament(args: argparse.Namespace) -> int:
+    from referee.contest import report
+    from referee.contest import tournament as t
+    from referee.contest.journal import Journal
+    from referee.media.viewer import write_viewer
+
+    found = _levels(args.level)
+    entrants = t.entrants([resolve(spec) for spec in args.team])  # a bad spec fails here, before any heat
+    if args.rounds < 1:
+        raise UserError("--rounds must be at least 1")
+    db, out = Path(args.db), Path(args.out)
+    for path in (db, out):
+        if not path.resolve().parent.is_dir():
+            raise UserError(f"{path}: the folder does not exist")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: not a folder")
+    journal = Journal(db)
+    start = time.perf_counter()
+    heats = t.plan(found, entrants, args.rounds, journal.secret(_secret(args)), __version__)
+    planned = time.perf_counter()
+    ran = t.play_heats(heats, found, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    played = time.perf_counter()
+    outcome = t.outcome(heats, entrants, journal)
+    rated = time.perf_counter()
+    report.write(outcome, out, f"Tournament: {', '.join(lv.name for lv, _ in found)}")
+    for heat in outcome.heats:
+        write_viewer(out / report.replay_file(heat), out / report.viewer_file(heat))
+    if not args.quiet:
+        for s in outcome.standings:
+            print(f"{s.rank:>3}  {s.rating.ordinal:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
+        own = sum(h.wall for h in outcome.heats)
+        overhead = (planned - start) + (rated - played)
+        print(
+            f"{len(heats)} heats ({ran} run now) in the journal {db}; report {out / 'index.html'}; "
+            f"{time.perf_counter() - start:.1f} s. Heats' own time {own:.1f} s; scheduling and rating "
+            f"{1000 * overhead:.1f} ms ({1000 * overhead / len(heats):.2f} ms per heat); "
+            f"report and viewer pages {time.perf_counter() - rated:.1f} s",
             file=sys.stderr,
         )
     return 0
@@ -342,6 +394,23 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
+
+    s = sub.add_parser(
+        "tournament", help="rated heats of teams racing each other on levels, resumable, into a report folder"
+    )
+    s.add_argument("level", nargs="+")
+    s.add_argument("--team", action="append", required=True, metavar="T", help="a rated team spec (repeat)")
+    s.add_argument("--rounds", type=int, default=1, help="rounds; in each, every team starts once from every slot")
+    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
+    s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
+    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own)")
+    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE")
+    s.add_argument(
+        "--out", default="tournament", help="the report folder: index.html, standings, heats, replays, viewer pages"
+    )
+    s.add_argument("--quiet", action="store_true")
+    s.set_defaults(func=cmd_tournament)
 
     s = sub.add_parser("render", help="render a replay to PNG frames, an MP4 or a web page, headless")
     s.add_argument("replay")

@@ -1,0 +1,232 @@
+"""A tournament: rated teams race each other in heats on one or more levels, resumably.
+
+Every heat is one match with a team (or a filler) in each robot slot, its lineup from the
+schedule (referee.contest.schedule), its seed its number on that level, and its noise from
+the run's secret as in grading. A finished heat is committed to the journal at once, keyed
+by its level, lineup (specs and code hashes in slot order), seed, software and noise, so a
+killed tournament resumes where it stopped and the standings come out the same whatever ran
+the heats. Standings are computed from the journal, in heat order, after the last heat.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from arena.level import Level
+from referee.contest.grade import Progress, noise_key, secret_id
+from referee.contest.journal import Journal
+from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
+from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
+from referee.contest.schedule import schedule
+from referee.contest.shipping import Shipped, ship
+from referee.errors import UserError
+from referee.sandbox.teams import Team, resolve
+from referee.terminal import safe
+
+
+@dataclass(frozen=True)
+class Heat:
+    """One heat: its number in playing order (from 1), round, level, seed and, in slot order,
+    each slot's team index (None for a filler), spec and code hash."""
+
+    number: int
+    round: int
+    level: str
+    level_hash: str
+    seed: int
+    teams: tuple[int | None, ...]
+    specs: tuple[str, ...]
+    code_hashes: tuple[str, ...]
+    software: str
+    secret_id: str
+    noise_key: str
+    ideal: bool = False
+
+    def key(self) -> tuple:
+        """The journal key: everything the heat's result depends on."""
+        lineup = json.dumps([list(p) for p in zip(self.specs, self.code_hashes)])
+        return (self.level_hash, lineup, self.seed, self.software, int(self.ideal), self.secret_id)
+
+    def replay_name(self) -> str:
+        """A unique, readable replay file name for the journal's folder."""
+        tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
+        return f"{self.level}__seed{self.seed}__{tag}.replay"
+
+
+@dataclass(frozen=True)
+class Entrant:
+    """A rated team: its name in the standings and its resolved code."""
+
+    name: str
+    team: Team
+
+
+def entrants(teams: list[Team]) -> list[Entrant]:
+    """Name each team by its label, or by its spec where two labels coincide; UserError if a
+    team is given twice."""
+    specs = [t.spec for t in teams]
+    twice = sorted({s for s in specs if specs.count(s) > 1})
+    if twice:
+        raise UserError(f"--team {safe(twice[0])}: given twice; each team plays once per heat")
+    labels = [t.label for t in teams]
+    return [Entrant(t.label if labels.count(t.label) == 1 else t.spec, t) for t in teams]
+
+
+def plan(levels: list[tuple[Level, Path]], teams: list[Entrant], rounds: int, secret: str, software: str) -> list[Heat]:
+    """Every heat, in playing order: round by round, each level's heats of that round."""
+    sid = secret_id(secret)
+    per_level = []
+    for level, _ in levels:
+        filler = resolve(level.default_controller)
+        lineups = schedule(len(teams), len(level.robots), rounds)
+        per_level.append((level, filler, lineups))
+    heats: list[Heat] = []
+    for r in range(1, rounds + 1):
+        for level, filler, lineups in per_level:
+            for seed, lineup in enumerate(lineups, start=1):
+                if lineup.round != r:
+                    continue
+                slot_teams = [teams[e.team].team if e.team is not None else filler for e in lineup.entries]
+                heats.append(
+                    Heat(
+                        len(heats) + 1,
+                        r,
+                        level.name,
+                        level.hash,
+                        seed,
+                        tuple(e.team for e in lineup.entries),
+                        tuple(t.spec for t in slot_teams),
+                        tuple(t.code_hash for t in slot_teams),
+                        software,
+                        sid,
+                        noise_key(secret, level.hash, seed),
+                    )
+                )
+    return heats
+
+
+def play_heats(
+    heats: list[Heat],
+    levels: list[tuple[Level, Path]],
+    journal: Journal,
+    workers: int = 1,
+    scheduler: str | None = None,
+    quiet: bool = False,
+) -> int:
+    """Run every heat not yet in `journal` (replays in the journal's folder/replays); return
+    how many ran now. Workers return each heat's result and replay; only this process writes."""
+    replay_dir = replay_folder(journal.path)
+    done = journal.heats_done()
+    todo = [h for h in heats if h.key() not in done]
+    if not todo:
+        return 0
+    texts: dict[str, bytes] = {}
+    for level, path in levels:
+        data = path.read_bytes()
+        if "sha256:" + hashlib.sha256(data).hexdigest() != level.hash:
+            raise UserError(f"{path}: the level changed since the tournament began; run it again")
+        texts[level.hash] = data
+    shipped: dict[str, Shipped] = {}
+    for spec, code in {(s, c) for h in todo for s, c in zip(h.specs, h.code_hashes)}:
+        team = ship(resolve(spec))
+        if team.code_hash != code:
+            raise UserError(f"{safe(spec)}: the team's code changed since the tournament began; run it again")
+        shipped[spec] = team
+    by_key = {h.key(): h for h in todo}
+    jobs = [
+        (
+            k,
+            MatchJob(
+                h.level,
+                texts[h.level_hash],
+                h.level_hash,
+                tuple(shipped[s] for s in h.specs),
+                h.seed,
+                h.noise_key,
+                h.ideal,
+                h.software,
+            ),
+        )
+        for k, h in by_key.items()
+    ]
+    progress = Progress(len(heats), len(heats) - len(todo), quiet)
+    results = run_jobs(jobs, workers, scheduler)
+    try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
+        for key, played in results:
+            heat = by_key[key]
+            replay = write_replay(replay_dir, heat.replay_name(), played.replay)
+            journal.record_heat(heat.level, key, played.result, str(replay), played.wall)
+            progress.tick(f"heat {heat.number} {heat.level} seed {heat.seed}")
+    finally:
+        progress.close()
+        results.close()  # a pool's workers end here, even on an interrupt
+    return len(todo)
+
+
+@dataclass(frozen=True)
+class HeatResult:
+    """A played heat: the heat, each slot's placing (slot order), its replay file and wall time."""
+
+    heat: Heat
+    placings: tuple[Placing, ...]
+    replay: str
+    wall: float
+
+
+@dataclass(frozen=True)
+class Standing:
+    """A team's line in the standings: rank, name, rating, heats played, mean score over them,
+    and per level (name -> (heats, mean, low, high) with the 95 % bootstrap interval)."""
+
+    rank: int
+    team: str
+    rating: Rating
+    heats: int
+    mean_score: float
+    levels: dict[str, tuple[int, float, float, float]]
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a tournament produced: the standings, every heat's result in order, and each
+    team's rating after each heat (`history[h][t]`)."""
+
+    teams: list[Entrant]
+    standings: list[Standing]
+    heats: list[HeatResult]
+    history: list[list[Rating]]
+
+
+def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcome:
+    """The standings from the journal's results of `heats` (all of which must have run)."""
+    played = []
+    for heat in heats:
+        found = journal.heat(heat.key())
+        if found is None:
+            raise UserError(f"{journal.path}: heat {heat.number} has not run; run the tournament again")
+        result, replay, wall = found
+        robots = sorted(result["robots"], key=lambda r: r["slot"])
+        scores = [float(r["score"]["total"]) for r in robots]
+        placings = tuple(Placing(t, s, k) for t, s, k in zip(heat.teams, scores, ranks(scores)))
+        played.append(HeatResult(heat, placings, replay, wall))
+    history = rate(len(teams), [list(h.placings) for h in played])
+    final = history[-1] if history else []
+    rows = []
+    for t, entrant in enumerate(teams):
+        mine = [(h.heat.level, p.score) for h in played for p in h.placings if p.team == t]
+        per_level = {}
+        for level in dict.fromkeys(lv for lv, _ in mine):
+            scores = [s for lv, s in mine if lv == level]
+            mean, low, high = bootstrap(scores, f"{level}\0{entrant.team.spec}")
+            per_level[level] = (len(scores), round(mean, 3), round(low, 3), round(high, 3))
+        mean_all = round(sum(s for _, s in mine) / len(mine), 3) if mine else 0.0
+        rows.append((entrant.name, final[t] if final else None, len(mine), mean_all, per_level))
+    rows.sort(key=lambda r: (-(r[1].ordinal if r[1] else 0.0), r[0]))
+    standings = [
+        Standing(i + 1, name, rating or Rating(0.0, 0.0), n, mean, per_level)
+        for i, (name, rating, n, mean, per_level) in enumerate(rows)
+    ]
+    return Outcome(teams, standings, played, history)
