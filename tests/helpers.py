@@ -3,6 +3,7 @@ from parsed data, and running the command line as a user would."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -81,6 +82,37 @@ def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "referee", *args], capture_output=True, text=True, cwd=cwd, timeout=300
     )
+
+
+# ---- processes a test started, and what they started in turn -------------------------------
+
+
+def descendants(root: int) -> dict[int, str]:
+    """Every process below `root` now, as pid -> start time (to tell a reused pid apart)."""
+    parent, start = {}, {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                fields = open(f"/proc/{d}/stat").read().rpartition(")")[2].split()
+            except OSError:
+                continue
+            parent[int(d)], start[int(d)] = int(fields[1]), fields[19]
+    found, frontier = {}, [root]
+    while frontier:
+        p = frontier.pop()
+        for child, ppid in parent.items():
+            if ppid == p and child not in found:
+                found[child] = start[child]
+                frontier.append(child)
+    return found
+
+
+def alive(pid: int, started: str) -> bool:
+    try:
+        fields = open(f"/proc/{pid}/stat").read().rpartition(")")[2].split()
+    except OSError:
+        return False
+    return fields[19] == started and fields[0] != "Z"
 
 
 # ---- a laser test table: four sensor arrays, one or two robots, stepped by hand ------------

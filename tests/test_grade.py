@@ -10,7 +10,7 @@ import sys
 import time
 
 import pytest
-from helpers import run_cli
+from helpers import alive, descendants, run_cli
 
 from referee.contest.grade import interval
 
@@ -126,34 +126,6 @@ def test_two_teams_whose_names_clean_up_alike_keep_their_own_replays(shared_dir,
     got = {load(r[4]).header["teams"][0]["spec"]: r[0] for r in rows(tmp_path / "r.sqlite")}
     assert got == {a: a, b: b}  # each row's replay holds that row's team
     assert len(list((tmp_path / "replays").glob("*.replay"))) == 2
-
-
-def descendants(root: int) -> dict[int, str]:
-    """Every process below `root` now, as pid -> start time (to tell a reused pid apart)."""
-    parent, start = {}, {}
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                fields = open(f"/proc/{d}/stat").read().rpartition(")")[2].split()
-            except OSError:
-                continue
-            parent[int(d)], start[int(d)] = int(fields[1]), fields[19]
-    found, frontier = {}, [root]
-    while frontier:
-        p = frontier.pop()
-        for child, ppid in parent.items():
-            if ppid == p and child not in found:
-                found[child] = start[child]
-                frontier.append(child)
-    return found
-
-
-def alive(pid: int, started: str) -> bool:
-    try:
-        fields = open(f"/proc/{pid}/stat").read().rpartition(")")[2].split()
-    except OSError:
-        return False
-    return fields[19] == started and fields[0] != "Z"
 
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])

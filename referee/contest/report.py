@@ -97,6 +97,10 @@ def write(outcome: Outcome, out: Path, title: str) -> None:
     (out / "heats.csv").write_text(
         _csv(heat_rows, ["heat", "level", "seed", "slot", "team", "rank", "score", "filler"]), encoding="utf-8"
     )
+    wanted = {replay_file(h) for h in outcome.heats} | {viewer_file(h) for h in outcome.heats}
+    for old in [*out.glob("replays/heat-*.replay"), *out.glob("heats/heat-*.html")]:
+        if old.relative_to(out).as_posix() not in wanted:  # a heat of an earlier, larger tournament
+            old.unlink()
     for h in outcome.heats:
         target = out / replay_file(h)
         shutil.copyfile(h.replay, target)

@@ -44,16 +44,16 @@ def _sizes(teams: int, slots: int) -> list[int]:
     return [teams // groups + (1 if i < teams % groups else 0) for i in range(groups)]
 
 
-def _cost(groups: list[list[int]], met: np.ndarray) -> tuple[int, int]:
-    """How uneven the pairs' meeting counts are once `groups` have played: (max - min, sum of
-    squares); the total is fixed by the group sizes, so a smaller sum of squares is more even."""
+def _cost(groups: list[list[int]], met: np.ndarray) -> tuple[int, int, int]:
+    """How uneven the pairs' meeting counts are once `groups` have played: (max - min, max, sum
+    of squares); the total is fixed by the group sizes, so a smaller sum of squares is more even."""
     after = met.copy()
     for group in groups:
         for a, b in itertools.combinations(group, 2):
             after[a, b] += 1
             after[b, a] += 1
     pairs = after[np.triu_indices(len(met), 1)]
-    return int(pairs.max() - pairs.min()), int((pairs**2).sum())
+    return int(pairs.max() - pairs.min()), int(pairs.max()), int((pairs**2).sum())
 
 
 def _split(teams: int, slots: int, met: np.ndarray, rng: np.random.Generator) -> list[list[int]]:
@@ -62,7 +62,7 @@ def _split(teams: int, slots: int, met: np.ndarray, rng: np.random.Generator) ->
     sizes = _sizes(teams, slots)
     if len(sizes) == 1:
         return [list(range(teams))]
-    best: tuple[tuple[int, int], list[list[int]]] | None = None
+    best: tuple[tuple[int, int, int], list[list[int]]] | None = None
     for _ in range(SPLIT_TRIES):
         order = [int(t) for t in rng.permutation(teams)]
         groups = [order[sum(sizes[:g]) : sum(sizes[: g + 1])] for g in range(len(sizes))]

@@ -162,7 +162,14 @@ class Match:
         self.writer = recorder  # anything with ReplayWriter's frame / record / close
         if replay is not None:
             self.writer = ReplayWriter(
-                replay, level, level.text, self.seed, ideal, [(t.label, t.spec) for t in teams], __version__, noise_key
+                replay,
+                level,
+                level.text,
+                self.seed,
+                ideal,
+                [(t.label, t.spec, t.code_hash) for t in teams],
+                __version__,
+                noise_key,
             )
         if self.writer is not None:
             self.hooks.append(_RecordHook(self.writer, level.steps_per_record))

@@ -81,7 +81,9 @@ def controller_hash(spec: str) -> str:
 
 class ReplayWriter:
     """Writes one match's replay as it runs: to a private file (0600) beside the target,
-    moved into place only when the match has ended, so no controller can read it meanwhile."""
+    moved into place only when the match has ended, so no controller can read it meanwhile.
+    `teams` holds each slot's (label, spec, code hash): the hash of the code that ran, which
+    may have been shipped from a machine where the spec's files live."""
 
     def __init__(
         self,
@@ -90,7 +92,7 @@ class ReplayWriter:
         level_text: str,
         seed: int,
         ideal: bool,
-        teams: list[tuple[str, str]],
+        teams: list[tuple[str, str, str]],
         software: str,
         noise_key: str | None = None,
     ):
@@ -111,7 +113,7 @@ class ReplayWriter:
                 "ideal": ideal,
                 "record_rate": level.record_rate,
                 "control_period": level.control_period,
-                "teams": [{"label": label, "spec": spec, "hash": controller_hash(spec)} for label, spec in teams],
+                "teams": [{"label": label, "spec": spec, "hash": code} for label, spec, code in teams],
                 **({"noise_key": noise_key} if noise_key else {}),
             }
         )

@@ -1,0 +1,323 @@
+"""Tournaments: every team starts from every slot equally often, fillers fill what teams do
+not and are never rated, a robot that stands still ranks below one that races, and the
+standings are the same after a SIGKILL and a resume, on one worker or two, and on a Dask
+cluster whose workers cannot see the client's files."""
+
+import csv
+import itertools
+import json
+import os
+import re
+import shutil
+import signal
+import sqlite3
+import subprocess
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from helpers import alive, descendants, edited, run_cli
+
+from referee.contest.ratings import Placing, bootstrap, ranks, rate
+from referee.contest.schedule import schedule
+
+IDLE = """
+from robots.api import Command, Controller
+
+class StandStill(Controller):
+    def step(self, observation):
+        return Command(0.0, 0.0)
+"""
+TEAMS = ["starter.py", "idle.py", "ref:bac", "ref:dead-reckoning"]
+SECRET = "a tournament secret"  # one secret: runs compared below draw the same noise
+
+
+@pytest.fixture(scope="module")
+def contest():
+    """A folder any user can read (controllers run as `nobody`) with a 25 s variant of
+    asabe-race, a copy of the starter and a team that stands still, and the standings of a
+    full two-round tournament of them on two local workers."""
+    import robots.controllers.starter as starter
+
+    folder = Path(tempfile.mkdtemp(prefix="laserarena-tournament-", dir="/tmp"))
+    folder.chmod(0o777)
+    (folder / "race.yaml").write_text(edited("asabe-race", {"time_limit": 25, "name": "race25"}))
+    shutil.copyfile(starter.__file__, folder / "starter.py")
+    (folder / "idle.py").write_text(IDLE)
+    for f in folder.iterdir():
+        f.chmod(0o644)
+    proc = tournament(folder, "full", "--workers", "2")
+    assert proc.returncode == 0, proc.stderr
+    yield folder
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def args(folder: Path, name: str) -> list[str]:
+    team_args = [a for t in TEAMS for a in ("--team", t)]
+    db, out = folder / name / "t.sqlite", folder / name / "out"
+    db.parent.mkdir(exist_ok=True)
+    return [
+        "tournament",
+        "race.yaml",
+        *team_args,
+        "--rounds",
+        "2",
+        "--secret",
+        SECRET,
+        "--db",
+        str(db),
+        "--out",
+        str(out),
+    ]
+
+
+def tournament(folder: Path, name: str, *extra: str) -> subprocess.CompletedProcess:
+    return run_cli(*args(folder, name), "--quiet", *extra, cwd=folder)
+
+
+def read_csv(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+# ---- the schedule, the ranks and the ratings ---------------------------------------------------
+
+
+@pytest.mark.parametrize("teams, slots, rounds", [(4, 4, 2), (2, 4, 2), (8, 4, 3), (5, 2, 2), (6, 3, 3)])
+def test_every_team_starts_from_every_slot_equally_often(teams, slots, rounds):
+    heats = schedule(teams, slots, rounds)
+    groups_per_round = -(-teams // slots)
+    assert len(heats) == rounds * groups_per_round * slots
+    starts = Counter((e.team, slot) for h in heats for slot, e in enumerate(h.entries) if not e.filler)
+    assert starts == {(t, s): rounds for t in range(teams) for s in range(slots)}  # each slot once a round
+    for r in range(1, rounds + 1):  # every team plays every round, in exactly one heat per slot
+        played = Counter(e.team for h in heats if h.round == r for e in h.entries if not e.filler)
+        assert played == {t: slots for t in range(teams)}
+    fillers = sum(e.filler for h in heats for e in h.entries)
+    assert fillers == len(heats) * slots - teams * slots * rounds
+
+
+def test_pairs_meet_about_equally_often():
+    teams, slots, rounds = 8, 4, 3
+    heats = schedule(teams, slots, rounds)
+    met = Counter()
+    for h in heats[::slots]:  # one heat per group: a group's rotations share its members
+        for a, b in itertools.combinations(sorted(e.team for e in h.entries), 2):
+            met[a, b] += 1
+    counts = [met[p] for p in itertools.combinations(range(teams), 2)]
+    # two groups of four a round: 12 of the 28 pairs meet each round, 36 meetings in 3 rounds;
+    # a split that repeats a first-round pair in round two before all are used would give a 3
+    assert sum(counts) == 36 and max(counts) <= 2
+    # and the same arguments always give the same schedule
+    assert schedule(teams, slots, rounds) == heats
+
+
+def test_ranks_share_ties_as_openskill_expects():
+    assert ranks([3.0, 5.0, 5.0, 1.0]) == [3, 1, 1, 4]  # competition ranking, 1 is best
+    assert ranks([2.0, 2.0]) == [1, 1]
+
+
+def test_ratings_follow_the_heats_and_fillers_are_not_rated():
+    # team 0 beats team 1 in every heat; a filler (None) sits between them
+    heats = [[Placing(0, 9.0, 1), Placing(None, 5.0, 2), Placing(1, 1.0, 3)] for _ in range(5)]
+    history = rate(2, heats)
+    assert len(history) == 5 and all(len(step) == 2 for step in history)  # the filler has no rating
+    assert history[-1][0].ordinal > history[-1][1].ordinal
+    assert [s[0].sigma for s in history] == sorted((s[0].sigma for s in history), reverse=True)  # more certain
+    # a tie between equals moves neither apart (symmetry), and a swapped heat mirrors the ratings
+    (tie,) = rate(2, [[Placing(0, 1.0, 1), Placing(1, 1.0, 1)]])
+    assert tie[0] == tie[1]
+    (a,) = rate(2, [[Placing(0, 2.0, 1), Placing(1, 1.0, 2)]])
+    (b,) = rate(2, [[Placing(1, 2.0, 1), Placing(0, 1.0, 2)]])
+    assert a[0] == b[1] and a[1] == b[0]
+
+
+def test_bootstrap_matches_the_exact_distribution_of_two_heats():
+    # resampling two scores 0 and 10: the mean is 0, 5 or 10 with chances 1/4, 1/2, 1/4, so the
+    # 2.5 % and 97.5 % points are 0 and 10
+    assert bootstrap([0.0, 10.0], "x") == (5.0, 0.0, 10.0)
+    assert bootstrap([4.0, 4.0, 4.0], "x") == (4.0, 4.0, 4.0)
+    assert bootstrap([1.0, 7.0, 2.0, 9.0], "a") == bootstrap([1.0, 7.0, 2.0, 9.0], "a")
+
+
+def test_fewer_teams_than_slots_are_filled_by_the_level_default(contest, tmp_path):
+    from arena.loader import load_level
+    from referee.contest.tournament import entrants, plan
+    from referee.sandbox.teams import resolve
+
+    path = contest / "race.yaml"
+    level = load_level(path)
+    heats = plan([(level, path)], entrants([resolve("ref:bac-seed"), resolve("ref:starter")]), 1, "s", "v")
+    assert len(heats) == 4 and [h.seed for h in heats] == [1, 2, 3, 4]
+    default = resolve(level.default_controller).spec
+    for h in heats:
+        assert sorted(t for t in h.teams if t is not None) == [0, 1]
+        assert [s for t, s in zip(h.teams, h.specs) if t is None] == [default, default]
+    assert len({h.noise_key for h in heats}) == 4  # a seed and its noise per heat
+
+
+# ---- the command --------------------------------------------------------------------------
+
+
+def test_a_tournament_of_four_teams_ranks_and_reports(contest):
+    out = contest / "full" / "out"
+    heats = read_csv(out / "heats.csv")
+    assert len(heats) == 8 * 4 and {r["filler"] for r in heats} == {"0"}
+    starts = Counter((r["team"], r["slot"]) for r in heats)
+    assert starts == {(t, str(s)): 2 for t in TEAMS for s in range(4)}  # every team in every slot twice
+    for _, rows in itertools.groupby(heats, key=lambda r: r["heat"]):
+        rows = list(rows)
+        scores = [float(r["score"]) for r in rows]
+        assert [int(r["rank"]) for r in rows] == [1 + sum(o > s for o in scores) for s in scores]
+        assert len({r["seed"] for r in rows}) == 1
+    assert len({r["seed"] for r in heats}) == 8
+    standings = read_csv(out / "standings.csv")
+    assert list(standings[0])[:3] == ["rank", "team", "rating"] and {"sigma", "heats", "mean_score"} <= set(
+        standings[0]
+    )
+    place = {r["team"]: int(r["rank"]) for r in standings}
+    assert set(place) == set(TEAMS) and place["idle.py"] > place["ref:bac"]
+    for r in standings:  # the mean score is the mean of the team's rows in heats.csv
+        mine = [float(h["score"]) for h in heats if h["team"] == r["team"]]
+        assert int(r["heats"]) == 8 and float(r["mean_score"]) == pytest.approx(sum(mine) / 8, abs=1e-3)
+    ratings = [float(r["rating"]) for r in standings]
+    assert ratings == sorted(ratings, reverse=True)
+    data = json.loads((out / "standings.json").read_text())
+    assert [s["team"] for s in data["standings"]] == [r["team"] for r in standings]
+    page = (out / "index.html").read_text()
+    assert all(t in page for t in TEAMS) and "<svg" in page and "<polyline" in page
+    assert not re.search(r"(src|href)=\"(https?:)?//", page)  # nothing from the network
+    links = re.findall(r'href="([^"]+)"', page)
+    assert len(links) == 16 and all((out / link).is_file() for link in links)  # a viewer and a replay per heat
+    assert "race25" in (out / "heats" / "heat-0001.html").read_text()
+
+
+def test_a_killed_tournament_resumes_to_the_same_standings(contest):
+    db = contest / "killed" / "t.sqlite"
+    cmd = [sys.executable, "-m", "referee", *args(contest, "killed"), "--quiet", "--workers", "2"]
+    proc = subprocess.Popen(cmd, cwd=contest, stderr=subprocess.PIPE, text=True)
+    below: dict[int, str] = {}
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        below.update(descendants(proc.pid))
+        try:
+            with sqlite3.connect(db) as c:
+                if c.execute("SELECT count(*) FROM heats").fetchone()[0]:
+                    break
+        except sqlite3.OperationalError:
+            pass
+        time.sleep(0.05)
+    below.update(descendants(proc.pid))
+    assert proc.poll() is None, "the kill came mid-way"
+    os.kill(proc.pid, signal.SIGKILL)
+    assert proc.wait(timeout=60) == -9
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and any(alive(p, s) for p, s in below.items()):
+        time.sleep(0.05)
+    assert not [p for p, s in below.items() if alive(p, s)]  # its workers and their controllers ended
+    with sqlite3.connect(db) as c:
+        before = dict(c.execute("SELECT seed, graded_at FROM heats"))
+    assert 1 <= len(before) < 8
+    resumed = tournament(contest, "killed", "--workers", "1")  # one worker: the same as two
+    assert resumed.returncode == 0, resumed.stderr
+    with sqlite3.connect(db) as c:
+        after = dict(c.execute("SELECT seed, graded_at FROM heats"))
+    assert len(after) == 8 and all(after[s] == t for s, t in before.items())  # none ran twice
+    full, killed = contest / "full" / "out", contest / "killed" / "out"
+    for name in ("standings.csv", "standings.json", "heats.csv"):
+        assert (killed / name).read_bytes() == (full / name).read_bytes(), name
+
+
+def start(cmd: list[str], cwd: Path) -> subprocess.Popen:
+    return subprocess.Popen(cmd, cwd=cwd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
+def stop(proc: subprocess.Popen) -> None:
+    """End a process group this test started: SIGTERM, then SIGKILL after a bounded wait."""
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=20)
+
+
+def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest, tmp_path):
+    """A scheduler and two workers started as an operator would; the workers run in a mount
+    namespace of their own whose /tmp is an empty tmpfs, so the level, the team files, the
+    journal and the report folder of the client are all out of their sight."""
+    if not shutil.which("unshare"):
+        pytest.skip("needs util-linux unshare to hide the client's files from the workers")
+    sched_file = tmp_path / "scheduler.json"
+    scheduler = start(
+        [
+            sys.executable,
+            "-m",
+            "dask",
+            "scheduler",
+            "--port",
+            "0",
+            "--no-dashboard",
+            "--scheduler-file",
+            str(sched_file),
+        ],
+        tmp_path,
+    )
+    workers = None
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not sched_file.exists():
+            assert scheduler.poll() is None, scheduler.stderr.read().decode()
+            time.sleep(0.1)
+        address = json.loads(sched_file.read_text())["address"]
+        hidden = "mount -t tmpfs tmpfs /tmp && cd /tmp && exec " + " ".join(
+            [sys.executable, "-m", "dask", "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard"]
+        )
+        workers = start(["unshare", "--mount", "--propagation", "private", "sh", "-c", hidden], Path("/"))
+        from dask.distributed import Client
+
+        with Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+            seen = client.run(lambda path: os.path.exists(path), str(contest / "starter.py"))
+            assert seen and not any(seen.values())  # the workers cannot see the team's file
+        proc = tournament(contest, "dask", "--scheduler", address)
+        assert proc.returncode == 0, proc.stderr
+    finally:
+        if workers:
+            stop(workers)
+        stop(scheduler)
+    full, remote = contest / "full" / "out", contest / "dask" / "out"
+    for name in ("standings.csv", "standings.json", "heats.csv"):
+        assert (remote / name).read_bytes() == (full / name).read_bytes(), name
+
+
+def test_a_worker_of_another_version_is_refused_in_one_line(contest):
+    from dask import distributed
+
+    def other_version():
+        import referee.contest.runner as runner
+
+        runner.__version__ = "0.0.0-other"
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            client.run(other_version)
+        proc = tournament(contest, "versions", "--scheduler", cluster.scheduler_address)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert "0.0.0-other" in proc.stderr and "Traceback" not in proc.stderr
+    with sqlite3.connect(contest / "versions" / "t.sqlite") as c:
+        assert c.execute("SELECT count(*) FROM heats").fetchone()[0] == 0
+
+
+def test_bad_tournament_input_is_one_line(contest):
+    for bad, expect in [
+        (["--team", "ref:bac", "--team", "ref:bac"], "given twice"),
+        (["--team", "ref:nobody"], "ref:nobody"),
+        (["--team", "ref:bac", "--rounds", "0"], "--rounds"),
+    ]:
+        proc = run_cli("tournament", "race.yaml", *bad, "--db", "x/t.sqlite", "--out", "x/out", cwd=contest)
+        assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and expect in proc.stderr, proc.stderr
