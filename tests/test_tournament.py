@@ -231,6 +231,32 @@ def test_a_killed_tournament_resumes_to_the_same_standings(contest):
         assert (killed / name).read_bytes() == (full / name).read_bytes(), name
 
 
+def heats_in(db: Path) -> int:
+    """How many heats the journal holds (0 while it is not there yet)."""
+    try:
+        with sqlite3.connect(db) as c:
+            return c.execute("SELECT count(*) FROM heats").fetchone()[0]
+    except sqlite3.OperationalError:
+        return 0
+
+
+def cmdline(pid: int) -> str:
+    try:
+        return open(f"/proc/{pid}/cmdline").read().replace("\0", " ")
+    except OSError:
+        return ""
+
+
+def worker_processes(root: int) -> list[int]:
+    """The Dask worker processes below `root` (each spawned by its nanny)."""
+    return [p for p in descendants(root) if "spawn_main" in cmdline(p)]
+
+
+def playing(worker: int) -> bool:
+    """Whether a worker is in the middle of a heat: its controllers are running below it."""
+    return any("robots.runner" in cmdline(p) for p in descendants(worker))
+
+
 def start(cmd: list[str], cwd: Path) -> subprocess.Popen:
     return subprocess.Popen(cmd, cwd=cwd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
@@ -284,8 +310,23 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
             client.wait_for_workers(2, timeout=60)
             seen = client.run(lambda path: os.path.exists(path), str(contest / "starter.py"))
             assert seen and not any(seen.values())  # the workers cannot see the team's file
-        proc = tournament(contest, "dask", "--scheduler", address)
-        assert proc.returncode == 0, proc.stderr
+        # a worker killed in the middle of the tournament: its heat is run again elsewhere, once
+        db = contest / "dask" / "t.sqlite"
+        cmd = [sys.executable, "-m", "referee", *args(contest, "dask"), "--quiet", "--scheduler", address]
+        proc = subprocess.Popen(cmd, cwd=contest, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None and not heats_in(db):
+            time.sleep(0.05)
+        assert proc.poll() is None, "the kill came mid-way"
+        busy = None
+        while time.monotonic() < deadline and busy is None:  # a worker with a heat's controllers below it
+            busy = next((w for w in worker_processes(workers.pid) if playing(w)), None)
+            time.sleep(0.02)
+        assert busy is not None and proc.poll() is None
+        os.kill(busy, signal.SIGKILL)
+        _, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err
+        assert heats_in(db) == 8
     finally:
         if workers:
             stop(workers)
