@@ -1,5 +1,7 @@
-"""Many matches: grading teams x levels x seeds into a resumable journal on a local pool or a
-Dask cluster, and the leaderboard (`grade`).
+"""Many matches: grading teams x levels x seeds and its leaderboard (`grade`), tournaments of
+teams racing in heats with their ratings and report (`tournament`, `schedule`, `ratings`,
+`report`), all into one resumable journal (`journal`), played as self-contained jobs on this
+process, a local pool or a Dask cluster (`runner`, `shipping`).
 
 It may import the match core, the sandbox's team specs and the records; never media or cli.
 """
