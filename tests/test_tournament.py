@@ -327,10 +327,18 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
         _, err = proc.communicate(timeout=300)
         assert proc.returncode == 0, err
         assert heats_in(db) == 8
+        # grading takes the same road: a file team graded on these workers as on this machine
+        grade = ["grade", "race.yaml", "--team", "starter.py", "--seeds", "1", "--secret", SECRET, "--quiet"]
+        for name, where in (("grade-dask", ["--scheduler", address]), ("grade-local", ["--workers", "1"])):
+            (contest / name).mkdir()
+            out = ["--db", f"{name}/r.sqlite", "--out", f"{name}/lb.csv"]
+            assert run_cli(*grade, *out, *where, cwd=contest).returncode == 0
     finally:
         if workers:
             stop(workers)
         stop(scheduler)
+    graded = (contest / "grade-dask" / "lb.csv").read_text()
+    assert graded == (contest / "grade-local" / "lb.csv").read_text() and "starter.py,race25,1," in graded
     full, remote = contest / "full" / "out", contest / "dask" / "out"
     for name in ("standings.csv", "standings.json", "heats.csv"):
         assert (remote / name).read_bytes() == (full / name).read_bytes(), name
