@@ -471,3 +471,56 @@ def test_simi_detects_every_sweep_well_inside_its_limits():
     sweeps = 2.0 * 30.0
     for name in "123":
         assert len(hits(events, name)) >= sweeps - 1, name
+
+
+def simi_crossing(distance: float, incidence: float, omega: float) -> tuple:
+    """One synthetic crossing of Simi's detector 2 (facing +x) at this range and incidence."""
+    from arena.laser import Crossings
+
+    one = lambda v: np.array([v], dtype=float)  # noqa: E731
+    c = Crossings(
+        np.array([0]), np.array([0]), np.array([0]), one(0), one(1.0), one(0), one(0), one(0), one(omega),
+        one(distance), one(math.pi + incidence),
+    )  # fmt: skip
+    return c, np.array([0.0])
+
+
+def test_simi_fires_half_the_sweeps_at_the_measured_limit():
+    """At the seed's stated limit the median sweep's light is exactly the comparator's
+    threshold, so with log-normal light a sweep fires with probability one half."""
+    from arena import detectors as det
+
+    p = dict(simi_at(57.46535, -58.11582).beacons.params)
+    for feet, limit_deg in ((1, 44), (4, 35.5), (7, 27)):
+        r = feet * 12 * IN
+        c, facing = simi_crossing(r, math.radians(limit_deg), 188.5)
+        inc = det.incidence(c, facing)
+        sens = det.sensitivity("flash_detector", c, inc, p)
+        w = p["beam_diameter"] + p["beam_divergence"] * r
+        share = min(1.0, p["aperture"] * math.cos(math.radians(limit_deg)) / w)
+        assert sens[0] * share == pytest.approx(p["trigger_fraction"], rel=1e-9), feet
+        # a light factor just above 1 fires, just below does not: P(fire) = P(f >= 1) = 1/2
+        assert det.optics(c, inc, sens * 1.001, p)[0][0]
+        assert not det.optics(c, inc, sens * 0.999, p)[0][0]
+
+
+def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
+    """The comparator fires at an overlap eta w / (S f): a sweep with light factor f fires
+    eta w (1 / f - 1) / (S v) after the median sweep, by hand; the same light scatter thus
+    spreads the trigger more where S (the margin over the threshold) is smaller."""
+    from arena import detectors as det
+
+    p = dict(simi_at(57.46535, -58.11582).beacons.params)
+    omega, r = 188.5, 4 * 12 * IN
+    w = p["beam_diameter"] + p["beam_divergence"] * r
+    v = omega * r
+    spreads = []
+    for inc_deg in (0.0, 20.0, 30.0):
+        c, facing = simi_crossing(r, math.radians(inc_deg), omega)
+        inc = det.incidence(c, facing)
+        s = det.sensitivity("flash_detector", c, inc, p)
+        t = {f: det.optics(c, inc, s * f, p)[1][0] for f in (1.0, 1.2, 1.5)}
+        for f in (1.2, 1.5):
+            assert t[1.0] - t[f] == pytest.approx(p["trigger_fraction"] * w * (1 - 1 / f) / (s[0] * v), rel=1e-9)
+        spreads.append(t[1.0] - t[1.5])
+    assert spreads[0] < spreads[1] < spreads[2]
