@@ -1,7 +1,7 @@
 """The Python API: `referee.run_match(level, teams=[...])`, for scripts and notebooks.
 
 A team is a spec string (as on the command line) or a Controller class. An isolated match
-ships a class's SOURCE into the sandbox, never the live object (docs/decisions/t0010-ship-class-source.md):
+ships a class's SOURCE into the sandbox, never the live object (docs/decisions/0019-ship-class-source.md):
 the file of the class's module when it has one, else (a notebook, `python -c`) the class's own
 source after the imports its module's globals show.
 """
