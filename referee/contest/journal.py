@@ -15,13 +15,10 @@ import sys
 import time
 from collections.abc import Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol, TypeVar
 
 from referee.errors import UserError
 from referee.terminal import safe
-
-if TYPE_CHECKING:
-    from referee.contest.grade import Job
 
 SCHEMA_VERSION = 2
 SCHEMA = """
@@ -43,6 +40,17 @@ KEY = "level_hash, team, code_hash, seed, software, ideal, secret_id"
 
 
 HEAT_KEY = "level_hash, lineup, seed, software, ideal, secret_id"
+
+
+class Keyed(Protocol):
+    """A graded match as the journal files it: its level's name and its KEY tuple."""
+
+    level: str
+
+    def key(self) -> tuple: ...
+
+
+J = TypeVar("J", bound=Keyed)
 
 
 def _private_file(path: Path) -> None:
@@ -111,36 +119,25 @@ class Journal:
     def done(self) -> set[tuple]:
         return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
 
-    def record(self, job: Job, result: str, replay: str, wall: float) -> None:
+    def record(self, job: Keyed, result: str, replay: str, wall: float) -> None:
+        """Commit one finished graded match."""
         self.db.execute(
             "INSERT OR REPLACE INTO matches VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (
-                job.level,
-                job.level_hash,
-                job.team,
-                job.code_hash,
-                job.seed,
-                job.software,
-                int(job.ideal),
-                job.secret_id,
-                result,
-                replay,
-                wall,
-                time.time(),
-            ),
+            (job.level, *job.key(), result, replay, wall, time.time()),
         )
         self.db.commit()  # at once: a killed run loses nothing that finished
 
-    def results(self, jobs: Iterable[Job]) -> list[tuple[Job, dict]]:
+    def results(self, jobs: Iterable[J]) -> list[tuple[J, dict]]:
         out = []
         where = " AND ".join(f"{k.strip()}=?" for k in KEY.split(","))
         for job in jobs:
-            row = self._query(f"SELECT result FROM matches WHERE {where}", job.key())
+            key = job.key()
+            row = self._query(f"SELECT result FROM matches WHERE {where}", key)
             if row:
                 try:
                     out.append((job, json.loads(row[0][0])))
                 except ValueError:
-                    raise UserError(f"{self.path}: a damaged result for {safe(job.team)} seed {job.seed}") from None
+                    raise UserError(f"{self.path}: a damaged result for {safe(key[1])} seed {key[3]}") from None
         return out
 
     def heats_done(self) -> set[tuple]:
