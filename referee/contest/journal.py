@@ -45,7 +45,8 @@ HEAT_KEY = "level_hash, lineup, seed, software, ideal, secret_id"
 class Keyed(Protocol):
     """A graded match as the journal files it: its level's name and its KEY tuple."""
 
-    level: str
+    @property
+    def level(self) -> str: ...
 
     def key(self) -> tuple: ...
 
