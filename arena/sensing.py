@@ -75,6 +75,10 @@ class Sensing:
         """Store the robots' poses after a physics step."""
         self._rows.append(self.world.state)
 
+    def record_many(self, states: list[tuple[float, ...]]) -> None:
+        """Store the world's states after several physics steps (`World.run`)."""
+        self._rows.extend(states)
+
     def flush(self) -> list[list[det.Detection]]:
         """Detections per robot for the steps recorded since the last flush, in time order."""
         out: list[list[det.Detection]] = [[] for _ in range(self.n)]

@@ -7,6 +7,7 @@ slot order, then `space.step(dt)`, then the clock.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import pymunk
@@ -88,6 +89,7 @@ class World:
             shape.slot = r.slot
         self.state = self._read_state()
         self.contacts: list[Contact] = []  # finished contacts, in order of their end
+        self.contact_ends: list[int] = []  # the tick after which each finished contact was known
         self._touching: dict[tuple[int, int], list] = {}
         for other_type in KIND_OF_TYPE:
             self.space.on_collision(1, other_type, begin=self._begin, separate=self._separate)
@@ -111,11 +113,12 @@ class World:
         a, b = arbiter.shapes
         entry = self._touching.pop((id(a), id(b)), None)
         if entry is not None:
-            self._finish(entry)
+            self._finish(entry, self.tick + 1)  # during the step that ends at tick + 1
 
-    def _finish(self, entry: list) -> None:
+    def _finish(self, entry: list, known: int) -> None:
         tick, a, b, point, impulse = entry
         other = KIND_OF_TYPE[b.collision_type]
+        self.contact_ends.append(known)
         self.contacts.append(
             Contact(
                 tick,
@@ -130,7 +133,7 @@ class World:
     def end_contacts(self) -> None:
         """Close every contact still going on (at the end of a match)."""
         for key in sorted(self._touching, key=lambda k: self._touching[k][0]):
-            self._finish(self._touching.pop(key))
+            self._finish(self._touching.pop(key), self.tick)
 
     def _static(self, shape: pymunk.Shape, category: int) -> None:
         shape.collision_type = TYPE_OF_CATEGORY[category]
@@ -169,6 +172,23 @@ class World:
         self.space.step(self.dt)
         self.tick += 1
         self.state = self._read_state()
+
+    def run(
+        self, steps: int, speeds: bool = False, until: Callable[[tuple[float, ...]], bool] | None = None
+    ) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
+        """Advance `steps` physics steps, or fewer: stop after a step whose state `until` holds
+        true of. Return the `state` after each step, in order, and (if `speeds`) every robot's
+        speed (m/s) then: what a control period's checks read, all at once (referee.match.loop)."""
+        states: list[tuple[float, ...]] = []
+        moving: list[tuple[float, ...]] = []
+        for _ in range(steps):
+            self.step()
+            states.append(self.state)
+            if speeds:
+                moving.append(tuple(body.velocity.length for body in self.bodies))
+            if until is not None and until(self.state):
+                break
+        return states, moving
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""

@@ -2,18 +2,21 @@
 
 One control tick: every controller, in slot order, gets its Observation and answers a
 Command -> the drive takes the wheel speeds -> the world steps physics `steps_per_control`
-times, and after each physics step the hooks run in order: sensing (fills each robot's
-inbox of events), rules (task progress), recorder (replay frames). The match ends at the
-time limit, or as soon as every robot has finished its task or been stopped by a fault.
+times; what is checked after each physics step (sensing, which fills each robot's inbox of
+events; task progress; the rules; replay frames) is worked out for the whole period at once
+from the states of its steps, with the same results. The match ends at the time limit, or
+as soon as every robot has finished its task or been stopped by a fault.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import Protocol
 
+from arena.angles import wrap
 from arena.detectors import Detection
 from arena.level import ControllerLimits, Level
 from arena.rng import RandomTree
@@ -44,12 +47,6 @@ NO_LIMITS = ControllerLimits(
 )
 
 
-class Hook(Protocol):
-    """Something that runs after every physics step."""
-
-    def after_step(self, world: World) -> None: ...
-
-
 def brief_for(level: Level, slot: int) -> Brief:
     """What robot `slot`'s team may know: the map, its hardware, its task; never its true pose
     (unless the level announces the start)."""
@@ -72,44 +69,14 @@ def brief_for(level: Level, slot: int) -> Brief:
     )
 
 
-class _SenseHook:
-    def __init__(self, sensing: Sensing):
-        self.sensing = sensing
-
-    def after_step(self, world: World) -> None:
-        self.sensing.record()
-
-
 def to_event(d: Detection) -> SensorEvent:
     """An arena detection as the team sees it (nothing about which laser caused it)."""
     return SensorEvent(time=d.time, kind=d.kind, beacon=d.beacon, angle=d.angle, samples=d.samples)
 
 
-class _TaskHook:
-    def __init__(self, tracker: TaskTracker, every: int):
-        self.tracker, self.every = tracker, every
-
-    def after_step(self, world: World) -> None:
-        sample = world.tick % self.every == 0
-        state, time = world.state, world.time
-        for slot in range(len(world.bodies)):
-            x, y = state[3 * slot], state[3 * slot + 1]
-            self.tracker.update(slot, x, y, time)
-            if sample:
-                self.tracker.sample_path(slot, (x, y))
-
-
-def poses(world: World) -> list[tuple[float, float, float]]:
-    return [(p.x, p.y, p.heading) for p in map(world.pose, range(len(world.bodies)))]
-
-
-class _RecordHook:
-    def __init__(self, writer: ReplayWriter, every: int):
-        self.writer, self.every = writer, every
-
-    def after_step(self, world: World) -> None:
-        if world.tick % self.every == 0:
-            self.writer.frame(world.time, poses(world))
+def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
+    """Every robot's (x, y, heading wrapped to (-pi, pi]) from a world `state`."""
+    return [(state[i], state[i + 1], wrap(state[i + 2])) for i in range(0, len(state), 3)]
 
 
 class Match:
@@ -158,7 +125,10 @@ class Match:
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
         self.rules = Rules(level)
-        self.hooks: list[Hook] = [_SenseHook(self.sensing), _TaskHook(self.tracker, level.steps_per_record), self.rules]
+        # how far any robot may get in one control period: twice the fastest top speed, and
+        # 0.5 m/s for a push or a bounce on top (the match can only end near a final target)
+        top = max((r.model.max_wheel_speed for r in level.robots), default=0.0)
+        self.reach = (2 * top + 0.5) * level.control_period
         self.writer = recorder  # anything with ReplayWriter's frame / record / close
         if replay is not None:
             self.writer = ReplayWriter(
@@ -171,8 +141,6 @@ class Match:
                 __version__,
                 noise_key,
             )
-        if self.writer is not None:
-            self.hooks.append(_RecordHook(self.writer, level.steps_per_record))
         self.end_reason = "time_limit"
 
     def _fault(self, slot: int, fault: Fault) -> None:
@@ -272,27 +240,63 @@ class Match:
             if fault:
                 self._fault(slot, fault)
         if self.writer:
-            self.writer.frame(world.time, poses(world))
+            self.writer.frame(world.time, poses(world.state))
         self.total_steps = round(level.time_limit * level.physics_rate)
         self.ended = world.tick >= self.total_steps
 
     def advance(self) -> None:
-        """Step physics (and the hooks after each step) up to the next control tick, or to the
-        end of the match: the time limit, or every robot done or stopped (sets `ended`)."""
-        world = self.world
-        for _ in range(self.level.steps_per_control):
-            world.step()
-            for hook in self.hooks:
-                hook.after_step(world)
+        """Step physics up to the next control tick, or to the end of the match: the time limit,
+        or every robot done or stopped (sets `ended`). The checks after each step (sensing,
+        task progress, rules, replay frames) run once for a run of steps, as step-by-step
+        checks would give them. A run stops early only after a step at which the match may
+        have ended: a robot still driving stood within its final target's radius."""
+        left = min(self.level.steps_per_control, self.total_steps - self.world.tick)
+        until = self._finish_line()
+        while left:
+            left -= self._steps(left, until)
             if self._over():
                 self.end_reason = (
                     "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) else "all_stopped"
                 )
                 self.ended = True
                 return
-            if world.tick >= self.total_steps:
-                self.ended = True
-                return
+        self.ended = self.world.tick >= self.total_steps
+
+    def _finish_line(self) -> Callable[[tuple[float, ...]], bool] | None:
+        """What, in a world state, says the match may have ended at that step (None: it cannot
+        end within this control period). Only a robot still driving that finishes its task can
+        end it, at a step where it stands within its final target's radius; robots out of reach
+        of their final target this period (see `reach`) are not watched. With no robot still
+        driving, any step ends it."""
+        tracker, radius = self.tracker, self.level.task.radius
+        going = [s for s in range(len(self.teams)) if not (self.stopped[s] or tracker.done(s))]
+        if not going:
+            return lambda state: True
+        state = self.world.state
+        watched = []
+        for slot in going:
+            targets = tracker.targets(slot)
+            if targets and math.dist(state[3 * slot : 3 * slot + 2], targets[-1]) <= radius + self.reach:
+                watched.append((3 * slot, targets[-1]))
+        if not watched:
+            return None
+        return lambda state: any(math.dist(state[i : i + 2], goal) <= radius for i, goal in watched)
+
+    def _steps(self, count: int, until: Callable[[tuple[float, ...]], bool] | None) -> int:
+        """Up to `count` physics steps (fewer if `until` says so of a step's state), then the
+        checks after each of them; returns how many steps ran."""
+        world, level = self.world, self.level
+        first = world.tick + 1
+        states, speeds = world.run(count, speeds=bool(level.rules.speed_limit), until=until)
+        self.sensing.record_many(states)
+        every = level.steps_per_record
+        self.tracker.advance(states, first, level.physics_rate, every)
+        self.rules.after_steps(world, states, speeds)
+        if self.writer:
+            for i, state in enumerate(states):
+                if (first + i) % every == 0:
+                    self.writer.frame((first + i) / level.physics_rate, poses(state))
+        return len(states)
 
     def end(self) -> MatchResult:
         """Finish the rules, write the replay's last records, and return the result."""

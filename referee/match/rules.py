@@ -8,6 +8,8 @@ controller faults become fouls too (the match reports them here).
 
 from __future__ import annotations
 
+from bisect import bisect_right
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,28 +60,61 @@ class Rules:
         )
 
     def after_step(self, world: World) -> None:
-        for c in world.contacts[self.seen_contacts :]:
+        """The checks after one physics step, on the world as it is now."""
+        speeds = tuple(b.velocity.length for b in world.bodies) if self.rules.speed_limit else None
+        self._check(world, world.tick, len(world.contacts), world.state, speeds)
+
+    def after_steps(
+        self, world: World, states: list[tuple[float, ...]], speeds: list[tuple[float, ...]] | None = None
+    ) -> None:
+        """The checks after each of the last `len(states)` steps (`states[i]` is the world's
+        `state` then, `speeds[i]` its robots' speeds, needed with a speed limit), with the
+        fouls exactly as step-by-step checks give them: only the steps where a contact ended or
+        a robot crossed the field's border or the speed limit are looked at one by one."""
+        last = world.tick
+        first = last - len(states) + 1  # the tick of states[0]
+        ends = world.contact_ends
+        busy = set(ends[self.seen_contacts :])
+        xmin, ymin, xmax, ymax = self.bounds
+        xy = np.asarray(states)
+        x, y = xy[:, 0::3], xy[:, 1::3]
+        out = ~((xmin <= x) & (x <= xmax) & (ymin <= y) & (y <= ymax))
+        changed = out != np.vstack([self.outside, out[:-1]])
+        limit = self.rules.speed_limit
+        if limit:
+            fast = np.asarray(speeds) > limit + 1e-9
+            changed |= fast != np.vstack([self.speeding, fast[:-1]])
+        busy.update((first + np.flatnonzero(changed.any(axis=1))).tolist())
+        for tick in sorted(busy):
+            i = tick - first
+            self._check(world, tick, bisect_right(ends, tick), states[i], speeds[i] if limit and speeds else None)
+
+    def _check(
+        self, world: World, tick: int, contacts: int, state: tuple[float, ...], speeds: tuple[float, ...] | None
+    ) -> None:
+        """One step's checks at `tick`: the contacts that ended by then (the first `contacts`),
+        then each robot leaving the field or passing the speed limit."""
+        for c in world.contacts[self.seen_contacts : contacts]:
             if c.impulse >= self.rules.min_impulse:
                 if c.other_robot is not None:  # a robot-robot contact
                     self._add("robot_collision", c.tick, c.robot, c.point, impulse=c.impulse, other=c.other_robot)
                     self._add("robot_collision", c.tick, c.other_robot, c.point, impulse=c.impulse, other=c.robot)
                 else:
                     self._add(f"{c.other}_collision", c.tick, c.robot, c.point, impulse=c.impulse)
-        self.seen_contacts = len(world.contacts)
+        self.seen_contacts = max(self.seen_contacts, contacts)
         xmin, ymin, xmax, ymax = self.bounds
         limit = self.rules.speed_limit
-        state = world.state
-        for slot, body in enumerate(world.bodies):
+        for slot in range(len(self.outside)):
             x, y = state[3 * slot], state[3 * slot + 1]
             out = not (xmin <= x <= xmax and ymin <= y <= ymax)
             if out and not self.outside[slot]:
-                self._add("leave_field", world.tick, slot, (x, y))
+                self._add("leave_field", tick, slot, (x, y))
             self.outside[slot] = out
-            if limit:
-                v = body.velocity.length
+            if limit and speeds is not None:
+                v = speeds[slot]
                 fast = v > limit + 1e-9
                 if fast and not self.speeding[slot]:
-                    self._add("speeding", world.tick, slot, (x, y), speed=v)
+                    self._add("speeding", tick, slot, (x, y), speed=v)
                 self.speeding[slot] = fast
 
     def controller(self, slot: int, tick: int, kind: str, place: tuple[float, float], message: str) -> None:
@@ -101,8 +136,9 @@ class Polyline:
         self.d = p[1:] - p[:-1]
         self.n2 = np.maximum((self.d**2).sum(axis=1), 1e-300)
 
-    def distance(self, x: float, y: float) -> float:
-        """Distance (m) from (x, y) to the polyline."""
-        rx, ry = x - self.a[:, 0], y - self.a[:, 1]
+    def distances(self, x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray) -> list[float]:
+        """Distances (m) from each point (x[i], y[i]) to the polyline, at once."""
+        rx = np.asarray(x, dtype=float)[:, None] - self.a[:, 0]
+        ry = np.asarray(y, dtype=float)[:, None] - self.a[:, 1]
         t = np.clip((rx * self.d[:, 0] + ry * self.d[:, 1]) / self.n2, 0.0, 1.0)
-        return float(np.sqrt(((rx - t * self.d[:, 0]) ** 2 + (ry - t * self.d[:, 1]) ** 2).min()))
+        return np.sqrt((rx - t * self.d[:, 0]) ** 2 + (ry - t * self.d[:, 1]) ** 2).min(axis=1).tolist()

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from msgspec import UNSET, UnsetType
 
-from arena.level import Level, Pose
+from arena.level import Level
 from referee.match.rules import Polyline
 from referee.records.results import CrossTrack, TaskProgress
 
@@ -56,12 +57,38 @@ class TaskTracker:
                 self.finished[slot] = time
                 self.finished_count += 1
 
-    def sample_path(self, slot: int, pose: Pose | tuple[float, float]) -> None:
-        """Record the robot's distance from the ideal path (at the record rate, until it finishes)."""
-        line = self.polyline[slot]  # present for every robot of a waypoints or race task
-        if line is not None and self.kind in ("waypoints", "race") and not self.done(slot):
-            x, y = (pose.x, pose.y) if isinstance(pose, Pose) else pose
-            self.deviation[slot].append(line.distance(x, y))
+    def advance(self, states: list[tuple[float, ...]], first_tick: int, rate: int, every: int) -> None:
+        """`update` every robot with each of a run of steps' states (`states[i]` at tick
+        `first_tick + i`, time tick / `rate`), as calling it step by step would; and record
+        its distance from the ideal path at the ticks that are multiples of `every` (the record
+        rate), until it finishes."""
+        radius = self.level.task.radius
+        near = radius * (1 + 1e-9) + 1e-12  # numpy's distances may differ from math.dist by an ulp
+        samples = [i for i in range(len(states)) if (first_tick + i) % every == 0]
+        xy = np.asarray(states)
+        for slot in range(len(self.next)):
+            xs, ys = xy[:, 3 * slot], xy[:, 3 * slot + 1]
+            targets = self.targets(slot)
+            end = len(states)  # the step after which the robot has finished (no more samples)
+            i = 0
+            while self.next[slot] < len(targets) and i < len(states):
+                tx, ty = targets[self.next[slot]]
+                close = np.flatnonzero(np.hypot(xs[i:] - tx, ys[i:] - ty) <= near)
+                hit = next((i + int(k) for k in close if math.dist((xs[i + k], ys[i + k]), (tx, ty)) <= radius), None)
+                if hit is None:
+                    break
+                i = hit
+                self.update(slot, float(xs[i]), float(ys[i]), (first_tick + i) / rate)
+                if self.done(slot):
+                    end = i
+            if self.kind == "goto":  # as every step's update leaves it: from the last step
+                self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
+            line = self.polyline[slot]
+            if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == len(states)):
+                continue  # no path to stray from, or finished before these steps
+            kept = [k for k in samples if k < end]
+            if kept:
+                self.deviation[slot].extend(line.distances(xs[kept], ys[kept]))
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None

@@ -1,0 +1,130 @@
+"""The match works out what is checked after each physics step (task progress, fouls, replay
+frames, sensing) once per control period, from the states of the period's steps. A second
+way to the same answer: `StepByStep`, a match that checks after every step, written here
+the plain way (the per-step calls, in the documented order). Results and replay bytes must
+agree, in matches with collisions, speeding, a robot leaving an open field, waypoints
+reached mid-period, robots finishing, and a goto task."""
+
+import textwrap
+
+import pytest
+from helpers import MINI_LEVEL, edited, variant
+
+from arena.loader import parse_level
+from referee.match import loop
+from referee.sandbox.teams import resolve
+
+CHAOS = """
+    from robots.api import Command, Controller
+
+    class Chaos(Controller):
+        def setup(self, brief):
+            self.k = brief.slot
+
+        def step(self, obs):
+            phase = int(obs.time / 2 + self.k) % 3
+            return [Command(0.3, 0.3), Command(0.3, -0.1), Command(-0.2, -0.25)][phase]
+"""
+
+
+OUT_AND_BACK = """
+    from robots.api import Command, Controller
+
+    class OutAndBack(Controller):
+        def step(self, obs):
+            return Command(0.3, 0.3) if obs.time % 16 < 8 else Command(-0.3, -0.3)
+"""
+
+
+class StepByStep(loop.Match):
+    """After each physics step: sensing stores the poses, each robot's task progress is
+    updated (and its distance from the path sampled at the record rate until it finishes),
+    the rules look at the world, a frame is recorded at the record rate; then the end test."""
+
+    def advance(self):
+        world, level, tracker = self.world, self.level, self.tracker
+        every = level.steps_per_record
+        for _ in range(level.steps_per_control):
+            world.step()
+            self.sensing.record()
+            for slot in range(len(self.teams)):
+                x, y = world.state[3 * slot], world.state[3 * slot + 1]
+                tracker.update(slot, x, y, world.time)
+                line = tracker.polyline[slot]
+                if world.tick % every == 0 and line is not None and tracker.kind != "goto" and not tracker.done(slot):
+                    tracker.deviation[slot].append(line.distances([x], [y])[0])
+            self.rules.after_step(world)
+            if world.tick % every == 0:
+                self.writer.frame(world.time, [(p.x, p.y, p.heading) for p in map(world.pose, range(len(self.teams)))])
+            if self._over():
+                done = any(map(tracker.done, range(len(self.teams))))
+                self.end_reason = "task_complete" if done else "all_stopped"
+                self.ended = True
+                return
+            if world.tick >= self.total_steps:
+                self.ended = True
+                return
+
+
+def play(level, teams, tmp_path, name, match_class):
+    replay = tmp_path / f"{name}.replay"
+    result = match_class(level, teams, seed=4, replay=replay, isolate=False).run()
+    return result, replay.read_bytes()
+
+
+def same_both_ways(level, teams, tmp_path, monkeypatch):
+    batched = play(level, teams, tmp_path, "batched", loop.Match)
+    single = play(level, teams, tmp_path, "single", StepByStep)
+    assert batched[0] == single[0]
+    assert batched[1] == single[1]
+    return batched[0]
+
+
+def test_collisions_and_speeding(tmp_path, monkeypatch):
+    (tmp_path / "chaos.py").write_text(textwrap.dedent(CHAOS))
+    level = variant("asabe-race", time_limit=20, rules={"speed_limit": 0.1})
+    result = same_both_ways(level, [resolve(str(tmp_path / "chaos.py"))] * 4, tmp_path, monkeypatch)
+    kinds = {f.kind for r in result.robots for f in r.fouls}
+    assert {"robot_collision", "wall_collision", "speeding"} <= kinds
+
+
+def test_leaving_an_open_field(tmp_path, monkeypatch):
+    (tmp_path / "out.py").write_text(textwrap.dedent(OUT_AND_BACK))
+    text = edited(
+        MINI_LEVEL, {"field.walls": False, "time_limit": 30, "task.path": [[0.2, 0.5]], "robots.0.start": [1.6, 0.5, 0]}
+    )
+    level = parse_level(text.encode(), "open.yaml")
+    result = same_both_ways(level, [resolve(str(tmp_path / "out.py"))], tmp_path, monkeypatch)
+    # out past x = 2 m, back in, out again: two fouls
+    assert [f.kind for f in result.robots[0].fouls] == ["leave_field", "leave_field"]
+
+
+@pytest.mark.parametrize("spec", ["ref:bac", "ref:dead-reckoning"])
+def test_waypoints_reached(tmp_path, monkeypatch, spec):
+    level = variant("asabe", time_limit=40)
+    result = same_both_ways(level, [resolve(spec)], tmp_path, monkeypatch)
+    assert result.robots[0].task.reached >= 5
+
+
+def test_robots_finishing_end_the_match_at_the_step(tmp_path, monkeypatch):
+    # two short paths, each finished mid-period; two robots whose one waypoint is their start
+    level = variant(
+        "asabe-race",
+        time_limit=60,
+        robots__0__path=[[0.5, 0.25], [0.6, 0.25]],
+        robots__1__path=[[1.35, 0.97], [1.25, 0.97]],
+        robots__2__path=[[0.60, 0.45]],
+        robots__3__path=[[1.23, 0.77]],
+    )
+    result = same_both_ways(level, [resolve("ref:bac")] * 2 + [resolve("ref:idle")] * 2, tmp_path, monkeypatch)
+    assert result.end_reason == "task_complete" and result.end_time < 30
+    assert all(r.task.finished is not None for r in result.robots)
+    assert result.end_time == max(r.task.finished for r in result.robots)
+
+
+def test_goto(tmp_path, monkeypatch):
+    text = edited(MINI_LEVEL, {"task": {"kind": "goto", "radius": 0.05, "goal": [1.5, 0.5]}, "time_limit": 20})
+    result = same_both_ways(
+        parse_level(text.encode(), "goto.yaml"), [resolve("ref:dead-reckoning")], tmp_path, monkeypatch
+    )
+    assert result.robots[0].task.final_distance is not None
