@@ -14,6 +14,7 @@ the header has a fixed, typed schema (its level text is parsed as safely as a le
 
 from __future__ import annotations
 
+import functools
 import gzip
 import io
 import json
@@ -72,6 +73,49 @@ class _Frame(msgspec.Struct):
     p: Annotated[list[tuple[float, float, float]], msgspec.Meta(max_length=64)]
 
 
+def _number(value: float) -> str:
+    """A finite float as JSON writes it (its repr); TypeError for anything else."""
+    text = float.__repr__(value)
+    if "n" in text:  # nan, inf
+        raise TypeError("not finite")
+    return text
+
+
+@functools.cache
+def _string(value: str | None) -> str:
+    """A string (beacon ids, event kinds: a handful per match) or None as JSON."""
+    return json.dumps(value)
+
+
+def _floats(values: list[float]) -> str:
+    return "[" + ",".join(map(_number, values)) + "]"
+
+
+def _event_line(f: dict[str, Any]) -> str:
+    """An `e` record as `json.dumps(sort_keys=True)` writes it, without its generic encoder."""
+    if len(f) != 6:
+        raise KeyError("fields")
+    beam = f["line"]
+    return (
+        '{"b":' + _string(f["b"]) + ',"k":"e","kind":' + _string(f["kind"])
+        + ',"line":' + ("null" if beam is None else _floats(beam))
+        + ',"r":' + _int(f["r"]) + ',"s":' + _int(f["s"]) + ',"t":' + _number(f["t"]) + "}"
+    )  # fmt: skip
+
+
+def _estimate_line(f: dict[str, Any]) -> str:
+    """An `est` record as `json.dumps(sort_keys=True)` writes it."""
+    if len(f) != 3:
+        raise KeyError("fields")
+    return '{"e":' + _floats(f["e"]) + ',"k":"est","r":' + _int(f["r"]) + ',"t":' + _number(f["t"]) + "}"
+
+
+def _int(value: int) -> str:
+    if type(value) is not int:
+        raise TypeError("not an int")
+    return int.__repr__(value)
+
+
 def controller_hash(spec: str) -> str:
     """sha256 of a controller's code, found without running it (`referee.sandbox.teams.Team.code_hash`)."""
     from referee.sandbox.teams import code_hash
@@ -102,6 +146,7 @@ class ReplayWriter:
         self.gz = gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=6)
         self.raw = raw
         self.file: IO[str] = io.TextIOWrapper(self.gz, encoding="utf-8", newline="\n")
+        self._lines: list[str] = []  # records not yet handed to the compressor
         self._write(
             {
                 "format": FORMAT,
@@ -119,26 +164,48 @@ class ReplayWriter:
         )
 
     def _write(self, obj: dict[str, Any]) -> None:
-        self.file.write(dumps(obj, indent=None) + "\n")
+        self._lines.append(dumps(obj, indent=None) + "\n")
 
-    def _fast(self, obj: dict[str, Any]) -> None:
-        """The hot records (frames, events, estimates): floats already rounded, flat values."""
-        self.file.write(json.dumps(obj, sort_keys=True, separators=(",", ":")) + "\n")
+    def _hot(self, line: str | None, obj: dict[str, Any]) -> None:
+        """A hot record (frame, event, estimate), formatted by hand the way JSON's encoder with
+        sorted keys writes it (None: a value was not a finite float, an int, a string or None,
+        so the encoder itself writes it)."""
+        if line is None:
+            line = json.dumps(obj, sort_keys=True, separators=(",", ":"))
+        self._lines.append(line + "\n")
+        if len(self._lines) >= 512:
+            self._flush()
+
+    def _flush(self) -> None:
+        self.file.write("".join(self._lines))
+        self._lines.clear()
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
-        self._fast({"k": "f", "t": round(time, DECIMALS), "p": [[round(v, DECIMALS) for v in p] for p in poses]})
+        p = [[round(v, DECIMALS) for v in pose] for pose in poses]
+        t = round(time, DECIMALS)
+        line: str | None
+        try:
+            line = '{"k":"f","p":[' + ",".join(map(_floats, p)) + '],"t":' + _number(t) + "}"
+        except TypeError:
+            line = None
+        self._hot(line, {"k": "f", "t": t, "p": p})
 
     def record(self, record_kind: str, **fields: Any) -> None:
-        if record_kind in ("e", "est"):
-            line, est = fields.get("line"), fields.get("e")
-            fields["t"] = round(fields["t"], DECIMALS)
-            if line is not None:
-                fields["line"] = [round(v, DECIMALS) for v in line]
-            if est is not None:
-                fields["e"] = [round(v, DECIMALS) for v in est]
-            self._fast({"k": record_kind, **fields})
-        else:
+        if record_kind not in ("e", "est"):
             self._write({"k": record_kind, **fields})
+            return
+        line, est = fields.get("line"), fields.get("e")
+        fields["t"] = round(fields["t"], DECIMALS)
+        if line is not None:
+            fields["line"] = [round(v, DECIMALS) for v in line]
+        if est is not None:
+            fields["e"] = [round(v, DECIMALS) for v in est]
+        text: str | None
+        try:
+            text = _event_line(fields) if record_kind == "e" else _estimate_line(fields)
+        except (TypeError, KeyError):
+            text = None
+        self._hot(text, {"k": record_kind, **fields})
 
     def discard(self) -> None:
         """Drop the unfinished replay (the match did not end): no `.part` file is left behind."""
@@ -151,6 +218,7 @@ class ReplayWriter:
 
     def close(self, result: dict[str, Any]) -> None:
         self._write({"k": "result", "result": result})
+        self._flush()
         self.file.close()  # closes the gzip stream and the file beneath
         self.raw.close()
         os.replace(self.partial, self.path)  # still 0600 (mkstemp): an organizer file

@@ -1,0 +1,62 @@
+"""The replay writer formats its hot records (frames, events, estimates) by hand, for speed.
+Every line must be what JSON's own encoder (sorted keys, compact) writes for the same record:
+checked here against `json.dumps` on values chosen to be awkward."""
+
+import gzip
+import json
+import math
+import random
+
+from helpers import MINI_LEVEL
+
+from arena.loader import parse_level
+from referee.records.canonical import DECIMALS
+from referee.records.replay import ReplayWriter
+
+AWKWARD = [0.0, -0.0, 1e-07, -7.31e-07, 2.5e-05, 1e-05, 0.1, 1e16, 1.2345678901234568e17, 1e22, 5e-324, 123.456789012]
+
+
+def floats(rng: random.Random, n: int) -> list[float]:
+    return [
+        rng.choice(AWKWARD) if rng.random() < 0.3 else rng.uniform(-10, 10) * 10 ** rng.randint(-9, 9) for _ in range(n)
+    ]
+
+
+def rounded(values):
+    return [round(v, DECIMALS) for v in values]
+
+
+def test_hot_records_are_what_json_writes(tmp_path):
+    level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
+    path = tmp_path / "r.replay"
+    w = ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    rng = random.Random(7)
+    expected = []
+    for k in range(3000):
+        t = abs(floats(rng, 1)[0])
+        choice = k % 4
+        if choice == 0:
+            poses = [tuple(floats(rng, 3)) for _ in range(rng.randint(0, 4))]
+            w.frame(t, poses)
+            rec = {"k": "f", "t": round(t, DECIMALS), "p": [rounded(p) for p in poses]}
+        elif choice == 1:
+            beam = None if rng.random() < 0.2 else tuple(floats(rng, 4))
+            beacon = rng.choice([None, "A", "n1", 'q"uote\\', "Öst", "\u2603 snow"])
+            kind = rng.choice(["hit", "index", "scan"])
+            r, s = rng.randint(0, 3), rng.randint(-1, 3)
+            w.record("e", t=t, r=r, s=s, kind=kind, b=beacon, line=beam)
+            rec = {"k": "e", "t": round(t, DECIMALS), "r": r, "s": s, "kind": kind, "b": beacon}
+            rec["line"] = None if beam is None else rounded(beam)
+        elif choice == 2:
+            e = floats(rng, 3)
+            w.record("est", t=t, r=1, e=e)
+            rec = {"k": "est", "t": round(t, DECIMALS), "r": 1, "e": rounded(e)}
+        else:  # values the fast path does not take: JSON's encoder writes them as it always did
+            e = [math.nan, 1, True][k % 3 : k % 3 + 1] + [1.5, 2.5]
+            w.record("est", t=t, r=2, e=e)
+            rec = {"k": "est", "t": round(t, DECIMALS), "r": 2, "e": [round(v, DECIMALS) for v in e]}
+        expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
+    w.close({"done": True})
+    lines = gzip.open(path).read().decode().splitlines()
+    assert lines[1:-1] == expected
+    assert json.loads(lines[-1]) == {"k": "result", "result": {"done": True}}
