@@ -21,6 +21,7 @@ from collections import deque
 import numpy as np
 import pymunk
 
+from arena import chipmunk
 from arena.level import DriveErrors, RobotModel
 from arena.rng import RandomTree
 
@@ -141,9 +142,9 @@ class DiffDrive:
         rate = (self.wheels[1] - self.wheels[0]) / self.track * self.turn_factor
         if rate != self._rate:
             self._rate = rate
-            self.control.angular_velocity = rate
+            chipmunk.set_angular_velocity(self.control, rate)
         v = (self.wheels[0] + self.wheels[1]) / 2
         motion = (v, heading if v else 0.0)  # standing or spinning in place: velocity stays 0
         if motion != self._motion:
             self._motion = motion
-            self.control.velocity = (v * math.cos(heading), v * math.sin(heading))
+            chipmunk.set_velocity(self.control, v * math.cos(heading), v * math.sin(heading))

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import pymunk
 
+from arena import chipmunk
 from arena.angles import wrap
 from arena.drive import DiffDrive
 from arena.level import Level, Pose
@@ -159,6 +160,13 @@ class World:
 
     def _read_state(self) -> tuple[float, ...]:
         out: list[float] = []
+        if chipmunk.lib is not None:  # the same numbers, without pymunk's wrappers
+            get_position, get_angle = chipmunk.lib.cpBodyGetPosition, chipmunk.lib.cpBodyGetAngle
+            for body in self.bodies:
+                c = body._body
+                p = get_position(c)
+                out += (p.x, p.y, get_angle(c))
+            return tuple(out)
         for body in self.bodies:
             p = body.position
             out += (p.x, p.y, body.angle)
@@ -169,7 +177,7 @@ class World:
         x, y and unwrapped heading, flat, read once per step for the drives and the sensing."""
         for drive, heading in zip(self.drives, self.state[2::3]):
             drive.update(heading, self.tick)
-        self.space.step(self.dt)
+        chipmunk.step(self.space, self.dt)
         self.tick += 1
         self.state = self._read_state()
 
