@@ -1,0 +1,173 @@
+"""How fast a four-robot match runs beside the physics' own cost, measured side by side in one run.
+
+Run: python benchmarks/speed.py [--repeat 3] [--json]
+Figures (medians of `--repeat` runs, simulated seconds per wall second unless said):
+- bare: the asabe-race world (4 robots driving circles) stepped with nothing else;
+- sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
+- full matches of asabe-race, isolated (each controller in its sandboxed process) and in this
+  process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
+  and with `ref:dead-reckoning` (a controller that costs next to nothing): the ratio to bare is
+  the figure (target >= 0.5 isolated); the referee's and the controllers' CPU are given apart;
+- grading: the CPU (referee, workers and controllers) of grading `ref:bac` on asabe, per
+  simulated second, beside bare stepping's CPU per simulated second (target: no more).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+import sensing
+
+import levels
+from arena.loader import load_level
+from referee.contest import grade as g
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
+from referee.version import __version__
+
+
+def cpu(who: int) -> float:
+    r = resource.getrusage(who)
+    return r.ru_utime + r.ru_stime
+
+
+def cpu_model() -> str:
+    """The processor's name, as the kernel gives it (Linux), else the platform's word."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    import platform
+
+    return platform.processor() or platform.machine()
+
+
+def median_of(repeat: int, measure):
+    """Each figure of `measure()`'s dict, the median over `repeat` runs."""
+    runs = [measure() for _ in range(repeat)]
+    return {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+
+
+def world(seconds: float, repeat: int) -> dict:
+    """Bare stepping and stepping with sensing, simulated s per wall s, and sensing's overhead."""
+
+    def once() -> dict:
+        bare, _ = sensing.run(seconds, False)
+        sensed, events = sensing.run(seconds, True)
+        return {"bare_x": seconds / bare, "sensing_x": seconds / sensed, "sensing_overhead": sensed / bare - 1}
+
+    return median_of(repeat, once)
+
+
+def match(spec: str, isolate: bool, repeat: int) -> dict:
+    """A full asabe-race match (replay written), simulated s per wall s, and CPU per simulated s."""
+    level = load_level(levels.path("asabe-race"))
+    teams = [resolve(spec)] * len(level.robots)
+
+    def once() -> dict:
+        with tempfile.TemporaryDirectory() as d:
+            c0, k0, w0 = cpu(resource.RUSAGE_SELF), cpu(resource.RUSAGE_CHILDREN), time.perf_counter()
+            r = run_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
+            wall = time.perf_counter() - w0
+            own, kids = cpu(resource.RUSAGE_SELF) - c0, cpu(resource.RUSAGE_CHILDREN) - k0
+        return {
+            "x": r.end_time / wall,
+            "simulated_s": r.end_time,
+            "referee_cpu_per_s": own / r.end_time,
+            "controllers_cpu_per_s": kids / r.end_time,
+        }
+
+    return median_of(repeat, once)
+
+
+def grading(matches: int) -> dict:
+    """CPU per simulated second of grading ref:bac on asabe with one worker (all processes)."""
+    path = levels.path("asabe")
+    team = resolve("ref:bac")
+    with tempfile.TemporaryDirectory() as d:
+        journal = g.Journal(Path(d) / "bench.sqlite")
+        jobs = g.make_jobs(
+            [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
+        )
+        c0 = cpu(resource.RUSAGE_SELF) + cpu(resource.RUSAGE_CHILDREN)
+        g.grade(jobs, journal, workers=1, quiet=True)
+        used = cpu(resource.RUSAGE_SELF) + cpu(resource.RUSAGE_CHILDREN) - c0
+        simulated = sum(result["end_time"] for _, result in journal.results(jobs))
+    return {"matches": matches, "cpu_per_s": used / simulated, "simulated_s": simulated}
+
+
+def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
+    """Every speed figure, in one run."""
+    w = world(seconds, repeat)
+    out: dict = {"world": w, "matches": {}}
+    for spec in ("ref:bac", "ref:dead-reckoning"):
+        for isolate in (True, False):
+            m = match(spec, isolate, repeat)
+            m["ratio"] = m["x"] / w["bare_x"]
+            out["matches"][f"{spec} {'isolated' if isolate else 'in-process'}"] = m
+    gr = grading(matches)
+    gr["bare_cpu_per_s"] = 1 / w["bare_x"]  # one core, busy stepping
+    gr["ratio"] = gr["cpu_per_s"] / gr["bare_cpu_per_s"]
+    out["grading"] = gr
+    return out
+
+
+def table(f: dict) -> list[tuple[str, str, str]]:
+    """The figures as (what, value, against its target) rows."""
+    w = f["world"]
+    rows = [
+        ("asabe-race bare stepping", f"{w['bare_x']:.0f}x real time", ""),
+        (
+            "  with sensing",
+            f"{w['sensing_x']:.0f}x real time",
+            f"sensing adds {100 * w['sensing_overhead']:.0f} % (target < 50 %)",
+        ),
+    ]
+    for name, m in f["matches"].items():
+        rows.append(
+            (
+                f"  full match, 4 x {name}",
+                f"{m['x']:.0f}x real time",
+                f"{m['ratio']:.2f} of bare{' (target >= 0.5)' if 'isolated' in name else ''}; CPU per simulated s: "
+                f"referee {1000 * m['referee_cpu_per_s']:.1f} ms, controllers {1000 * m['controllers_cpu_per_s']:.1f} ms",
+            )
+        )
+    gr = f["grading"]
+    rows.append(
+        (
+            "grading ref:bac on asabe",
+            f"{1000 * gr['cpu_per_s']:.1f} ms CPU per simulated s",
+            f"{gr['ratio']:.1f}x bare stepping's {1000 * gr['bare_cpu_per_s']:.2f} ms (target <= 1x)",
+        )
+    )
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3, help="runs per figure (the median is kept)")
+    ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    args = ap.parse_args()
+    f = measure(args.repeat)
+    if args.json:
+        print(json.dumps(f, indent=2, sort_keys=True))
+        return
+    rows = table(f)
+    width = max(len(a) for a, _, _ in rows)
+    for a, b, c in rows:
+        print(f"{a:<{width}}  {b:<30} {c}")
+
+
+if __name__ == "__main__":
+    main()
