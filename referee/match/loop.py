@@ -1,7 +1,7 @@
 """The lockstep match loop.
 
-One control tick: every controller, in slot order, gets its Observation and answers a
-Command -> the drive takes the wheel speeds -> the world steps physics `steps_per_control`
+One control tick: every controller gets its Observation (all are sent before any answer is
+awaited, so controller processes compute at the same time) and answers a Command -> the drive takes the wheel speeds -> the world steps physics `steps_per_control`
 times, and after each physics step the hooks run in order: sensing (fills each robot's
 inbox of events), rules (task progress), recorder (replay frames). The match ends at the
 time limit, or as soon as every robot has finished its task or been stopped by a fault.
@@ -27,7 +27,7 @@ from referee.records.replay import ReplayWriter
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
 from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot, isolation_unavailable
+from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
 from referee.sandbox.teams import Team
 from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
@@ -237,9 +237,10 @@ class Match:
         return kept
 
     def _control_tick(self) -> None:
-        for slot, obs in enumerate(self.observe()):
-            if obs is not None:
-                self.answer(slot, self.bots[slot].step(obs))
+        # every controller gets its observation before any answer is awaited: they compute at once
+        for slot, out in enumerate(exchange(self.bots, self.observe())):
+            if out is not None:
+                self.answer(slot, out)
 
     def run(self) -> MatchResult:
         """Run the match to its end and return the result (see docs/results.md)."""
