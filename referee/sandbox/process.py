@@ -66,7 +66,8 @@ MAX_PROCS = 64  # processes and threads a slot may have at once (a controller ne
 class ProcessBot:
     """A controller running in a separate process, with the InProcessBot interface.
     `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
-    sandbox (for the benchmark that measures what it costs)."""
+    sandbox, `forked=False` spawns a sandbox of its own where a root referee's template could fork
+    it (both for the benchmarks that measure what they cost)."""
 
     def __init__(
         self,
@@ -75,11 +76,12 @@ class ProcessBot:
         log: Path | None = None,
         slot: int = 0,
         sandboxed: bool = True,
+        forked: bool = True,
     ):
         if not team.entry:
             raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
-        self.sandboxed = sandboxed
+        self.sandboxed, self.forked = sandboxed, forked
         self.proc: subprocess.Popen[bytes] | forkserver.Forked | None = None
         self.buf = b""
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
@@ -93,7 +95,7 @@ class ProcessBot:
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
         self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
         self.in_sandbox = False
-        if sandboxed:
+        if sandboxed and forked:
             forkserver.start()  # a root referee's template imports while the match is being made
 
     def _spawn(self) -> None:
@@ -124,7 +126,7 @@ class ProcessBot:
         if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
             limits = [*limits, "--max-procs", str(MAX_PROCS)]
         self.in_sandbox = True
-        server = forkserver.server() if uid is not None else None
+        server = forkserver.server() if uid is not None and self.forked else None
         if server is not None:  # forked from the template, into namespaces of its own
             self.proc = self._forked(server, {"uid": uid, "argv": [entry, *limits]}, stderr)
             return
