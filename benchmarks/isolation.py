@@ -102,7 +102,9 @@ def main() -> None:
         print(f"    in-process                          {times['in-process']:8.2f} s")
         print(f"    isolated (forked, scattered)        {times['isolated']:8.2f} s")
         print(f"    isolated (spawned, one by one)      {times['old']:8.2f} s")
-        print(f"    isolated / in-process               {times['isolated'] / times['in-process']:8.2f} x   (target < 2 x)")
+        print(
+            f"    isolated / in-process               {times['isolated'] / times['in-process']:8.2f} x   (target < 2 x)"
+        )
         print(f"    old / new isolated                  {times['old'] / times['isolated']:8.2f} x")
 
 

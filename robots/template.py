@@ -224,8 +224,8 @@ def _watch(slot: socket.socket, pid: int) -> tuple[int, float]:
     (bwrap's convention) and the CPU seconds it used."""
     pidfd = os.pidfd_open(pid)
     while True:
-        ready, _, _ = select.select([pidfd, slot], [], [])
-        if slot in ready:
+        ready, _, _ = select.select([pidfd, slot.fileno()], [], [])
+        if slot.fileno() in ready:
             try:
                 word = slot.recv(16)
             except OSError:

@@ -26,8 +26,8 @@ from typing import IO, Any
 import robots
 from arena.level import ControllerLimits
 from referee.sandbox import forkserver, kernel
-from referee.sandbox.kernel import RUNNER_ENV
 from referee.sandbox.bot import TRACEBACK_BYTES, Fault, traceback_tail
+from referee.sandbox.kernel import RUNNER_ENV
 from referee.sandbox.privacy import (
     check_readable_by_others,
     drop_to,
@@ -312,7 +312,7 @@ class ProcessBot:
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
         passes a signal on as 128 + its number, and the runner ends so on an output flood."""
-        code = self._process().returncode
+        code = self._process().wait()  # ended already: its status
         if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
             return -(code - 128)
         return code

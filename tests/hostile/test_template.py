@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from hostile.hostile_kit import HONEST, FAST, assert_others_unharmed, short_race, team_file
+from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, team_file
 from referee.match.loop import run_match
 from referee.sandbox import forkserver
 from referee.sandbox.teams import resolve
