@@ -1,5 +1,8 @@
-"""What isolating controllers costs: the per-step round trip, and a 4-robot match isolated
-vs in-process. Run: python benchmarks/isolation.py
+"""What isolating controllers costs: the per-step round trip, one control tick's exchange with 4
+controllers one after another vs all sent before any is awaited, and a 4-robot `asabe-race`
+match isolated (forked controllers, scattered exchange) vs the old way (spawned sandboxes,
+one exchange after another) vs in-process, with cheap controllers and with the level's own.
+Run: python benchmarks/isolation.py
 
 Target: an isolated `asabe-race` match with the reference controllers takes under
 2x the time of the same match in-process.
@@ -12,49 +15,97 @@ import time
 import levels
 from arena.loader import load_level
 from referee.match.loop import Match, brief_for
-from referee.sandbox.process import ProcessBot
+from referee.sandbox.process import ProcessBot, exchange
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 
+EVENTS = tuple(SensorEvent(0.01 * i, "hit", "OABC"[i]) for i in range(4))  # a typical observation
+
+
+def _bots(team: str, n: int) -> list[ProcessBot]:
+    level = load_level(levels.path("asabe"))
+    bots = [ProcessBot(resolve(team), level.limits, slot=i) for i in range(n)]
+    for bot in bots:
+        assert bot.setup(brief_for(level, 0)) is None
+    return bots
+
 
 def round_trip(steps: int = 3000) -> float:
-    """Seconds per step exchange with a controller process (a typical observation of 4 hits)."""
-    level = load_level(levels.path("asabe"))
-    bot = ProcessBot(resolve("ref:dead-reckoning"), level.limits)
-    assert bot.setup(brief_for(level, 0)) is None
-    events = tuple(SensorEvent(0.01 * i, "hit", "OABC"[i]) for i in range(4))
+    """Seconds per step exchange with a controller process."""
+    (bot,) = _bots("ref:dead-reckoning", 1)
     try:
         start = time.perf_counter()
         for k in range(steps):
-            bot.step(Observation(k, 0.2 * k, events))
+            bot.step(Observation(k, 0.2 * k, EVENTS))
         return (time.perf_counter() - start) / steps
     finally:
         bot.close()
 
 
-def match_time(isolate: bool, sandboxed: bool = True) -> float:
+def tick_exchange(team: str, scattered: bool, ticks: int = 500) -> float:
+    """Seconds per control tick exchanging with 4 controllers of `team`."""
+    bots = _bots(team, 4)
+    try:
+        start = time.perf_counter()
+        for k in range(ticks):
+            obs = [Observation(k, 0.2 * k, EVENTS)] * 4
+            if scattered:
+                exchange(bots, obs)
+            else:
+                for bot, o in zip(bots, obs):
+                    bot.step(o)
+        return (time.perf_counter() - start) / ticks
+    finally:
+        for bot in bots:
+            bot.close()
+
+
+class _Sequential(Match):
+    """The match as it was: each controller spawned in a sandbox of its own, exchanged with in turn."""
+
+    def _control_tick(self) -> None:
+        for slot, obs in enumerate(self.observe()):
+            if obs is not None:
+                self.answer(slot, self.bots[slot].step(obs))
+
+
+def match_time(controller: str, mode: str) -> float:
+    """Seconds for the whole `asabe-race` match (start and end of the controllers included)."""
     level = load_level(levels.path("asabe-race"))
-    teams = [resolve(level.default_controller)] * len(level.robots)
-    match = Match(level, teams, isolate=isolate)
-    if isolate and not sandboxed:  # the same processes without their kernel sandboxes
-        match.bots = [ProcessBot(t, level.limits, slot=i, sandboxed=False) for i, t in enumerate(teams)]
+    teams = [resolve(controller)] * len(level.robots)
     start = time.perf_counter()
-    match.run()
+    if mode == "in-process":
+        Match(level, teams, isolate=False).run()
+    elif mode == "isolated":
+        Match(level, teams).run()
+    else:
+        match = _Sequential(level, teams)
+        match.bots = [ProcessBot(t, level.limits, slot=i, forked=False) for i, t in enumerate(teams)]
+        match.run()
     return time.perf_counter() - start
 
 
 def main() -> None:
     rt = round_trip()
-    inproc = min(match_time(False) for _ in range(2))
-    iso = min(match_time(True) for _ in range(2))
-    plain = min(match_time(True, sandboxed=False) for _ in range(2))
-    print("controller isolation (best of 2)")
-    print(f"  step round trip          {rt * 1e6:8.0f} us")
-    print(f"  asabe-race in-process    {inproc:8.2f} s")
-    print(f"  asabe-race isolated      {iso:8.2f} s")
-    print(f"  isolated, no sandbox     {plain:8.2f} s")
-    print(f"  isolated / in-process    {iso / inproc:8.2f} x   (target < 2 x)")
-    print(f"  sandbox / no sandbox     {iso / plain:8.2f} x")
+    print("controller isolation")
+    print(f"  step round trip (1 controller)        {rt * 1e6:8.0f} us")
+    for team in ("ref:dead-reckoning", "ref:bac"):
+        one, all_ = tick_exchange(team, False), tick_exchange(team, True)
+        print(
+            f"  tick exchange, 4 x {team:18s} one by one {one * 1e6:6.0f} us   "
+            f"scattered {all_ * 1e6:6.0f} us   ({one / all_:.2f} x)"
+        )
+    level = load_level(levels.path("asabe-race"))
+    for controller in ("ref:dead-reckoning", level.default_controller):
+        times = {m: min(match_time(controller, m) for _ in range(2)) for m in ("in-process", "isolated", "old")}
+        print(f"  asabe-race, 4 x {controller} (best of 2)")
+        print(f"    in-process                          {times['in-process']:8.2f} s")
+        print(f"    isolated (forked, scattered)        {times['isolated']:8.2f} s")
+        print(f"    isolated (spawned, one by one)      {times['old']:8.2f} s")
+        print(
+            f"    isolated / in-process               {times['isolated'] / times['in-process']:8.2f} x   (target < 2 x)"
+        )
+        print(f"    old / new isolated                  {times['old'] / times['isolated']:8.2f} x")
 
 
 if __name__ == "__main__":

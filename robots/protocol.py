@@ -183,6 +183,26 @@ def write(stream: IO[bytes], msg: dict) -> None:
     stream.flush()
 
 
+_STEP_HEAD = b'\0\0\0\0{"v":%d,"type":"step","obs":' % PROTOCOL_VERSION
+
+
+def step_frame(obs: Observation, buffer: bytearray) -> bytearray:
+    """The `step` message for `obs` as a whole frame, encoded into `buffer` (reused from tick to
+    tick): the same bytes `write` sends for `{"type": "step", "obs": to_plain(obs)}`, without
+    building the plain data first (msgspec encodes the dataclasses as they are)."""
+    buffer[:] = _STEP_HEAD
+    try:
+        _ENCODER.encode_into(obs, buffer, -1)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise ProtocolError(f"cannot encode a 'step' message: {e}") from None
+    buffer += b"}"
+    size = len(buffer) - 4
+    if size > MAX_FRAME:
+        raise ProtocolError(f"a 'step' message of {size} bytes is over the {MAX_FRAME} limit")
+    struct.pack_into(">I", buffer, 0, size)
+    return buffer
+
+
 def read(stream: IO[bytes]) -> dict | None:
     """Receive one message, or None at end of stream."""
     head = stream.read(4)

@@ -1,11 +1,12 @@
 """The lockstep match loop.
 
-One control tick: every controller, in slot order, gets its Observation and answers a
-Command -> the drive takes the wheel speeds -> the world steps physics `steps_per_control`
-times; what is checked after each physics step (sensing, which fills each robot's inbox of
-events; task progress; the rules; replay frames) is worked out for the whole period at once
-from the states of its steps, with the same results. The match ends at the time limit, or
-as soon as every robot has finished its task or been stopped by a fault.
+One control tick: every controller gets its Observation (all are sent before any answer is
+awaited, so controller processes compute at the same time) and answers a Command -> the drive
+takes the wheel speeds -> the world steps physics `steps_per_control` times; what is checked
+after each physics step (sensing, which fills each robot's inbox of events; task progress;
+the rules; replay frames) is worked out for the whole period at once from the states of its
+steps, with the same results. The match ends at the time limit, or as soon as every robot has
+finished its task or been stopped by a fault.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from referee.records.replay import ReplayWriter
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
 from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot, isolation_unavailable
+from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
 from referee.sandbox.teams import Team
 from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
@@ -205,9 +206,10 @@ class Match:
         return kept
 
     def _control_tick(self) -> None:
-        for slot, obs in enumerate(self.observe()):
-            if obs is not None:
-                self.answer(slot, self.bots[slot].step(obs))
+        # every controller gets its observation before any answer is awaited: they compute at once
+        for slot, out in enumerate(exchange(self.bots, self.observe())):
+            if out is not None:
+                self.answer(slot, out)
 
     def run(self) -> MatchResult:
         """Run the match to its end and return the result (see docs/results.md)."""

@@ -34,6 +34,17 @@ TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not dis
 ROBOTS_DIR = Path(robots.__file__).resolve().parent
 PYTHON = os.path.normpath(os.path.abspath(sys.executable))  # as the sandbox can reach it (no `..`)
 HIDDEN_PACKAGES = ("levels",)  # beside `robots` in site-packages: the level files stay out of sight
+RUNNER_ENV = {  # every controller's interpreter, sandboxed or not: deterministic hashing, one BLAS thread
+    "PYTHONHASHSEED": "0",
+    "PYTHONDONTWRITEBYTECODE": "1",
+    "PYTHONSAFEPATH": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+SANDBOX_ENV = dict(  # the whole environment inside a sandbox: the team's code first on the path
+    RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8", PYTHONPATH=f"{TEAM_DIR}{os.pathsep}{LIB_DIR}"
+)
 SYSTEM_FILES = ("/etc/ld.so.cache", "/etc/ld.so.conf", "/etc/ld.so.conf.d", "/etc/localtime")
 
 
@@ -157,16 +168,14 @@ def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[in
     return args, fds
 
 
-def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[str, str], uid: int | None) -> Launch:
-    """The bwrap command line running `command` in a new sandbox with `files` at TEAM_DIR.
-    `uid`: the host uid to run as (a root referee that can switch users), else None (a user
-    namespace of its own, as the caller's user).
-    The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
+def _sandbox(files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool) -> Launch:
+    """bwrap's arguments up to `--`: the namespaces, the system view, `files` at TEAM_DIR, a
+    private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`."""
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
     args = (
-        _namespaces(uid is None)
+        _namespaces(own_user_namespace)
         + ["--info-fd", str(info_w)]
         + _system_view()
         + team
@@ -196,7 +205,16 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
     )  # only /tmp and /dev/shm stay writable
     for key, value in sorted(env.items()):
         args += ["--setenv", key, value]
-    args.append("--")
+    return Launch(args + ["--"], tuple(fds), info)
+
+
+def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[str, str], uid: int | None) -> Launch:
+    """The bwrap command line running `command` in a new sandbox with `files` at TEAM_DIR.
+    `uid`: the host uid to run as (a root referee that can switch users), else None (a user
+    namespace of its own, as the caller's user).
+    The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
+    box = _sandbox(files, env, uid is None)
+    args = box.argv
     if uid is not None:  # root: leave every privilege behind before the interpreter starts
         args += [
             "setpriv",
@@ -207,4 +225,12 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
             "--bounding-set=-all",
             "--no-new-privs",
         ]
-    return Launch(args + command, tuple(fds), info)
+    return Launch(args + command, box.pass_fds, box.info)
+
+
+def template_launch(command: list[str], env: dict[str, str]) -> Launch:
+    """The bwrap command line running the controller template (robots/template.py) as root in
+    a sandbox like a controller's but empty at TEAM_DIR: the view every slot forked from it
+    starts with (it makes its own namespaces, mounts and uid from there)."""
+    box = _sandbox((), env, False)
+    return Launch(box.argv + command, box.pass_fds, box.info)

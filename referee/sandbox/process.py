@@ -25,8 +25,9 @@ from typing import IO, Any
 
 import robots
 from arena.level import ControllerLimits
-from referee.sandbox import kernel
+from referee.sandbox import forkserver, kernel
 from referee.sandbox.bot import TRACEBACK_BYTES, Fault, traceback_tail
+from referee.sandbox.kernel import RUNNER_ENV
 from referee.sandbox.privacy import (
     check_readable_by_others,
     drop_to,
@@ -42,14 +43,6 @@ from robots.loading import is_file_spec
 
 FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
-RUNNER_ENV = {
-    "PYTHONHASHSEED": "0",
-    "PYTHONDONTWRITEBYTECODE": "1",
-    "PYTHONSAFEPATH": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-}
 UNENFORCED = (
     "controllers share one uid and see each other's processes, the file system their user can read, and the network"
 )
@@ -73,7 +66,8 @@ MAX_PROCS = 64  # processes and threads a slot may have at once (a controller ne
 class ProcessBot:
     """A controller running in a separate process, with the InProcessBot interface.
     `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
-    sandbox (for the benchmark that measures what it costs)."""
+    sandbox, `forked=False` spawns a sandbox of its own where a root referee's template could fork
+    it (both for the benchmarks that measure what they cost)."""
 
     def __init__(
         self,
@@ -82,22 +76,27 @@ class ProcessBot:
         log: Path | None = None,
         slot: int = 0,
         sandboxed: bool = True,
+        forked: bool = True,
     ):
         if not team.entry:
             raise ValueError(f"team {team.label} has no code a controller process can load (run it in-process)")
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
-        self.sandboxed = sandboxed
-        self.proc: subprocess.Popen[bytes] | None = None
+        self.sandboxed, self.forked = sandboxed, forked
+        self.proc: subprocess.Popen[bytes] | forkserver.Forked | None = None
         self.buf = b""
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
         self.bank = limits.overage_bank
         self.skips = 0  # consecutive skipped ticks
         self.pending: int | None = None  # tick of an observation still unanswered
+        self.sent = 0.0  # when the last observation was sent (time.monotonic)
+        self.frame = bytearray()  # the step frame's buffer, reused every tick
         self.loaded = False  # the controller process has loaded the team's code
         self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
         self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
         self.in_sandbox = False
+        if sandboxed and forked:
+            forkserver.start()  # a root referee's template imports while the match is being made
 
     def _spawn(self) -> None:
         reason = kernel.unavailable() if self.sandboxed else None
@@ -123,18 +122,18 @@ class ProcessBot:
         entry = self.team.entry
         if is_file_spec(entry):
             entry = f"{kernel.TEAM_DIR}/{entry}"
-        env = dict(
-            RUNNER_ENV,
-            PATH="/usr/bin:/bin",
-            HOME="/tmp",
-            LANG="C.UTF-8",
-            PYTHONPATH=f"{kernel.TEAM_DIR}{os.pathsep}{kernel.LIB_DIR}",
-        )
         uid = slot_uid(self.slot) if switches_users() else None
         if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
             limits = [*limits, "--max-procs", str(MAX_PROCS)]
-        launch = kernel.launch([kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], self.team.files, env, uid)
-        self.info, self.in_sandbox = launch.info, True
+        self.in_sandbox = True
+        server = forkserver.server() if uid is not None and self.forked else None
+        if server is not None:  # forked from the template, into namespaces of its own
+            self.proc = self._forked(server, {"uid": uid, "argv": [entry, *limits]}, stderr)
+            return
+        launch = kernel.launch(
+            [kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], self.team.files, kernel.SANDBOX_ENV, uid
+        )
+        self.info = launch.info
         try:
             self.proc = subprocess.Popen(
                 launch.argv,
@@ -149,6 +148,21 @@ class ProcessBot:
         finally:
             for fd in launch.pass_fds:
                 os.close(fd)
+
+    def _forked(self, server: forkserver.ForkServer, config: dict, stderr) -> forkserver.Forked:
+        """A controller forked by `server`, with pipes as Popen makes them (the child's ends handed over)."""
+        stdin_r, stdin_w = os.pipe()
+        stdout_r, stdout_w = os.pipe()
+        try:
+            monitor = server.spawn(config, self.team.files, (stdin_r, stdout_w, stderr.fileno()))
+        except BaseException:
+            os.close(stdin_w)
+            os.close(stdout_r)
+            raise
+        finally:
+            os.close(stdin_r)
+            os.close(stdout_w)
+        return forkserver.Forked(monitor, open(stdin_w, "wb"), open(stdout_r, "rb"))
 
     def _spawn_plain(self, limits: list[str], stderr) -> None:
         user, as_user = drop_to(), dict[str, Any]()
@@ -180,7 +194,7 @@ class ProcessBot:
             **as_user,
         )
 
-    def _process(self) -> subprocess.Popen[bytes]:
+    def _process(self) -> subprocess.Popen[bytes] | forkserver.Forked:
         """The controller process, started by `launch`."""
         if self.proc is None:
             raise RuntimeError("the controller process has not been launched")
@@ -200,32 +214,44 @@ class ProcessBot:
         except (BrokenPipeError, OSError):
             return False
 
+    def _frame(self) -> dict | str | None:
+        """The next whole message already read, `protocol` for a malformed one, None if none yet."""
+        if len(self.buf) < 4:
+            return None
+        (size,) = struct.unpack(">I", self.buf[:4])
+        if size > protocol.MAX_FRAME:
+            self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
+            return "protocol"
+        if len(self.buf) < 4 + size:
+            return None
+        frame, self.buf = self.buf[4 : 4 + size], self.buf[4 + size :]
+        try:
+            return protocol.parse(frame)
+        except protocol.ProtocolError as e:
+            self.problem = str(e)
+            return "protocol"
+
+    def _read(self) -> bool:
+        """Read what the controller has written (one read; call when its stdout is readable);
+        False at end of stream (the process ended)."""
+        chunk = os.read(self._pipes()[1].fileno(), 1 << 16)
+        self.buf += chunk
+        return bool(chunk)
+
     def _receive(self, timeout: float) -> dict | str:
         """The next message, or a fault kind: `timeout`, `crash` (the process ended), `protocol`."""
         deadline = time.monotonic() + timeout  # inf: wait for ever (--no-limits)
         fd = self._pipes()[1].fileno()
         while True:
-            if len(self.buf) >= 4:
-                (size,) = struct.unpack(">I", self.buf[:4])
-                if size > protocol.MAX_FRAME:
-                    self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
-                    return "protocol"
-                if len(self.buf) >= 4 + size:
-                    frame, self.buf = self.buf[4 : 4 + size], self.buf[4 + size :]
-                    try:
-                        return protocol.parse(frame)
-                    except protocol.ProtocolError as e:
-                        self.problem = str(e)
-                        return "protocol"
+            got = self._frame()
+            if got is not None:
+                return got
             left = deadline - time.monotonic()
             if left <= 0:
                 return "timeout"
             ready, _, _ = select.select([fd], [], [], None if left == float("inf") else left)
-            if ready:
-                chunk = os.read(fd, 1 << 16)
-                if not chunk:
-                    return "crash"
-                self.buf += chunk
+            if ready and not self._read():
+                return "crash"
 
     def _fault(self, tick: int, t: float, what: str | dict, where: str) -> Fault:
         """A Fault from a failed exchange; the process is ended."""
@@ -286,7 +312,7 @@ class ProcessBot:
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
         passes a signal on as 128 + its number, and the runner ends so on an output flood."""
-        code = self._process().returncode
+        code = self._process().wait()  # ended already: its status
         if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
             return -(code - 128)
         return code
@@ -341,16 +367,32 @@ class ProcessBot:
 
         Within `step_time`: normal. Up to `step_deadline`: accepted, the excess drawn from the
         overage bank. Later: a skipped tick; the late answer is awaited (and charged) before the
-        next observation. `max_skips` in a row, or an empty bank, disqualify the robot."""
+        next observation. `max_skips` in a row, or an empty bank, disqualify the robot.
+        (`exchange` does the same for several controllers at once.)"""
+        fault = self.send(obs)
+        if fault:
+            return fault
+        reply = self._receive(self.limits.step_deadline)
+        return self.judge(obs, reply, time.monotonic() - self.sent)
+
+    def send(self, obs: Observation) -> Fault | None:
+        """The first half of a step: wait out a skipped tick's late answer, send `obs` and start
+        its clock (`sent`). A Fault if the controller is gone."""
         if self.pending is not None:
             fault = self._drain(obs)
             if fault:
                 return fault
-        if not self._send({"type": "step", "obs": protocol.to_plain(obs)}):
+        try:
+            self._pipes()[0].write(protocol.step_frame(obs, self.frame))
+            self._pipes()[0].flush()
+        except OSError:
             return self._fault(obs.tick, obs.time, "crash", "step")
-        start = time.monotonic()
-        reply = self._receive(self.limits.step_deadline)
-        took = time.monotonic() - start
+        self.sent = time.monotonic()
+        return None
+
+    def judge(self, obs: Observation, reply: dict | str, took: float) -> Command | Fault:
+        """The second half of a step: the answer `reply` (or fault kind), `took` seconds after
+        `send`, weighed against the allowances."""
         if reply == "timeout":
             self.pending = obs.tick
             self.bank -= self.limits.step_deadline - self.limits.step_time
@@ -402,10 +444,14 @@ class ProcessBot:
                     self.proc.wait(timeout=5)
                 except subprocess.TimeoutExpired:
                     pass
-        try:
-            os.killpg(self.proc.pid, signal.SIGKILL)  # its whole session, children included
-        except (ProcessLookupError, PermissionError):
-            pass
+        if isinstance(self.proc, forkserver.Forked):
+            if self.proc.poll() is None:
+                self.proc.kill()  # its monitor kills its init: the PID namespace goes with it
+        else:
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)  # its whole session, children included
+            except (ProcessLookupError, PermissionError):
+                pass
         self.proc.wait()
         for stream in (self.proc.stdin, self.proc.stdout):
             try:
@@ -418,3 +464,45 @@ class ProcessBot:
             self.folder = None
         if self.log_file is not None:
             self.log_file.close()
+
+
+def exchange(bots: list[Any], observations: list[Observation | None]) -> list[Command | Fault | None]:
+    """Every bot's answer to its observation (None where it has none), as `step` gives it. All
+    observations go out before any answer is awaited, so controller processes compute at the
+    same time; each answer is timed from its own sending to its own arrival."""
+    out: list[Command | Fault | None] = [None] * len(bots)
+    waiting: dict[int, ProcessBot] = {}
+    for slot, (bot, obs) in enumerate(zip(bots, observations)):
+        if obs is None:
+            continue
+        if not isinstance(bot, ProcessBot):
+            out[slot] = bot.step(obs)  # a controller in this process answers at once
+        elif fault := bot.send(obs):
+            out[slot] = fault
+        else:
+            waiting[slot] = bot
+    replies: dict[int, tuple[dict | str, float]] = {}
+    while waiting:
+        now = time.monotonic()
+        for slot, bot in list(waiting.items()):
+            got = bot._frame()
+            if got is None and now - bot.sent >= bot.limits.step_deadline:
+                got = "timeout"
+            if got is not None:
+                replies[slot] = (got, now - bot.sent)
+                del waiting[slot]
+        if not waiting:
+            break
+        left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+        readers = {bot._pipes()[1].fileno(): slot for slot, bot in waiting.items()}
+        ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
+        for fd in ready:
+            slot = readers[fd]
+            if not waiting[slot]._read():
+                replies[slot] = ("crash", time.monotonic() - waiting[slot].sent)
+                del waiting[slot]
+    for slot in sorted(replies):
+        obs = observations[slot]
+        assert obs is not None
+        out[slot] = bots[slot].judge(obs, *replies[slot])
+    return out

@@ -1,0 +1,215 @@
+"""Controllers forked from a sandboxed template instead of spawned one by one (root referee).
+
+A `ForkServer` runs `robots.template` as root inside a bubblewrap sandbox holding only the
+shared read-only system view (referee/sandbox/kernel.py `template_launch`); with the
+interpreter, msgspec, numpy and `robots` already imported there, a controller start is a fork
+plus the slot's own namespaces, mounts and uid (robots/template.py) instead of a new bwrap, a
+new interpreter and its imports. One template per referee thread, reused by every match that
+thread runs (its state never changes: it reads nothing of a team). Where it cannot be made or
+fails its probe, `server()` says None and ProcessBot spawns a bwrap sandbox per controller.
+docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md says why.
+"""
+
+from __future__ import annotations
+
+import atexit
+import functools
+import json
+import os
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import IO
+
+from referee.sandbox import kernel
+from referee.sandbox.privacy import slot_uid, switches_users
+
+STATUS = struct.Struct("<id")  # a monitor's last word: exit status, CPU seconds (robots/template.py)
+READY_TIME = 30.0  # seconds the template may take to import and answer (a loaded machine)
+
+
+class Forked:
+    """One controller forked by the template: its pipes and the socket to its monitor, with the
+    part of `subprocess.Popen`'s interface ProcessBot uses. `returncode` follows bwrap: the
+    exit code, or 128 + the signal that killed it."""
+
+    pid = None  # in a PID namespace the referee cannot name: ended through its monitor
+
+    def __init__(self, monitor: socket.socket, stdin: IO[bytes] | None, stdout: IO[bytes] | None):
+        self.monitor, self.stdin, self.stdout = monitor, stdin, stdout
+        self.returncode: int | None = None
+        self.cpu = 0.0  # CPU seconds of the controller and its monitor, once ended (for benchmarks)
+        self.problem = ""  # what the monitor could not do, if it failed before the controller ran
+
+    def _take(self, message: bytes) -> None:
+        if message[:1] == b"s" and len(message) == 1 + STATUS.size:
+            self.returncode, self.cpu = STATUS.unpack(message[1:])
+        else:  # a monitor that failed (its reason), or one that is gone without a word: killed
+            self.problem = message[1:].decode(errors="replace")
+            self.returncode = 1 if message[:1] == b"e" else 128 + signal.SIGKILL
+        self.monitor.close()
+
+    def wait(self, timeout: float | None = None) -> int:
+        """The exit status, waiting at most `timeout` seconds (subprocess.TimeoutExpired)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.returncode is None:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not select.select([self.monitor], [], [], left)[0]:
+                raise subprocess.TimeoutExpired("controller", timeout or 0.0)
+            try:
+                self._take(self.monitor.recv(512))
+            except OSError:
+                self._take(b"")
+        return self.returncode
+
+    def poll(self) -> int | None:
+        """The exit status if the controller has ended, else None."""
+        try:
+            return self.wait(0)
+        except subprocess.TimeoutExpired:
+            return None
+
+    def kill(self) -> None:
+        """Have the monitor kill the controller (its PID namespace goes with it)."""
+        try:
+            self.monitor.send(b"k")
+        except OSError:
+            pass  # the monitor is gone: so is the controller
+
+
+class ForkServer:
+    """The template process of this thread and the socket it takes requests on."""
+
+    def __init__(self) -> None:
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        command = [kernel.PYTHON, "-s", "-m", "robots.template", str(theirs.fileno())]
+        launch = kernel.template_launch(command, kernel.SANDBOX_ENV)
+        try:
+            self.proc = subprocess.Popen(
+                launch.argv,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                start_new_session=True,
+                close_fds=True,
+                pass_fds=(*launch.pass_fds, theirs.fileno()),
+            )
+        finally:
+            for fd in launch.pass_fds:
+                os.close(fd)
+            theirs.close()
+        self.info = launch.info  # kept open: bwrap writes the template's pid there, and would fail on a closed pipe
+        self.pid: int | None = None  # the template's host pid, once read from `info`
+        self.control, self.lock, self.ready = ours, threading.Lock(), False
+
+    def wait_ready(self) -> str | None:
+        """Wait for the template's imports, then fork a probe slot; why it cannot serve, or None."""
+        if self.ready:
+            return None
+        if not select.select([self.control], [], [], READY_TIME)[0] or self.control.recv(16) != b"r":
+            return "the controller template did not start"
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            probe = Forked(self.spawn({"probe": 1, "uid": slot_uid(0), "argv": []}, (), (null, null, null)), None, None)
+        finally:
+            os.close(null)
+        try:
+            status = probe.wait(READY_TIME)
+        except subprocess.TimeoutExpired:
+            probe.kill()
+            return "a slot forked from the controller template did not start"
+        if status != 0:
+            return f"a slot cannot be forked from the controller template: {probe.problem or status}"
+        self.ready = True
+        return None
+
+    def spawn(self, config: dict, files: tuple[tuple[str, Path], ...], stdio: tuple[int, int, int]) -> socket.socket:
+        """Fork a controller and return the socket to its monitor: `config` (uid, runner argv),
+        the team's `files` and `stdio` (the child's fds 0-2) go to the monitor, never to the template."""
+        bundle = os.memfd_create("team", 0)
+        sizes = []
+        for rel, source in files:
+            data = source.read_bytes()
+            os.write(bundle, data)
+            sizes.append((rel, len(data)))
+        mine, its = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        try:
+            with self.lock:
+                socket.send_fds(self.control, [b"f"], [its.fileno()])
+            message = json.dumps({**config, "files": sizes}).encode()
+            socket.send_fds(mine, [message], [*stdio, bundle])
+        except OSError:
+            mine.close()
+            raise
+        finally:
+            its.close()
+            os.close(bundle)
+        return mine
+
+    def cpu(self) -> float:
+        """CPU seconds the template process has used so far (its forks are charged here)."""
+        if self.pid is None:
+            self.pid = kernel.init_pid(os.dup(self.info))
+        fields = Path(f"/proc/{self.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def close(self) -> None:
+        """End the template: its PID namespace, and every slot still in it, with it."""
+        self.control.close()
+        os.close(self.info)
+        try:
+            self.proc.wait(timeout=1)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+
+
+_local = threading.local()
+_all: list[ForkServer] = []
+
+
+@atexit.register
+def _close_all() -> None:
+    for s in _all:
+        s.close()
+
+
+@functools.cache
+def unavailable() -> str | None:
+    """Why controllers cannot be forked from a template here (None: they can be tried)."""
+    if sys.platform != "linux" or not hasattr(os, "pidfd_open"):
+        return "no pidfd on this system"
+    if not switches_users():
+        return "a template forks slots of their own uid: the referee must be root"
+    return kernel.unavailable()
+
+
+def start() -> None:
+    """Start this thread's template without waiting for it (it imports while the match is made)."""
+    if unavailable() is not None:
+        return
+    current = getattr(_local, "server", None)
+    if current is None or _local.pid != os.getpid() or not current.alive():
+        _local.server, _local.pid = ForkServer(), os.getpid()
+        _all.append(_local.server)
+
+
+def server() -> ForkServer | None:
+    """This thread's ready template, started if need be; None where none can serve."""
+    if unavailable() is not None or getattr(_local, "failed", None) == os.getpid():
+        return None
+    start()
+    problem = _local.server.wait_ready()
+    if problem:
+        _local.failed = os.getpid()
+        return None
+    return _local.server

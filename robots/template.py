@@ -1,0 +1,301 @@
+"""The controller template: `python -m robots.template`, a fork server for controller processes.
+
+Started by a root referee inside a bubblewrap sandbox that holds only the shared read-only
+system view (no team's code, no /team content, its own PID namespace, no network). It imports
+what every controller start would import (`robots.runner`, msgspec) and preloads numpy and the
+reference controllers, then forks one controller per request. A request is one datagram on
+the control socket (its descriptor number is the one argument) carrying one descriptor: a socket of the slot's own. The template
+never reads anything of a team: the forked child reads its configuration from that socket.
+
+The child (the slot's monitor) gives itself new mount, PID, network, IPC, UTS and cgroup
+namespaces, mounts its private /tmp, /dev/shm and /dev/pts, copies its team's files (one
+memfd) to a read-only /team, makes every other mount read-only, and forks the controller:
+the init of the new PID namespace. That process mounts its own /proc, takes its pipes as fds
+0-2 and closes every other descriptor, leaves root for the slot's uid with no capabilities
+and no-new-privs, and runs `robots.runner.main`, which sets the limits before team code loads.
+The monitor waits for it, kills it on the referee's word or when the referee's end of the
+socket closes, and sends its exit status back (bwrap's convention: the code, or 128 + signal).
+docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md say why.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import gc
+import importlib.abc
+import importlib.machinery
+import json
+import os
+import resource
+import select
+import signal
+import socket
+import struct
+import sys
+from types import ModuleType
+from typing import Any
+
+import robots.runner
+from robots.controllers import REFERENCE
+
+REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
+
+TEAM_DIR, TMP_SIZE = "/team", 64 << 20  # as referee/sandbox/kernel.py makes them for a spawned sandbox
+# imported once here, registered in a controller on its first import of one of them: numpy (not
+# numpy.random, whose Cython types a fresh controller would not hold) and the reference controllers
+PRELOAD = ("numpy", "numpy.linalg", *(f"robots.controllers.{m}" for m in REFERENCE_MODULES))
+
+CLONE_NEWNS, CLONE_NEWCGROUP, CLONE_NEWUTS = 0x00020000, 0x02000000, 0x04000000
+CLONE_NEWIPC, CLONE_NEWPID, CLONE_NEWNET = 0x08000000, 0x20000000, 0x40000000
+MS_RDONLY, MS_NOSUID, MS_NODEV, MS_NOEXEC = 1, 2, 4, 8
+MS_REMOUNT, MS_BIND, MS_REC, MS_PRIVATE = 32, 4096, 16384, 1 << 18
+MOUNT_FLAGS = {"nosuid": MS_NOSUID, "nodev": MS_NODEV, "noexec": MS_NOEXEC, "noatime": 1024, "nodiratime": 2048}
+PR_SET_PDEATHSIG, PR_SET_DUMPABLE, PR_CAPBSET_DROP = 1, 4, 24
+PR_SET_NO_NEW_PRIVS, PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL = 38, 47, 4
+CAP_VERSION_3 = 0x20080522
+PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them in a new /proc
+
+_libc = ctypes.CDLL(None, use_errno=True)
+
+
+def _check(result: int, what: str) -> None:
+    if result != 0:
+        errno = ctypes.get_errno()
+        raise OSError(errno, f"{what}: {os.strerror(errno)}")
+
+
+def _mount(source: str | None, target: str, fstype: str | None, flags: int, data: str | None = None) -> None:
+    _check(
+        _libc.mount(
+            source and source.encode(),
+            target.encode(),
+            fstype and fstype.encode(),
+            ctypes.c_ulong(flags),
+            data and data.encode(),
+        ),
+        f"mount {target}",
+    )
+
+
+def _prctl(option: int, arg: int, arg3: int = 0) -> None:
+    _check(_libc.prctl(option, ctypes.c_ulong(arg), ctypes.c_ulong(arg3), 0, 0), f"prctl {option}")
+
+
+def _tmpfs(target: str) -> None:
+    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`."""
+    _mount("tmpfs", target, "tmpfs", MS_NOSUID | MS_NODEV, f"mode=1777,size={TMP_SIZE}")
+
+
+def _read_only_everywhere(writable: tuple[str, ...]) -> None:
+    """Remount read-only every mount of this namespace but `writable` (shared ones from the
+    template included: whatever one slot could write there another could read), keeping
+    each one's nosuid, nodev and noexec."""
+    with open("/proc/self/mountinfo") as info:
+        mounts = [(line.split()[4], line.split()[5].split(",")) for line in info]
+    for point, options in mounts:
+        if "ro" in options or point in writable or point == "/proc" or point.startswith("/proc/"):
+            continue
+        kept = sum(flag for name, flag in MOUNT_FLAGS.items() if name in options)
+        try:
+            _mount(None, point, None, MS_REMOUNT | MS_BIND | MS_RDONLY | kept)
+        except FileNotFoundError:
+            pass  # a mount point under another mount that covers it: out of reach anyway
+
+
+def _team(bundle: int, files: list[tuple[str, int]]) -> None:
+    """The team's files, read from one memfd, on a fresh tmpfs at TEAM_DIR made read-only."""
+    _mount("tmpfs", TEAM_DIR, "tmpfs", MS_NOSUID | MS_NODEV, "mode=0755")
+    offset = 0
+    for rel, size in files:
+        if rel.startswith("/") or ".." in rel.split("/"):
+            raise ValueError(f"a team file outside {TEAM_DIR}: {rel}")
+        target = f"{TEAM_DIR}/{rel}"
+        os.makedirs(os.path.dirname(target), mode=0o755, exist_ok=True)
+        out = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o444)
+        try:
+            done = 0
+            while done < size:
+                sent = os.sendfile(out, bundle, offset + done, size - done)
+                if not sent:
+                    raise ValueError(f"the team's files end before {rel}")
+                done += sent
+        finally:
+            os.close(out)
+        offset += size
+    _mount(None, TEAM_DIR, None, MS_REMOUNT | MS_RDONLY | MS_NOSUID | MS_NODEV)
+
+
+def _drop_privileges(uid: int) -> None:
+    """Root -> the slot's uid and group, no supplementary groups, no capabilities (bounding,
+    ambient and inheritable sets emptied), no-new-privs: what `setpriv` does before an exec."""
+    last = int(open("/proc/sys/kernel/cap_last_cap").read())
+    for cap in range(last + 1):
+        _prctl(PR_CAPBSET_DROP, cap)
+    _prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL)
+    os.setgroups([])
+    os.setresgid(uid, uid, uid)
+    os.setresuid(uid, uid, uid)
+    header = (ctypes.c_uint32 * 2)(CAP_VERSION_3, 0)
+    data = (ctypes.c_uint32 * 6)()  # effective, permitted, inheritable: all empty
+    _check(_libc.capset(header, data), "capset")
+    _prctl(PR_SET_NO_NEW_PRIVS, 1)
+    _prctl(PR_SET_DUMPABLE, 1)  # as after an exec: its own processes may inspect each other
+
+
+def _controller(config: dict[str, Any], stdio: list[int]) -> None:
+    """The slot's init: its /proc, its descriptors, its uid, then the runner. Never returns."""
+    code = 1
+    try:
+        os.setsid()
+        _mount("proc", "/proc", "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC)
+        for name in PROC_READ_ONLY:
+            path = f"/proc/{name}"
+            if os.path.exists(path):
+                _mount(path, path, None, MS_BIND | MS_REC)
+                _mount(None, path, None, MS_REMOUNT | MS_BIND | MS_RDONLY | MS_NOSUID | MS_NODEV | MS_NOEXEC)
+        for target, fd in enumerate(stdio):
+            os.dup2(fd, target)
+        os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
+        _drop_privileges(int(config["uid"]))
+        _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
+        if config.get("probe"):  # the referee's check that a slot can be made here
+            os._exit(0)
+        os.chdir("/tmp")
+        importlib.invalidate_caches()  # /team was an empty folder when the template looked
+        sys.path_importer_cache.pop(TEAM_DIR, None)
+        sys.argv = [robots.runner.__file__, *config["argv"]]
+        code = robots.runner.main(config["argv"])
+    except BaseException:
+        import traceback
+
+        traceback.print_exc()
+    finally:
+        os._exit(code)
+
+
+def _monitor(slot: socket.socket) -> None:
+    """The forked child for one slot (still root, in the template's sandbox). Never returns."""
+    status, cpu = 128 + signal.SIGKILL, 0.0
+    try:
+        _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        message, fds, _, _ = socket.recv_fds(slot, 1 << 20, 8)
+        config = json.loads(message)
+        keep = {slot.fileno(), *fds}
+        for name in os.listdir("/proc/self/fd"):  # the template's descriptors are not the slot's
+            if int(name) not in keep:
+                try:
+                    os.close(int(name))
+                except OSError:
+                    pass  # the listing's own descriptor, closed meanwhile
+        *stdio, bundle = fds
+        flags = CLONE_NEWNS | CLONE_NEWPID | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
+        _check(_libc.unshare(flags), "unshare")
+        _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
+        _mount(None, "/", None, MS_REC | MS_PRIVATE)
+        _tmpfs("/tmp")
+        _tmpfs("/dev/shm")
+        _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, "newinstance,ptmxmode=0666,mode=620")
+        _team(bundle, [(rel, int(size)) for rel, size in config["files"]])
+        os.close(bundle)
+        _read_only_everywhere(("/tmp", "/dev/shm", "/dev/pts"))
+        pid = os.fork()
+        if pid == 0:
+            slot.close()
+            _controller(config, stdio)
+        for fd in stdio:
+            os.close(fd)
+        status, cpu = _watch(slot, pid)
+    except BaseException as e:
+        try:
+            slot.send(b"e" + " ".join(f"{type(e).__name__}: {e}".split())[:400].encode())
+        except OSError:
+            pass
+        os._exit(1)
+    try:
+        mine = resource.getrusage(resource.RUSAGE_SELF)
+        slot.send(b"s" + struct.pack("<id", status, cpu + mine.ru_utime + mine.ru_stime))
+    finally:
+        os._exit(0)
+
+
+def _watch(slot: socket.socket, pid: int) -> tuple[int, float]:
+    """Wait for the controller to end; kill it if the referee says `k` or is gone. Its status
+    (bwrap's convention) and the CPU seconds it used."""
+    pidfd = os.pidfd_open(pid)
+    while True:
+        ready, _, _ = select.select([pidfd, slot.fileno()], [], [])
+        if slot.fileno() in ready:
+            try:
+                word = slot.recv(16)
+            except OSError:
+                word = b""
+            if word in (b"", b"k"):  # the referee's word, or the referee is gone
+                os.kill(pid, signal.SIGKILL)
+        if pidfd in ready:
+            _, status, usage = os.wait4(pid, 0)
+            os.close(pidfd)
+            code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else 128 + os.WTERMSIG(status)
+            return code, usage.ru_utime + usage.ru_stime
+
+
+class _Preloaded(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Modules the template imported for its children, kept out of `sys.modules` until the
+    controller imports one: then they are all registered, as a fresh interpreter would have
+    imported them (a controller that never imports numpy sees no numpy)."""
+
+    def __init__(self, stash: dict[str, ModuleType]):
+        self.stash = stash
+        self.specs = {name: module.__spec__ for name, module in stash.items()}
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> importlib.machinery.ModuleSpec | None:
+        if name not in self.stash:
+            return None
+        return importlib.machinery.ModuleSpec(name, self, is_package=hasattr(self.stash[name], "__path__"))
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+        return self.stash[spec.name]
+
+    def exec_module(self, module: ModuleType) -> None:
+        module.__spec__ = self.specs[module.__name__]
+        for name, other in self.stash.items():
+            sys.modules.setdefault(name, other)
+        self.stash.clear()
+        sys.meta_path.remove(self)
+
+
+def _preload() -> None:
+    """Import PRELOAD, then take what they added out of sys.modules behind a `_Preloaded`."""
+    before = set(sys.modules)
+    for name in PRELOAD:
+        try:
+            __import__(name)
+        except ImportError:
+            continue
+    stash = {name: sys.modules.pop(name) for name in set(sys.modules) - before}
+    if stash:
+        sys.meta_path.insert(0, _Preloaded(stash))
+
+
+def serve(control_fd: int) -> None:
+    """Fork a slot's monitor for each request on the control socket, until it closes."""
+    control = socket.socket(fileno=control_fd)
+    signal.signal(signal.SIGCHLD, signal.SIG_IGN)  # the monitors report to the referee: reap them unseen
+    _preload()
+    gc.freeze()  # the collector leaves the template's objects alone: fewer pages copied in each child
+    control.send(b"r")
+    while True:
+        try:
+            _, fds, _, _ = socket.recv_fds(control, 16, 1)
+        except InterruptedError:
+            continue
+        if not fds:
+            return  # the referee closed its end
+        if os.fork() == 0:
+            control.close()
+            _monitor(socket.socket(fileno=fds[0]))
+        os.close(fds[0])
+
+
+if __name__ == "__main__":
+    serve(int(sys.argv[1]))

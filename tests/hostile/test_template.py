@@ -1,0 +1,96 @@
+"""A controller forked from the template (root referee) holds nothing of it: no descriptor but
+its pipes and log, no capability, no writable mount but its own /tmp, /dev/shm and /dev/pts,
+no process but its own; and what one slot leaves there another cannot see."""
+
+import os
+
+import pytest
+
+from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, team_file
+from referee.match.loop import run_match
+from referee.sandbox import forkserver
+from referee.sandbox.teams import resolve
+
+pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the template serves a root referee only")
+
+
+def test_a_forked_controller_holds_nothing_of_the_template(tmp_path):
+    assert forkserver.server() is not None, forkserver.unavailable()
+    probe = team_file(
+        tmp_path,
+        """
+class Probe(Controller):
+    def step(self, obs):
+        if obs.tick < 2:
+            return Command(0.0, 0.0)
+        found = []
+        for fd in os.listdir("/proc/self/fd"):
+            try:
+                target = os.readlink(f"/proc/self/fd/{fd}")
+            except OSError:
+                continue  # the listing's own descriptor
+            if not (target.startswith("pipe:") or target == "/dev/null" or target.startswith("/tmp/")):
+                found.append(("fd", target))
+        status = dict(line.split(":", 1) for line in open("/proc/self/status") if ":" in line)
+        for key in ("CapInh", "CapPrm", "CapEff", "CapBnd", "CapAmb"):
+            if int(status[key], 16):
+                found.append((key, status[key].strip()))
+        if status["NoNewPrivs"].strip() != "1" or os.getuid() == 0 or os.getgid() == 0 or os.getgroups():
+            found.append(("ids", os.getuid(), os.getgid(), os.getgroups()))
+        if os.getpid() != 1 or os.getppid() != 0:  # its namespace's init, its parent out of sight
+            found.append(("pids", os.getpid(), os.getppid()))
+        others = [p for p in os.listdir("/proc") if p.isdigit() and p != "1"]
+        if others:
+            found.append(("processes", others))
+        for line in open("/proc/self/mountinfo"):
+            point, options = line.split()[4], line.split()[5].split(",")
+            if "rw" in options and point not in ("/tmp", "/dev/shm", "/dev/pts") and not point.startswith("/proc"):
+                found.append(("writable", point))
+        for path in ("/dev/planted", "/team/planted", "/laserarena/planted"):
+            try:
+                open(path, "w").close()
+                found.append(("wrote", path))
+            except OSError:
+                pass
+        raise RuntimeError("contained: nothing" if not found else f"LEAK: {found}")
+""",
+    )
+    result = run_match(short_race(), [resolve(probe)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+    bad = result["robots"][0]
+    assert [f["message"] for f in bad["faults"]] == ["in step: RuntimeError: contained: nothing"], bad["faults"]
+    assert_others_unharmed(result)
+
+
+def test_what_one_slot_leaves_in_tmp_shm_or_a_pty_another_cannot_see(tmp_path):
+    writer = team_file(
+        tmp_path,
+        """
+class Writer(Controller):
+    def step(self, obs):
+        if obs.tick == 1:
+            for path in ("/tmp/planted", "/dev/shm/planted"):
+                with open(path, "w") as f:
+                    f.write("x")
+            self.pty = os.openpty()
+        return Command(0.0, 0.0)
+""",
+        "writer.py",
+    )
+    reader = team_file(
+        tmp_path,
+        """
+class Reader(Controller):
+    def step(self, obs):
+        if obs.tick < 4:
+            return Command(0.0, 0.0)
+        seen = [p for p in ("/tmp/planted", "/dev/shm/planted") if os.path.exists(p)]
+        seen += [p for p in os.listdir("/dev/pts") if p != "ptmx"]
+        raise RuntimeError("contained: saw nothing" if not seen else f"LEAK: {seen}")
+""",
+        "reader.py",
+    )
+    result = run_match(
+        short_race(), [resolve(writer), resolve(reader), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
+    )
+    assert result["robots"][0]["faults"] == []
+    assert [f["message"] for f in result["robots"][1]["faults"]] == ["in step: RuntimeError: contained: saw nothing"]
