@@ -252,9 +252,21 @@ def worker_processes(root: int) -> list[int]:
     return [p for p in descendants(root) if "spawn_main" in cmdline(p)]
 
 
+def owner(pid: int) -> int | None:
+    """The real uid of a process, or None if it is gone."""
+    try:
+        for line in open(f"/proc/{pid}/status"):
+            if line.startswith("Uid:"):
+                return int(line.split()[1])
+    except OSError:
+        pass
+    return None
+
+
 def playing(worker: int) -> bool:
-    """Whether a worker is in the middle of a heat: its controllers are running below it."""
-    return any("robots.runner" in cmdline(p) for p in descendants(worker))
+    """Whether a worker is in the middle of a heat: its controllers are running below it (a
+    spawned runner, or a controller forked from the template, which runs as a slot's uid)."""
+    return any("robots.runner" in cmdline(p) or owner(p) not in (None, 0) for p in descendants(worker))
 
 
 def start(cmd: list[str], cwd: Path) -> subprocess.Popen:
