@@ -10,21 +10,17 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import tempfile
 import time
 from pathlib import Path
+
+from speed import machine_cpu
 
 import levels
 from arena.loader import load_level
 from referee.contest import grade as g
 from referee.sandbox.teams import resolve
 from referee.version import __version__
-
-
-def cpu() -> float:
-    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def run(matches: int, workers: int) -> tuple[float, float]:
@@ -36,9 +32,9 @@ def run(matches: int, workers: int) -> tuple[float, float]:
         jobs = g.make_jobs(
             [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
         )
-        c0, w0 = cpu(), time.perf_counter()
+        c0, w0 = machine_cpu(), time.perf_counter()
         g.grade(jobs, journal, workers=workers, quiet=True)
-        return time.perf_counter() - w0, cpu() - c0
+        return time.perf_counter() - w0, machine_cpu() - c0
 
 
 def measure(n: int = 6) -> dict:
