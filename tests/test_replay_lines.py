@@ -8,12 +8,16 @@ import math
 import random
 
 from helpers import MINI_LEVEL
+from hypothesis import given
+from hypothesis import strategies as st
 
 from arena.loader import parse_level
 from referee.records.canonical import DECIMALS
 from referee.records.replay import ReplayWriter
 
 AWKWARD = [0.0, -0.0, 1e-07, -7.31e-07, 2.5e-05, 1e-05, 0.1, 1e16, 1.2345678901234568e17, 1e22, 5e-324, 123.456789012]
+AWKWARD += [1e-4, -1e-4, 0.000099999999999, 0.0001000000005, 999999.9999999999, 1e6, -999999.999999999, 0.1 + 0.2]
+AWKWARD += [2.0000000005, 2.0000000015, 0.0000000005, 123456.1234567895, 1.5, -3.0]
 
 
 def floats(rng: random.Random, n: int) -> list[float]:
@@ -60,3 +64,18 @@ def test_hot_records_are_what_json_writes(tmp_path):
     lines = gzip.open(path).read().decode().splitlines()
     assert lines[1:-1] == expected
     assert json.loads(lines[-1]) == {"k": "result", "result": {"done": True}}
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True) | st.floats(min_value=-2e6, max_value=2e6))
+def test_a_number_is_what_json_writes_for_it_rounded(value):
+    from referee.records.replay import _number
+
+    rounded = round(value, DECIMALS)
+    if math.isfinite(rounded):
+        assert _number(value) == json.dumps(rounded)
+    else:
+        try:
+            _number(value)
+        except TypeError:
+            return
+        raise AssertionError("a non-finite value must go to JSON's own encoder")

@@ -21,7 +21,7 @@ import json
 import os
 import tempfile
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Annotated, Any
@@ -73,9 +73,18 @@ class _Frame(msgspec.Struct):
     p: Annotated[list[tuple[float, float, float]], msgspec.Meta(max_length=64)]
 
 
+_FIXED = f"%.{DECIMALS}f"
+
+
 def _number(value: float) -> str:
-    """A finite float as JSON writes it (its repr); TypeError for anything else."""
-    text = float.__repr__(value)
+    """A float rounded to DECIMALS places as JSON writes it: the repr of `round(value,
+    DECIMALS)`; TypeError unless it is a finite float. Between 1e-4 and 1e6 in size, `%.9f`
+    gives the same decimal as round() (both are correctly rounded), and with at most 15
+    significant digits that decimal, trailing zeros dropped, is also repr's shortest form."""
+    if type(value) is float and 1e-4 <= abs(value) < 1e6:
+        text = (_FIXED % value).rstrip("0")
+        return text + "0" if text[-1] == "." else text
+    text = float.__repr__(round(value, DECIMALS))
     if "n" in text:  # nan, inf
         raise TypeError("not finite")
     return text
@@ -87,8 +96,12 @@ def _string(value: str | None) -> str:
     return json.dumps(value)
 
 
-def _floats(values: list[float]) -> str:
+def _floats(values: Iterable[float]) -> str:
     return "[" + ",".join(map(_number, values)) + "]"
+
+
+def _rounded(values: Iterable[float]) -> list[float]:
+    return [round(v, DECIMALS) for v in values]
 
 
 def _event_line(f: dict[str, Any]) -> str:
@@ -166,12 +179,12 @@ class ReplayWriter:
     def _write(self, obj: dict[str, Any]) -> None:
         self._lines.append(dumps(obj, indent=None) + "\n")
 
-    def _hot(self, line: str | None, obj: dict[str, Any]) -> None:
+    def _hot(self, line: str | None, record: Callable[[], dict[str, Any]]) -> None:
         """A hot record (frame, event, estimate), formatted by hand the way JSON's encoder with
-        sorted keys writes it (None: a value was not a finite float, an int, a string or None,
-        so the encoder itself writes it)."""
+        sorted keys writes it, floats rounded to DECIMALS places (None: a value was not a
+        finite float, an int, a string or None, so the encoder itself writes `record()`)."""
         if line is None:
-            line = json.dumps(obj, sort_keys=True, separators=(",", ":"))
+            line = json.dumps(record(), sort_keys=True, separators=(",", ":"))
         self._lines.append(line + "\n")
         if len(self._lines) >= 512:
             self._flush()
@@ -181,31 +194,33 @@ class ReplayWriter:
         self._lines.clear()
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
-        p = [[round(v, DECIMALS) for v in pose] for pose in poses]
-        t = round(time, DECIMALS)
         line: str | None
         try:
-            line = '{"k":"f","p":[' + ",".join(map(_floats, p)) + '],"t":' + _number(t) + "}"
+            line = '{"k":"f","p":[' + ",".join(map(_floats, poses)) + '],"t":' + _number(time) + "}"
         except TypeError:
             line = None
-        self._hot(line, {"k": "f", "t": t, "p": p})
+        self._hot(line, lambda: {"k": "f", "t": round(time, DECIMALS), "p": [_rounded(p) for p in poses]})
 
     def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind not in ("e", "est"):
             self._write({"k": record_kind, **fields})
             return
-        line, est = fields.get("line"), fields.get("e")
-        fields["t"] = round(fields["t"], DECIMALS)
-        if line is not None:
-            fields["line"] = [round(v, DECIMALS) for v in line]
-        if est is not None:
-            fields["e"] = [round(v, DECIMALS) for v in est]
         text: str | None
         try:
             text = _event_line(fields) if record_kind == "e" else _estimate_line(fields)
         except (TypeError, KeyError):
             text = None
-        self._hot(text, {"k": record_kind, **fields})
+
+        def rounded() -> dict[str, Any]:
+            line, est = fields.get("line"), fields.get("e")
+            fields["t"] = round(fields["t"], DECIMALS)
+            if line is not None:
+                fields["line"] = _rounded(line)
+            if est is not None:
+                fields["e"] = _rounded(est)
+            return {"k": record_kind, **fields}
+
+        self._hot(text, rounded)
 
     def discard(self) -> None:
         """Drop the unfinished replay (the match did not end): no `.part` file is left behind."""
