@@ -279,10 +279,19 @@ class Match:
         for slot in going:
             targets = tracker.targets(slot)
             if targets and math.dist(state[3 * slot : 3 * slot + 2], targets[-1]) <= radius + self.reach:
-                watched.append((3 * slot, targets[-1]))
+                watched.append((3 * slot, *targets[-1]))
         if not watched:
             return None
-        return lambda state: any(math.dist(state[i : i + 2], goal) <= radius for i, goal in watched)
+        near = (radius * (1 + 1e-9) + 1e-12) ** 2  # a hair wide: stopping a run early is always safe
+
+        def may_have_ended(state: tuple[float, ...]) -> bool:
+            for i, gx, gy in watched:
+                dx, dy = state[i] - gx, state[i + 1] - gy
+                if dx * dx + dy * dy <= near:
+                    return True
+            return False
+
+        return may_have_ended
 
     def _steps(self, count: int, until: Callable[[tuple[float, ...]], bool] | None) -> int:
         """Up to `count` physics steps (fewer if `until` says so of a step's state), then the
