@@ -12,6 +12,7 @@ import signal
 import sys
 import tempfile
 import time
+from dataclasses import asdict
 from pathlib import Path
 from typing import NoReturn
 
@@ -19,7 +20,6 @@ import numpy as np
 
 import levels
 from arena.errors import LaserArenaError
-from arena.level import Level
 from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
@@ -27,7 +27,7 @@ from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserErro
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
 from referee.records.results import MatchResult
-from referee.sandbox.teams import fill_slots, resolve
+from referee.sandbox.teams import fill_slots
 from referee.terminal import safe
 from referee.version import __version__
 
@@ -122,16 +122,6 @@ def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) 
     return kept
 
 
-def _levels(names: list[str]) -> list[tuple[Level, Path]]:
-    """Each level named on the command line, loaded (one line on a bad one), with its file."""
-    found = []
-    for name in names:
-        lv = find_level(name)
-        path = Path(name) if Path(name).is_file() else levels.path(name)
-        found.append((lv, path.resolve()))
-    return found
-
-
 def _secret(args: argparse.Namespace) -> str | None:
     """The noise secret given by --secret or --secret-file, or None (the journal's own)."""
     if not args.secret_file:
@@ -146,29 +136,26 @@ def _secret(args: argparse.Namespace) -> str | None:
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
-    from referee.contest import grade as g
+    from referee import api
+    from referee.contest.grade import markdown
 
-    found = _levels(args.level)
-    teams = []
-    for spec in args.team:
-        team = resolve(spec)  # a bad spec fails here, in one line, before any match
-        teams.append((team.spec, team.code_hash))
-    if args.seeds < 1:
-        raise UserError("--seeds must be at least 1")
-    db = Path(args.db)
-    for path in (db, Path(args.out)):  # before any match: a leaderboard that cannot be written loses nothing
-        if not path.resolve().parent.is_dir():
-            raise UserError(f"{path}: the folder does not exist")
-    journal = g.Journal(db)
-    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(_secret(args)), __version__)
     start = time.perf_counter()
-    g.grade(jobs, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
-    rows = g.leaderboard(journal, jobs)
-    text = g.write_leaderboard(rows, Path(args.out))
+    rows = api.grade(
+        args.level,
+        args.team,
+        seeds=args.seeds,
+        workers=args.workers,
+        db=args.db,
+        out=args.out,
+        secret=_secret(args),
+        scheduler=args.scheduler,
+        quiet=args.quiet,
+    )
     if not args.quiet:
-        print(text, end="")
+        print(markdown([asdict(r) for r in rows]), end="")
+        matches = sum(r.matches for r in rows)
         print(
-            f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
+            f"{matches} matches in the journal {args.db}; leaderboard {args.out} (.json, .md); "
             f"{time.perf_counter() - start:.1f} s",
             file=sys.stderr,
         )
@@ -176,42 +163,29 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
-    from referee.contest import report
-    from referee.contest import tournament as t
-    from referee.contest.journal import Journal
-    from referee.media.viewer import write_viewer
+    from referee import api
 
-    found = _levels(args.level)
-    entrants = t.entrants([resolve(spec) for spec in args.team])  # a bad spec fails here, before any heat
-    if args.rounds < 1:
-        raise UserError("--rounds must be at least 1")
-    db, out = Path(args.db), Path(args.out)
-    for path in (db, out):
-        if not path.resolve().parent.is_dir():
-            raise UserError(f"{path}: the folder does not exist")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: not a folder")
-    journal = Journal(db)
     start = time.perf_counter()
-    heats = t.plan(found, entrants, args.rounds, journal.secret(_secret(args)), __version__)
-    planned = time.perf_counter()
-    ran = t.play_heats(heats, found, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
-    played = time.perf_counter()
-    outcome = t.outcome(heats, entrants, journal)
-    rated = time.perf_counter()
-    report.write(outcome, out, f"Tournament: {', '.join(lv.name for lv, _ in found)}")
-    for heat in outcome.heats:
-        write_viewer(out / report.replay_file(heat), out / report.viewer_file(heat))
+    done = api.tournament(
+        args.level,
+        args.team,
+        rounds=args.rounds,
+        workers=args.workers,
+        db=args.db,
+        out=args.out,
+        secret=_secret(args),
+        scheduler=args.scheduler,
+        quiet=args.quiet,
+    )
     if not args.quiet:
-        for s in outcome.standings:
-            print(f"{s.rank:>3}  {s.rating.ordinal:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
-        own = sum(h.wall for h in outcome.heats)
-        overhead = (planned - start) + (rated - played)
+        for s in done.standings:
+            print(f"{s.rank:>3}  {s.rating:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
+        heats = len({h.heat for h in done.heats})
         print(
-            f"{len(heats)} heats ({ran} run now) in the journal {db}; report {out / 'index.html'}; "
-            f"{time.perf_counter() - start:.1f} s. Heats' own time {own:.1f} s; scheduling and rating "
-            f"{1000 * overhead:.1f} ms ({1000 * overhead / len(heats):.2f} ms per heat); "
-            f"report and viewer pages {time.perf_counter() - rated:.1f} s",
+            f"{heats} heats ({done.ran} run now) in the journal {args.db}; report {Path(args.out) / 'index.html'}; "
+            f"{time.perf_counter() - start:.1f} s. Heats' own time {done.heat_seconds:.1f} s; scheduling and rating "
+            f"{1000 * done.overhead_seconds:.1f} ms ({1000 * done.overhead_seconds / heats:.2f} ms per heat); "
+            f"report and viewer pages {done.report_seconds:.1f} s",
             file=sys.stderr,
         )
     return 0
