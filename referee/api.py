@@ -316,6 +316,7 @@ def _contest_teams(teams: Teams, db: Path) -> list[Team]:
         if isinstance(t, str):
             resolved.append(resolve(t))
             continue
+        _outputs(db, None)
         folder = db.resolve().parent / CLASS_TEAMS
         folder.mkdir(mode=0o755, exist_ok=True)
         folder.chmod(0o755)  # the controller, another user, reads the shipped source
@@ -360,9 +361,9 @@ def grade(
 
     found = contest_levels(levels)
     db, board = Path(db), Path(out) if out is not None else None
-    _outputs(db, board)
     _whole("seeds", seeds)
-    resolved = _contest_teams(teams, db)
+    resolved = _contest_teams(teams, db)  # a bad spec fails here, in one line, before any match
+    _outputs(db, board)
     names = {t.spec: t.label for t, given in zip(resolved, teams) if not isinstance(given, str)}
     journal = g.Journal(db)
     jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
@@ -398,11 +399,11 @@ def tournament(
 
     found = contest_levels(levels)
     db, folder = Path(db), Path(out) if out is not None else None
+    _whole("rounds", rounds)
+    entrants = t.entrants(_contest_teams(teams, db))  # a bad spec fails here, before any heat
     _outputs(db, folder)
     if folder is not None and folder.exists() and not folder.is_dir():
         raise UserError(f"out {folder}: not a folder")
-    _whole("rounds", rounds)
-    entrants = t.entrants(_contest_teams(teams, db))
     journal = Journal(db)
     start = time.perf_counter()
     heats = t.plan(found, entrants, rounds, journal.secret(secret), __version__)

@@ -139,6 +139,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
     from referee import api
     from referee.contest.grade import markdown
 
+    if args.seeds < 1:
+        raise UserError("--seeds must be at least 1")
     start = time.perf_counter()
     rows = api.grade(
         args.level,
@@ -165,6 +167,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
 def cmd_tournament(args: argparse.Namespace) -> int:
     from referee import api
 
+    if args.rounds < 1:
+        raise UserError("--rounds must be at least 1")
     start = time.perf_counter()
     done = api.tournament(
         args.level,
