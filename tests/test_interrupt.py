@@ -52,9 +52,10 @@ def _rows(db, table):
         return []
 
 
-def _interrupt_when(proc, ready, bound=120.0):
+def _interrupt_when(proc, ready, bound=120.0, times=1):
     """Wait (bounded) until `ready()` holds, noting every process below the command; then send
-    SIGINT to its process group. Return what ran below it and the command's stderr."""
+    SIGINT to its process group, `times` times (an impatient user). Return what ran below it
+    and the command's stderr."""
     below: dict[int, str] = {}
     deadline = time.monotonic() + bound
     while time.monotonic() < deadline and proc.poll() is None and not ready():
@@ -63,7 +64,11 @@ def _interrupt_when(proc, ready, bound=120.0):
     below.update(descendants(proc.pid))
     assert proc.poll() is None, f"the command ended before the interrupt: {proc.stderr.read()}"
     assert ready(), "the command never got going"
-    os.killpg(proc.pid, signal.SIGINT)
+    for i in range(times):
+        if i:
+            time.sleep(0.05)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)
     try:
         _, err = proc.communicate(timeout=60)
     except subprocess.TimeoutExpired:
@@ -92,10 +97,26 @@ def slow(shared_dir):
     return shared_dir
 
 
-def test_run(slow):
+def _mapped(proc, name):
+    """Whether the process has loaded a shared library whose path holds `name`."""
+    try:
+        with open(f"/proc/{proc.pid}/maps") as f:
+            return name in f.read()
+    except OSError:
+        return False
+
+
+def test_while_the_command_is_still_loading(tmp_path):
+    proc = _start(tmp_path, "run", "bac-line", "--quiet")
+    # numpy is among the first modules a command loads: its library mapped means our code runs
+    below, err = _interrupt_when(proc, lambda: _mapped(proc, "numpy"), bound=60)
+    _quiet_exit(proc, err, below)
+
+
+def test_run_pressed_twice(slow):
     logs = slow / "logs"
     proc = _start(slow, "run", "asabe-race", "--team", "slow.py", "--team", "ref:bac", "--logs", "logs")
-    below, err = _interrupt_when(proc, lambda: "ready" in _text(logs / "slot0.log"))
+    below, err = _interrupt_when(proc, lambda: "ready" in _text(logs / "slot0.log"), times=2)
     assert len(below) >= 2  # the controllers' sandboxes at least
     _quiet_exit(proc, err, below)
 
@@ -113,7 +134,7 @@ GRADE = ["grade", "bac-line", "--team", "slow.py", "--seeds", "4", "--workers", 
 def test_grade_keeps_finished_matches_and_resumes(slow):
     args = [*GRADE, "--db", "g.sqlite", "--out", "lb.csv"]
     proc = _start(slow, *args)
-    below, err = _interrupt_when(proc, lambda: bool(_rows(slow / "g.sqlite", "matches")))
+    below, err = _interrupt_when(proc, lambda: bool(_rows(slow / "g.sqlite", "matches")), times=2)
     assert len(below) >= 3  # two workers and their controllers
     _quiet_exit(proc, err, below)
     kept = _rows(slow / "g.sqlite", "matches")
