@@ -357,6 +357,7 @@ def grade(
     and .md; `secret` overrides the journal's noise secret; `scheduler` grades on a Dask
     cluster; `quiet=False` shows the progress bar on a terminal."""
     from referee.contest import grade as g
+    from referee.contest.tournament import names as tournament_names
     from referee.version import __version__
 
     found = contest_levels(levels)
@@ -364,7 +365,7 @@ def grade(
     _whole("seeds", seeds)
     resolved = _contest_teams(teams, db)  # a bad spec fails here, in one line, before any match
     _outputs(db, board)
-    names = {t.spec: t.label for t, given in zip(resolved, teams) if not isinstance(given, str)}
+    names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     journal = g.Journal(db)
     jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
     g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet)

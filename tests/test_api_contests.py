@@ -98,7 +98,9 @@ def test_grade_matches_the_command_line_and_resumes(shared_dir):
         "--quiet",
     )
     cli = _rows(shared_dir / "cli.csv")
-    names = {"ref:idle": "ref:idle"} | {r["team"]: "Forward" for r in cli if r["team"] != "ref:idle"}
+    # a file team is named by its path from here, as in `run`: never the machine's absolute path
+    assert sorted(r["team"] for r in cli) == sorted(["ref:idle", _shipped(shared_dir)])
+    names = {"ref:idle": "ref:idle", _shipped(shared_dir): "Forward"}
     assert len(cli) == len(got) == 2
     for row, (team, level, matches, mean, ci, faults) in zip(cli, got):
         assert (names[row["team"]], row["level"], row["matches"], row["faults"]) == (team, level, matches, faults)
