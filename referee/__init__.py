@@ -9,13 +9,14 @@ draws the rooms and what flows between them.
 
 from referee.version import __version__
 
-__all__ = ["__version__", "run_match"]
+__all__ = ["__version__", "grade", "run_match", "tournament"]
 
 
 def __getattr__(name: str) -> object:
-    """`referee.run_match`, imported when first used (importing `referee` loads nothing else)."""
-    if name == "run_match":
-        from referee.api import run_match
+    """`referee.run_match`, `grade` and `tournament`, imported when first used (importing
+    `referee` loads nothing else)."""
+    if name in ("grade", "run_match", "tournament"):
+        from referee import api
 
-        return run_match
+        return getattr(api, name)
     raise AttributeError(f"module 'referee' has no attribute {name!r}")

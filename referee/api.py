@@ -1,4 +1,5 @@
-"""The Python API: `referee.run_match(level, teams=[...])`, for scripts and notebooks.
+"""The Python API: `referee.run_match`, `referee.grade` and `referee.tournament`, for scripts
+and notebooks; the command line's `run`, `grade` and `tournament` call the same code.
 
 A team is a spec string (as on the command line) or a Controller class. An isolated match
 ships a class's SOURCE into the sandbox, never the live object (docs/decisions/0019-ship-class-source.md):
@@ -14,7 +15,10 @@ import inspect
 import linecache
 import shutil
 import tempfile
+import time
 import types
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from arena.level import Level
@@ -203,3 +207,237 @@ def run_match(
         )
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+# ---- grading and tournaments ---------------------------------------------------------------
+
+Levels = str | Path | Sequence[str | Path]
+Teams = Sequence[str | type]
+CLASS_TEAMS = "class-teams"  # beside a journal: the source each Controller class team ran as
+
+
+@dataclass(frozen=True)
+class LeaderboardRow:
+    """A team's line on one level of a grade: matches, mean score with the half-width of its
+    95 % interval, mean task progress, mean position RMS (mm, None without estimates), fouls
+    and faults. The fields are leaderboard.csv's columns."""
+
+    team: str
+    level: str
+    matches: int
+    score_mean: float
+    score_ci95: float
+    task_mean: float
+    position_rms_mm: float | None
+    fouls: int
+    faults: int
+
+
+@dataclass(frozen=True)
+class LevelFigure:
+    """A team's heats on one level of a tournament: their number, mean score and 95 % bootstrap interval."""
+
+    level: str
+    heats: int
+    mean_score: float
+    low: float
+    high: float
+
+
+@dataclass(frozen=True)
+class StandingRow:
+    """A team's line in a tournament's standings (standings.csv): rank, name, rating (mu - 3
+    sigma), mu, sigma, heats played, mean score over them, and its figures per level."""
+
+    rank: int
+    team: str
+    rating: float
+    mu: float
+    sigma: float
+    heats: int
+    mean_score: float
+    levels: tuple[LevelFigure, ...]
+
+
+@dataclass(frozen=True)
+class HeatRow:
+    """One robot in one heat (a heats.csv row): heat number, level, seed, slot, team, its rank
+    and score in the heat, and whether it was a filler (the level's default controller, unrated)."""
+
+    heat: int
+    level: str
+    seed: int
+    slot: int
+    team: str
+    rank: int
+    score: float
+    filler: bool
+
+
+@dataclass(frozen=True)
+class TournamentResult:
+    """A tournament's standings (best first) and every robot of every heat (heat and slot
+    order); `ran` heats were played by this call, the others came from the journal. Times in
+    seconds: the heats' own, scheduling and rating, and writing the report."""
+
+    standings: tuple[StandingRow, ...]
+    heats: tuple[HeatRow, ...]
+    ran: int
+    heat_seconds: float
+    overhead_seconds: float
+    report_seconds: float
+
+
+def contest_levels(levels: Levels) -> list[tuple[Level, Path]]:
+    """Each level (a built-in name or a YAML path) loaded, with its file (one line on a bad one)."""
+    import levels as built_in
+
+    names = [levels] if isinstance(levels, (str, Path)) else list(levels)
+    if not names:
+        raise UserError("give at least one level")
+    found = []
+    for name in names:
+        if not isinstance(name, (str, Path)):
+            raise UserError(f"a contest level is a name or a path, got {type(name).__name__}")
+        lv = find_level(str(name))
+        path = Path(name) if Path(name).is_file() else built_in.path(str(name))
+        found.append((lv, path.resolve()))
+    return found
+
+
+def _contest_teams(teams: Teams, db: Path) -> list[Team]:
+    """Each team resolved before any match (a bad spec fails in one line). A Controller class
+    is shipped as source into `class-teams/` beside the journal, under a name from its code
+    hash, so a rerun of the same class resumes and the journal's rows name code that is kept."""
+    if isinstance(teams, (str, type)) or not teams:
+        raise UserError("teams must be a non-empty list of spec strings or Controller classes")
+    resolved = []
+    for t in teams:
+        if isinstance(t, str):
+            resolved.append(resolve(t))
+            continue
+        _outputs(db, None)
+        folder = db.resolve().parent / CLASS_TEAMS
+        folder.mkdir(mode=0o755, exist_ok=True)
+        folder.chmod(0o755)  # the controller, another user, reads the shipped source
+        shipped = _class_team(t, True, folder)
+        resolved.append(replace(resolve(shipped.spec), label=shipped.label))
+    return resolved
+
+
+def _outputs(db: Path, out: Path | None) -> None:
+    """Refuse, before any match, a journal or output whose folder does not exist."""
+    for path in (db, out):
+        if path is not None and not path.resolve().parent.is_dir():
+            raise UserError(f"{path}: the folder does not exist")
+
+
+def _whole(name: str, value: object) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise UserError(f"{name} must be a whole number of at least 1, got {value!r}")
+    return value
+
+
+def grade(
+    levels: Levels,
+    teams: Teams,
+    seeds: int = 3,
+    workers: int = 2,
+    db: str | Path = "results.sqlite",
+    out: str | Path | None = None,
+    secret: str | None = None,
+    scheduler: str | None = None,
+    quiet: bool = True,
+) -> list[LeaderboardRow]:
+    """Grade every team alone (slot 0) on every level for seeds 1..`seeds`, as `laserarena
+    grade` does, and return the leaderboard (per level, best mean score first).
+
+    Every finished match is committed to the journal `db` at once; a second call with the same
+    arguments resumes and runs only what is missing. `out` also writes leaderboard CSV, .json
+    and .md; `secret` overrides the journal's noise secret; `scheduler` grades on a Dask
+    cluster; `quiet=False` shows the progress bar on a terminal."""
+    from referee.contest import grade as g
+    from referee.contest.tournament import names as tournament_names
+    from referee.version import __version__
+
+    found = contest_levels(levels)
+    db, board = Path(db), Path(out) if out is not None else None
+    _whole("seeds", seeds)
+    resolved = _contest_teams(teams, db)  # a bad spec fails here, in one line, before any match
+    _outputs(db, board)
+    names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
+    journal = g.Journal(db)
+    jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
+    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
+    if board is not None:
+        g.write_leaderboard(rows, board)
+    return [LeaderboardRow(**r) for r in rows]
+
+
+def tournament(
+    levels: Levels,
+    teams: Teams,
+    rounds: int = 1,
+    workers: int = 2,
+    db: str | Path = "tournament.sqlite",
+    out: str | Path | None = None,
+    secret: str | None = None,
+    scheduler: str | None = None,
+    quiet: bool = True,
+) -> TournamentResult:
+    """Rated heats of the teams racing each other on every level, as `laserarena tournament`
+    does; return the standings and every heat.
+
+    Every finished heat is committed to the journal `db` at once (a second call resumes).
+    `out` also writes the report folder (index.html, standings, heats.csv, replays, viewer
+    pages); `secret`, `scheduler` and `quiet` as in `grade`."""
+    from referee.contest import report
+    from referee.contest import tournament as t
+    from referee.contest.journal import Journal
+    from referee.media.viewer import write_viewer
+    from referee.version import __version__
+
+    found = contest_levels(levels)
+    db, folder = Path(db), Path(out) if out is not None else None
+    _whole("rounds", rounds)
+    entrants = t.entrants(_contest_teams(teams, db))  # a bad spec fails here, before any heat
+    _outputs(db, folder)
+    if folder is not None and folder.exists() and not folder.is_dir():
+        raise UserError(f"out {folder}: not a folder")
+    journal = Journal(db)
+    start = time.perf_counter()
+    heats = t.plan(found, entrants, rounds, journal.secret(secret), __version__)
+    planned = time.perf_counter()
+    ran = t.play_heats(heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    played = time.perf_counter()
+    outcome = t.outcome(heats, entrants, journal)
+    rated = time.perf_counter()
+    if folder is not None:
+        report.write(outcome, folder, f"Tournament: {', '.join(lv.name for lv, _ in found)}")
+        for heat in outcome.heats:
+            write_viewer(folder / report.replay_file(heat), folder / report.viewer_file(heat))
+    standings = tuple(
+        StandingRow(
+            s.rank,
+            s.team,
+            s.rating.ordinal,
+            s.rating.mu,
+            s.rating.sigma,
+            s.heats,
+            s.mean_score,
+            tuple(LevelFigure(level, *figures) for level, figures in s.levels.items()),
+        )
+        for s in outcome.standings
+    )
+    rows = tuple(
+        HeatRow(**dict(zip(report.HEAT_COLUMNS, row), filler=bool(row[-1]))) for row in report.heat_rows(outcome)
+    )
+    return TournamentResult(
+        standings,
+        rows,
+        ran,
+        sum(h.wall for h in outcome.heats),
+        (planned - start) + (rated - played),
+        time.perf_counter() - rated,
+    )

@@ -1,484 +1,51 @@
-"""The `laserarena` command line.
-
-Bad input (a level file, a team spec, a path) prints one line to stderr and exits 2.
+"""The `laserarena` entry point: runs a command (referee.cli.commands) and turns every way it
+can end into one line and an exit code (docs/cli.md). It imports almost nothing itself, so
+that a Ctrl-C that comes while the commands' modules are still loading ends quietly too.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
-import shutil
 import signal
 import sys
-import tempfile
-import time
-from pathlib import Path
-from typing import NoReturn
 
-import numpy as np
-
-import levels
 from arena.errors import LaserArenaError
-from arena.level import Level
-from arena.loader import find_level, load_level
-from referee.cli.starter_kit import create
-from referee.cli.summary import table
-from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
-from referee.match.loop import NO_LIMITS, run_match
-from referee.records.canonical import dumps
-from referee.records.results import MatchResult
-from referee.sandbox.teams import fill_slots, resolve
+from referee.errors import EXIT_INTERRUPTED, EXIT_PIPE
 from referee.terminal import safe
-from referee.version import __version__
 
 
-def cmd_levels(args: argparse.Namespace) -> int:
-    for name in levels.names():
-        lv = load_level(levels.path(name), display=f"levels/{name}.yaml")
-        print(
-            f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
-            f"default {lv.default_controller:<20} {lv.description}"
-        )
-    return 0
-
-
-def cmd_check(args: argparse.Namespace) -> int:
-    for name in args.level:
-        lv = find_level(name)
-        print(
-            f"{name}: ok ({lv.name}: {len(lv.robots)} robot(s), {len(lv.beacons.items)} "
-            f"{lv.beacons.kind} beacons, {lv.task.kind} task)"
-        )
-    return 0
-
-
-def cmd_run(args: argparse.Namespace) -> int:
-    level = find_level(args.level)
-    teams = fill_slots(level, args.team)
-    if args.seed is not None and args.seed < 0:
-        raise UserError(f"--seed {args.seed}: a seed is a whole number >= 0")
-    if args.replay == "-":
-        raise UserError("--replay -: a replay is binary; give a file")
-    for path in (args.json, args.replay):
-        if path and path != "-" and not Path(path).resolve().parent.is_dir():
-            raise UserError(f"{path}: the folder does not exist")
-    if args.logs:
-        Path(args.logs).mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix="laserarena-logs-")) if not args.logs else None
-    try:
-        result = run_match(
-            level,
-            teams,
-            seed=args.seed,
-            replay=args.replay,
-            ideal=args.ideal,
-            isolate=not args.in_process,
-            limits=NO_LIMITS if args.no_limits else None,
-            logs=Path(args.logs) if args.logs else scratch,
-        )
-        logs = _failed_logs(result, Path(args.logs) if args.logs else None, scratch)
-    finally:
-        if scratch:
-            shutil.rmtree(scratch, ignore_errors=True)
-    given = result["robots"][: len(args.team or [])]
-    unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
-    if given and len(unloadable) == len(given):  # nothing the user asked for could run
-        raise UserError("; ".join(unloadable))
-    if args.json == "-":  # the JSON is the output; the table goes to stderr
-        print(dumps(result))
-    elif args.json:
-        Path(args.json).write_text(dumps(result) + "\n", encoding="utf-8")
-    if not args.quiet:
-        print(table(result, logs), file=sys.stderr if args.json == "-" else sys.stdout)
-    return 0
-
-
-FAILED_LOGS = Path("laserarena-logs")  # where a failed slot's output is kept when --logs is not given
-
-
-def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) -> dict[int, str]:
-    """The log of each slot that faulted, by slot: in the --logs folder, else copied from the
-    scratch folder to ./laserarena-logs/slotN.log (the other slots' logs are not kept)."""
-    failed = [r["slot"] for r in result["robots"] if r["faults"]]
-    if given is not None:
-        return {slot: str(given / f"slot{slot}.log") for slot in failed}
-    kept: dict[int, str] = {}
-    if scratch is None:
-        return kept
-    for slot in failed:
-        source = scratch / f"slot{slot}.log"
-        if not source.is_file() or not source.stat().st_size:  # in-process (output on this terminal), or silent
-            continue
-        try:
-            FAILED_LOGS.mkdir(exist_ok=True)
-            shutil.copyfile(source, FAILED_LOGS / source.name)
-        except OSError as e:
-            print(
-                f"laserarena: warning: cannot keep slot {slot}'s log in {FAILED_LOGS}: {e.strerror or e}",
-                file=sys.stderr,
-            )
-            continue
-        kept[slot] = str(FAILED_LOGS / source.name)
-    return kept
-
-
-def _levels(names: list[str]) -> list[tuple[Level, Path]]:
-    """Each level named on the command line, loaded (one line on a bad one), with its file."""
-    found = []
-    for name in names:
-        lv = find_level(name)
-        path = Path(name) if Path(name).is_file() else levels.path(name)
-        found.append((lv, path.resolve()))
-    return found
-
-
-def _secret(args: argparse.Namespace) -> str | None:
-    """The noise secret given by --secret or --secret-file, or None (the journal's own)."""
-    if not args.secret_file:
-        return args.secret
-    try:
-        given = Path(args.secret_file).read_text(encoding="utf-8").strip()
-    except (OSError, UnicodeDecodeError) as e:
-        raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
-    if not given:
-        raise UserError(f"{args.secret_file}: the secret file is empty")
-    return given
-
-
-def cmd_grade(args: argparse.Namespace) -> int:
-    from referee.contest import grade as g
-
-    found = _levels(args.level)
-    teams = []
-    for spec in args.team:
-        team = resolve(spec)  # a bad spec fails here, in one line, before any match
-        teams.append((team.spec, team.code_hash))
-    if args.seeds < 1:
-        raise UserError("--seeds must be at least 1")
-    db = Path(args.db)
-    for path in (db, Path(args.out)):  # before any match: a leaderboard that cannot be written loses nothing
-        if not path.resolve().parent.is_dir():
-            raise UserError(f"{path}: the folder does not exist")
-    journal = g.Journal(db)
-    jobs = g.make_jobs(found, teams, args.seeds, journal.secret(_secret(args)), __version__)
-    start = time.perf_counter()
-    g.grade(jobs, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
-    rows = g.leaderboard(journal, jobs)
-    text = g.write_leaderboard(rows, Path(args.out))
-    if not args.quiet:
-        print(text, end="")
-        print(
-            f"{len(jobs)} matches in the journal {db}; leaderboard {args.out} (.json, .md); "
-            f"{time.perf_counter() - start:.1f} s",
-            file=sys.stderr,
-        )
-    return 0
-
-
-def cmd_tournament(args: argparse.Namespace) -> int:
-    from referee.contest import report
-    from referee.contest import tournament as t
-    from referee.contest.journal import Journal
-    from referee.media.viewer import write_viewer
-
-    found = _levels(args.level)
-    entrants = t.entrants([resolve(spec) for spec in args.team])  # a bad spec fails here, before any heat
-    if args.rounds < 1:
-        raise UserError("--rounds must be at least 1")
-    db, out = Path(args.db), Path(args.out)
-    for path in (db, out):
-        if not path.resolve().parent.is_dir():
-            raise UserError(f"{path}: the folder does not exist")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: not a folder")
-    journal = Journal(db)
-    start = time.perf_counter()
-    heats = t.plan(found, entrants, args.rounds, journal.secret(_secret(args)), __version__)
-    planned = time.perf_counter()
-    ran = t.play_heats(heats, found, journal, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
-    played = time.perf_counter()
-    outcome = t.outcome(heats, entrants, journal)
-    rated = time.perf_counter()
-    report.write(outcome, out, f"Tournament: {', '.join(lv.name for lv, _ in found)}")
-    for heat in outcome.heats:
-        write_viewer(out / report.replay_file(heat), out / report.viewer_file(heat))
-    if not args.quiet:
-        for s in outcome.standings:
-            print(f"{s.rank:>3}  {s.rating.ordinal:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
-        own = sum(h.wall for h in outcome.heats)
-        overhead = (planned - start) + (rated - played)
-        print(
-            f"{len(heats)} heats ({ran} run now) in the journal {db}; report {out / 'index.html'}; "
-            f"{time.perf_counter() - start:.1f} s. Heats' own time {own:.1f} s; scheduling and rating "
-            f"{1000 * overhead:.1f} ms ({1000 * overhead / len(heats):.2f} ms per heat); "
-            f"report and viewer pages {time.perf_counter() - rated:.1f} s",
-            file=sys.stderr,
-        )
-    return 0
-
-
-def cmd_verify(args: argparse.Namespace) -> int:
-    from referee.match.verify import verify
-
-    ok, message = verify(Path(args.replay), args.team)
-    print(safe(f"{args.replay}: {message}", 1000))
-    return 0 if ok else 1
-
-
-def cmd_render(args: argparse.Namespace) -> int:
-    from referee.media.render import render
-
-    try:
-        w, h = (int(v) for v in args.size.lower().split("x"))
-    except ValueError:
-        raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT, e.g. 960x640") from None
-    if not (args.html or args.out):
-        raise UserError("render: give --out (a folder, FILE.mp4 or FILE.html) and/or --html FILE.html")
-    html = args.html or (args.out if Path(args.out).suffix.lower() in (".html", ".htm") else None)
-    if html:
-        from referee.media.viewer import write_viewer
-
-        write_viewer(Path(args.replay), Path(html), size=(w, h))
-        if not args.quiet:
-            print(f"wrote {html}: open it in a web browser")
-    if args.out and args.out != html:
-        suffix = Path(args.out).suffix.lower()
-        if suffix not in ("", ".mp4"):
-            raise UserError(f"--out {args.out}: expected a folder (PNG frames), FILE.mp4 or FILE.html, not {suffix}")
-        if not Path(args.out).resolve().parent.is_dir():
-            raise UserError(f"--out {args.out}: the folder does not exist")
-        n = render(
-            Path(args.replay),
-            Path(args.out),
-            fps=args.fps,
-            size=(w, h),
-            start=getattr(args, "from"),
-            end=args.to,
-            quiet=args.quiet,
-        )
-        if not args.quiet:
-            print(f"wrote {n} frames to {args.out}")
-    return 0
-
-
-def cmd_watch(args: argparse.Namespace) -> int:
-    from referee.media.watch import KEYS_HELP, watch
-
-    try:
-        w, h = (int(v) for v in args.size.lower().split("x"))
-    except ValueError:
-        raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT") from None
-    print(KEYS_HELP)
-    watch(args.target, args.team, args.seed, (w, h), args.speed, args.frames)
-    return 0
-
-
-def cmd_plot(args: argparse.Namespace) -> int:
-    from referee.media.plot import error_figure
-
-    if args.width < 320:
-        raise UserError("--width must be at least 320")
-    if not Path(args.out).resolve().parent.is_dir():
-        raise UserError(f"{args.out}: the folder does not exist")
-    fig = error_figure(Path(args.replay), Path(args.out), width=args.width)
-    for r in fig.robots:
-        if r.times:
-            rms = (sum(v * v for v in r.position_mm) / len(r.times)) ** 0.5
-            print(
-                f"{r.slot} {r.team}: {len(r.times)} estimates, position error rms {rms:.1f} mm "
-                f"max {max(r.position_mm):.1f} mm, heading error max {max(r.heading_deg):.1f} deg, "
-                f"{len(r.fouls)} fouls, {len(r.faults)} faults"
-            )
-        else:
-            print(f"{r.slot} {r.team}: no estimates")
-    print(f"wrote {args.out}")
-    return 0
-
-
-def cmd_map(args: argparse.Namespace) -> int:
-    from referee.media import accuracy_map as am
-
-    maps = [am.compute(find_level(args.level), cells=args.cells)]
-    if args.compare:
-        maps.append(am.compute(find_level(args.compare), cells=args.cells))
-    am.draw(maps, Path(args.out))
-    for m in maps:
-        finite = m.error[m.error == m.error]
-        print(
-            f"{m.level.name}: bearing noise {1000 * m.sigma:.3f} mrad; position error bound "
-            f"median {1000 * float(np.median(finite)):.2f} mm, best {1000 * float(finite.min()):.2f} mm; "
-            f"{100 * float((m.seen < 3).mean()):.0f} % of the field sees fewer than 3 beacons"
-        )
-    print(f"wrote {args.out}")
-    return 0
-
-
-def cmd_new(args: argparse.Namespace) -> int:
-    folder = create(args.name, Path(args.dir))
-    print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
-    print(f"next: cd {folder} && laserarena run bac-line --team controller.py")
-    return 0
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with its errors on one line (no usage block) and exit code 2, like every other
-    bad input; `--help` still shows the usage."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
-
-
-def parser() -> argparse.ArgumentParser:
-    p = _Parser(
-        prog="laserarena", description="LaserArena: spinning-laser beacon navigation contests, simulated and refereed."
-    )
-    p.add_argument("--version", action="version", version=f"laserarena {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-
-    s = sub.add_parser("run", help="run one match headless and print its score table")
-    s.add_argument("level", help="a level file or built-in level name")
-    s.add_argument(
-        "--team",
-        action="append",
-        metavar="T",
-        help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class",
-    )
-    s.add_argument("--seed", type=int, help="match seed (default: the level's)")
-    s.add_argument(
-        "--json", metavar="OUT", help="write the result JSON here (- for stdout; the table then goes to stderr)"
-    )
-    s.add_argument("--replay", metavar="OUT", help="write the replay here")
-    s.add_argument(
-        "--ideal",
-        action="store_true",
-        help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors",
-    )
-    s.add_argument(
-        "--in-process",
-        action="store_true",
-        help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
-        "runs with the referee's rights (never for grading); same results within budget",
-    )
-    s.add_argument(
-        "--logs",
-        metavar="DIR",
-        help="keep each controller's output here (slotN.log); without it, "
-        "a failed slot's output is kept in laserarena-logs/slotN.log",
-    )
-    s.add_argument("--no-limits", action="store_true", help="no time or memory limits for the controllers (debugging)")
-    s.add_argument("--quiet", action="store_true", help="print nothing on success")
-    s.set_defaults(func=cmd_run)
-
-    s = sub.add_parser("check", help="validate level files")
-    s.add_argument("level", nargs="+")
-    s.set_defaults(func=cmd_check)
-
-    s = sub.add_parser("grade", help="grade teams x levels x seeds headless, resumable, into a leaderboard")
-    s.add_argument("level", nargs="+")
-    s.add_argument("--team", action="append", required=True, metavar="T", help="a team spec (repeat)")
-    s.add_argument("--seeds", type=int, default=3, help="seeds 1..N per team and level (default 3)")
-    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
-    s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
-    s.add_argument(
-        "--secret",
-        metavar="S",
-        help="the noise secret (default: the journal's own, made on first "
-        "use); every match's noise derives from it (docs/integrity.md)",
-    )
-    s.add_argument(
-        "--secret-file",
-        metavar="FILE",
-        help="read the noise secret from FILE (keeps it off the command line, which other processes can read)",
-    )
-    s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_grade)
-
-    s = sub.add_parser(
-        "tournament", help="rated heats of teams racing each other on levels, resumable, into a report folder"
-    )
-    s.add_argument("level", nargs="+")
-    s.add_argument("--team", action="append", required=True, metavar="T", help="a rated team spec (repeat)")
-    s.add_argument("--rounds", type=int, default=1, help="rounds; in each, every team starts once from every slot")
-    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
-    s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
-    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own)")
-    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE")
-    s.add_argument(
-        "--out", default="tournament", help="the report folder: index.html, standings, heats, replays, viewer pages"
-    )
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_tournament)
-
-    s = sub.add_parser("render", help="render a replay to PNG frames, an MP4 or a web page, headless")
-    s.add_argument("replay")
-    s.add_argument("--out", help="a folder (PNG frames), FILE.mp4, or FILE.html (a page that plays it)")
-    s.add_argument("--html", metavar="OUT", help="write a self-contained web page that plays the replay")
-    s.add_argument("--fps", type=int, default=30)
-    s.add_argument("--size", default="960x640", help="WIDTHxHEIGHT in pixels")
-    s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")
-    s.add_argument("--to", type=float, default=None, metavar="T", help="end time (s)")
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_render)
-
-    s = sub.add_parser("watch", help="watch a level live or play a replay in a window")
-    s.add_argument("target", help="a level (file or built-in name) or a replay file")
-    s.add_argument("--team", action="append", metavar="T", help="for a level: the controller of each slot")
-    s.add_argument("--seed", type=int)
-    s.add_argument("--speed", type=float, default=1.0, help="playback speed (x real time)")
-    s.add_argument("--size", default="960x700")
-    s.add_argument("--frames", type=int, help="close after this many frames (for scripts and tests)")
-    s.set_defaults(func=cmd_watch)
-
-    s = sub.add_parser("map", help="draw where a beacon layout localizes well (Cramer-Rao bound)")
-    s.add_argument("level")
-    s.add_argument("--out", default="map.png")
-    s.add_argument("--compare", metavar="LEVEL", help="a second layout, drawn beside on the same scale")
-    s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
-    s.set_defaults(func=cmd_map)
-
-    s = sub.add_parser("plot", help="plot each robot's position and heading error over a replay")
-    s.add_argument("replay")
-    s.add_argument("--out", default="errors.png", help="the PNG to write (default errors.png)")
-    s.add_argument("--width", type=int, default=960, help="picture width in pixels")
-    s.set_defaults(func=cmd_plot)
-
-    s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
-    s.add_argument("replay")
-    s.add_argument("--team", action="append", metavar="T", help="where a team's controller is here (in slot order)")
-    s.set_defaults(func=cmd_verify)
-
-    s = sub.add_parser("new", help="write a starter controller package for a team")
-    s.add_argument("name")
-    s.add_argument("--dir", default=".", help="where to create it (default: here)")
-    s.set_defaults(func=cmd_new)
-
-    s = sub.add_parser("levels", help="list the built-in levels")
-    s.set_defaults(func=cmd_levels)
-    return p
-
-
-def _terminate(signum: int, frame: object) -> None:
-    """SIGTERM ends a run as Ctrl-C does: every controller sandbox is closed on the way out."""
+def _interrupt(signum: int, frame: object) -> None:
+    """Ctrl-C (SIGINT) or SIGTERM: unwind the command, closing every controller sandbox and
+    worker on the way out. Further signals are ignored from here on, so that a second Ctrl-C
+    does not cut that clean-up short (SIGKILL still ends the process)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run `laserarena ARGV` and return its exit code."""
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
-    args = parser().parse_args(argv)
-    signal.signal(signal.SIGTERM, _terminate)
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
-        return args.func(args)
+        from referee.cli.commands import parser
+
+        args = parser().parse_args(argv)
+        return int(args.func(args))
     except LaserArenaError as e:
         print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return e.exit_code
     except KeyboardInterrupt:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the way out is quiet, whatever comes now
         print("laserarena: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # the reader went away (`laserarena levels | head -1`): stop quietly
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout at exit
         return EXIT_PIPE
+    finally:
+        # the interpreter's own shutdown (joining worker pools' threads) follows: a Ctrl-C there
+        # would print a traceback after the command's last line
+        signal.signal(signal.SIGINT, signal.SIG_IGN)

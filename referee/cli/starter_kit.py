@@ -33,8 +33,10 @@ you debug, and `--in-process` to run it inside the referee for a debugger.
 ## Test it
 
 ```sh
-python -m pytest -q test_controller.py
+python test_controller.py
 ```
+
+(or `python -m pytest -q test_controller.py`, where pytest is installed)
 
 ## Submit it
 
@@ -61,6 +63,14 @@ def test_controller_follows_the_line(tmp_path):
     assert robot["faults"] == []
     assert robot["task"]["reached"] >= 5
     assert robot["localization"]["fraction"] > 0.9
+
+
+if __name__ == "__main__":  # without pytest: python test_controller.py
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as scratch:
+        test_controller_follows_the_line(Path(scratch))
+    print("ok: the controller follows the line")
 '''
 
 

@@ -250,6 +250,13 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
     w.writerows(rows)
     out.write_text(buf.getvalue())
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
+    text = markdown(rows)
+    out.with_suffix(".md").write_text(text)
+    return text
+
+
+def markdown(rows: list[dict]) -> str:
+    """The leaderboard as a Markdown table (what `laserarena grade` prints)."""
     md = [
         "| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
         "|---|---|---|---|---|---|---|---|",
@@ -261,6 +268,4 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
             f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
             f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
         )
-    text = "\n".join(md) + "\n"
-    out.with_suffix(".md").write_text(text)
-    return text
+    return "\n".join(md) + "\n"

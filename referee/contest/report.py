@@ -34,6 +34,18 @@ def _name(outcome: Outcome, heat: HeatResult, slot: int) -> str:
     return outcome.teams[team].name if team is not None else heat.heat.specs[slot]
 
 
+HEAT_COLUMNS = ("heat", "level", "seed", "slot", "team", "rank", "score", "filler")
+
+
+def heat_rows(outcome: Outcome) -> list[list]:
+    """One row per robot per heat, in heat and slot order, as heats.csv holds them (HEAT_COLUMNS)."""
+    return [
+        [h.heat.number, h.heat.level, h.heat.seed, slot, _name(outcome, h, slot), p.rank, p.score, int(p.team is None)]
+        for h in outcome.heats
+        for slot, p in enumerate(h.placings)
+    ]
+
+
 def _csv(rows: list[list], header: list[str]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -89,14 +101,7 @@ def write(outcome: Outcome, out: Path, title: str) -> None:
     (out / "standings.json").write_text(
         json.dumps(standings_data(outcome), indent=2, sort_keys=True) + "\n", encoding="utf-8"
     )
-    heat_rows = [
-        [h.heat.number, h.heat.level, h.heat.seed, slot, _name(outcome, h, slot), p.rank, p.score, int(p.team is None)]
-        for h in outcome.heats
-        for slot, p in enumerate(h.placings)
-    ]
-    (out / "heats.csv").write_text(
-        _csv(heat_rows, ["heat", "level", "seed", "slot", "team", "rank", "score", "filler"]), encoding="utf-8"
-    )
+    (out / "heats.csv").write_text(_csv(heat_rows(outcome), list(HEAT_COLUMNS)), encoding="utf-8")
     wanted = {replay_file(h) for h in outcome.heats} | {viewer_file(h) for h in outcome.heats}
     for old in [*out.glob("replays/heat-*.replay"), *out.glob("heats/heat-*.html")]:
         if old.relative_to(out).as_posix() not in wanted:  # a heat of an earlier, larger tournament

@@ -64,15 +64,20 @@ class Entrant:
     team: Team
 
 
+def names(teams: list[Team]) -> list[str]:
+    """Each team's name in tables: its label (never a machine's absolute path), or its spec
+    where two labels coincide."""
+    labels = [t.label for t in teams]
+    return [t.label if labels.count(t.label) == 1 else t.spec for t in teams]
+
+
 def entrants(teams: list[Team]) -> list[Entrant]:
-    """Name each team by its label, or by its spec where two labels coincide; UserError if a
-    team is given twice."""
+    """Name each team (`names`); UserError if a team is given twice."""
     specs = [t.spec for t in teams]
     twice = sorted({s for s in specs if specs.count(s) > 1})
     if twice:
         raise UserError(f"--team {safe(twice[0])}: given twice; each team plays once per heat")
-    labels = [t.label for t in teams]
-    return [Entrant(t.label if labels.count(t.label) == 1 else t.spec, t) for t in teams]
+    return [Entrant(name, t) for name, t in zip(names(teams), teams)]
 
 
 def plan(levels: list[tuple[Level, Path]], teams: list[Entrant], rounds: int, secret: str, software: str) -> list[Heat]:
