@@ -339,3 +339,12 @@ def run_cli_env(env, *args):
     return subprocess.run(
         [sys.executable, "-m", "referee", *args], capture_output=True, text=True, env=env, timeout=300
     )
+
+
+def test_a_python_under_tmp_gets_no_sandbox_and_says_why_in_one_line():
+    # each sandbox mounts a private /tmp over the host's: a venv there would vanish inside it
+    # (every controller "exited with code 127"); the referee says so and runs unsandboxed
+    code = "import sys; sys.prefix = '/tmp/venv'; from referee.sandbox import kernel; print(kernel.unavailable())"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.count("\n") == 1 and "/tmp/venv" in out.stdout and "install it elsewhere" in out.stdout

@@ -86,6 +86,9 @@ def unavailable() -> str | None:
         return "bubblewrap (bwrap) is not installed"
     if switches_users() and shutil.which("setpriv") is None:
         return "setpriv (util-linux) is not installed"
+    for path in (PYTHON, sys.prefix, str(ROBOTS_DIR)):
+        if any(Path(path).is_relative_to(private) for private in ("/tmp", "/dev/shm")):
+            return f"LaserArena's Python ({path}) lies under a folder each sandbox replaces with its own; install it elsewhere"
     trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
     try:  # a whole controller sandbox, bind mounts and privilege drop included, running `true`
         probe = subprocess.run(trial.argv, pass_fds=trial.pass_fds, capture_output=True, timeout=10)
