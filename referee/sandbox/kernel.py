@@ -86,7 +86,7 @@ def unavailable() -> str | None:
         return "bubblewrap (bwrap) is not installed"
     if switches_users() and shutil.which("setpriv") is None:
         return "setpriv (util-linux) is not installed"
-    for path in (PYTHON, sys.prefix, str(ROBOTS_DIR)):
+    for path in (PYTHON, sys.prefix):  # bound at their own paths (`robots` goes to LIB_DIR)
         if any(Path(path).is_relative_to(private) for private in ("/tmp", "/dev/shm")):
             return f"LaserArena's Python ({path}) lies under a folder each sandbox replaces with its own; install it elsewhere"
     trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
