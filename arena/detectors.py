@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,10 +46,11 @@ IDEAL_OVERRIDES: dict[str, float] = {
 }
 
 
-@dataclass(frozen=True)
-class Detection:
+class Detection(NamedTuple):
     """One event for one robot's controller. `source` is the robot whose laser caused it
-    (for replays only, never shown to a team)."""
+    (for replays only, never shown to a team). An immutable named tuple: a match makes
+    hundreds per simulated second, and a tuple is several times cheaper to build than a
+    frozen dataclass."""
 
     robot: int
     time: float
@@ -95,15 +96,14 @@ def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
 
 def visible(kind: str, c: Crossings, facing: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     """Which crossings pass the hardware's incidence and range gates (the optics decide the rest)."""
-    inc = incidence(c, facing)
     if kind == "reflector":
-        return (c.distance <= p["range"]) & (inc <= p["max_incidence"])
+        return (c.distance <= p["range"]) & (incidence(c, facing) <= p["max_incidence"])
     if kind == "sensor_array":
         return np.ones(len(c), dtype=bool)  # its incidence falloff is the optics' `acceptance`
     if kind == "flash_detector":
         if p.get("light_noise", 0.0) > 0:  # a soft limit: the optics decide, sweep by sweep
             return np.ones(len(c), dtype=bool)
-        return inc <= flash_limit(c.distance, p)
+        return incidence(c, facing) <= flash_limit(c.distance, p)
     raise ValueError(kind)
 
 
