@@ -88,19 +88,23 @@ def find_crossings(
     if lateral:
         d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
     d = wrap_angle(d)
-    d0, d1 = d[:-1], d[1:]
-    passes = ((d0 < 0) & (d1 >= 0)) | ((d0 > 0) & (d1 <= 0))
-    passes &= np.abs(d1 - d0) < np.pi
-    step, robot, beacon = np.nonzero(passes)
-    f0, f1 = d0[step, robot, beacon], d1[step, robot, beacon]
+    # d passes zero in a step where it leaves a nonzero sign for zero or the other sign
+    sign = np.sign(d)
+    passes = (sign[:-1] != 0) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < np.pi)
+    size = dx[0].size  # robots x beacons
+    flat = np.flatnonzero(passes)  # passes in (step, robot, beacon) order
+    step, rest = np.divmod(flat, size)
+    robot, beacon = np.divmod(rest, dx.shape[2])
+    d = d.ravel()
+    f0, f1 = d[flat], d[flat + size]
     s = f0 / (f0 - f1)  # linear first guess
     # the crossing's step, as start values and changes over the step
-    ex0, ey0 = dx[step, robot, beacon], dy[step, robot, beacon]  # laser -> beacon at the start
-    state = np.stack((traj.x, traj.y, a, traj.phi), axis=-1)
-    start, change = state[step, robot], state[step + 1, robot]
-    change -= start
-    ddx, ddy, da, dphi = change.T
-    a0, phi0 = start[:, 2], start[:, 3]
+    ex0, ey0 = dx.ravel()[flat], dy.ravel()[flat]  # laser -> beacon at the start
+    state = np.array((traj.x, traj.y, a, traj.phi)).reshape(4, -1)  # rows of (step, robot)
+    at = step * dx.shape[1] + robot
+    start = state[:, at]
+    ddx, ddy, da, dphi = state[:, at + dx.shape[1]] - start
+    a0, phi0 = start[2], start[3]
     o = off[robot]
     for _ in range(NEWTON_ITERATIONS):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy

@@ -139,7 +139,7 @@ class Sensing:
         rate first drops by that change, then the motor brings it back, with time constant
         `spin_time`, to its steady value less `spin_coupling` x the body's yaw rate."""
         steps = len(heading) - 1
-        rate = np.broadcast_to(self.omega, (steps, self.n))
+        rate = None  # None: the steady rate, omega
         p = self.params
         if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
@@ -147,7 +147,7 @@ class Sensing:
             for r, g in enumerate(self.rng["wobble"]):
                 noise[:, r] = g.normal(size=steps)
             w = self._first_order(a, self.wobble, math.sqrt(1 - a * a) * p["wobble"] * noise)
-            rate = rate * (1.0 + w)
+            rate = self.omega * (1.0 + w)
             self.wobble = w[-1]
         if p.get("spin_time", 0.0) > 0:
             coupling = p.get("spin_coupling", 0.0)
@@ -157,8 +157,10 @@ class Sensing:
             np.subtract(body[1:], body[:-1], out=change[1:])
             a = math.exp(-self.dt / p["spin_time"])
             lag = self._first_order(a, self.spin_lag, -a * change - (1 - a) * coupling * body)
-            rate = rate + lag
+            rate = (self.omega if rate is None else rate) + lag
             self.spin_lag, self.body_rate = lag[-1], body[-1]
+        if rate is None:
+            rate = np.tile(self.omega, (steps, 1))
         phi = np.empty((steps + 1, self.n))
         phi[0] = 0.0
         np.cumsum(rate * self.dt, axis=0, out=phi[1:])
