@@ -35,11 +35,16 @@ class Trajectory:
     def pose_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
         """Interpolated (x, y, h) at fraction `s` of step `step` for robots `robot`."""
 
-        def lerp(a: np.ndarray) -> np.ndarray:
-            a0 = a[step, robot]
-            return a0 + s * (a[step + 1, robot] - a0)
+        return (*self.position_at(step, s, robot), _lerp(self.h, step, s, robot))
 
-        return lerp(self.x), lerp(self.y), lerp(self.h)
+    def position_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interpolated (x, y) at fraction `s` of step `step` for robots `robot`."""
+        return _lerp(self.x, step, s, robot), _lerp(self.y, step, s, robot)
+
+
+def _lerp(a: np.ndarray, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> np.ndarray:
+    a0 = a[step, robot]
+    return a0 + s * (a[step + 1, robot] - a0)
 
 
 @dataclass(frozen=True)
@@ -82,10 +87,9 @@ def find_crossings(
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi  # beam world angle (n+1, R)
-    off = np.zeros(traj.x.shape[1]) if beam_offset is None else beam_offset
-    lateral = off.any()
+    off = beam_offset if beam_offset is not None and beam_offset.any() else None
     d = a[:, :, None] - np.arctan2(dy, dx)
-    if lateral:
+    if off is not None:
         d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
     d = wrap_angle(d)
     # d passes zero in a step where it leaves a nonzero sign for zero or the other sign
@@ -105,13 +109,13 @@ def find_crossings(
     start = state[:, at]
     ddx, ddy, da, dphi = state[:, at + dx.shape[1]] - start
     a0, phi0 = start[2], start[3]
-    o = off[robot]
+    o = None if off is None else off[robot]
     for _ in range(NEWTON_ITERATIONS):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy
         r2 = ex * ex + ey * ey
         f = a0 + s * da - np.arctan2(ey, ex)
         slope = da - (ey * ddx - ex * ddy) / r2  # d(beam - bearing)/ds
-        if lateral:  # + asin(o / r), and its derivative through r
+        if o is not None:  # + asin(o / r), and its derivative through r
             r = np.sqrt(r2)
             f += np.arcsin(np.clip(o / r, -1.0, 1.0))
             slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))

@@ -209,7 +209,7 @@ class Sensing:
             near = (self._others[robot] & (gap.reshape(u.shape) <= self.reach)).ravel()
             if near.any():
                 rows, o = np.divmod(np.flatnonzero(near), self.n)
-                ox, oy, _ = traj.pose_at(step[rows], s[rows], o)
+                ox, oy = traj.position_at(step[rows], s[rows], o)
                 hit = segment_hits_circles(px[rows], py[rows], qx[rows], qy[rows], ox, oy, self.silhouette[o])
                 blocked[rows[hit]] = True
         if self.has_obstacles:
@@ -234,7 +234,7 @@ class Sensing:
         times = c.t
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            ok, offset = det.optics(c, inc, det.sensitivity(self.kind, c, inc, p) * self._fluctuation(c), p)
+            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
             if not ok.all():
                 c, offset = c.take(np.nonzero(ok)[0]), offset[ok]
             times = c.t + offset
@@ -289,17 +289,19 @@ class Sensing:
         """How many of `robot` are each robot."""
         return np.bincount(robot, minlength=self.n).tolist()
 
-    def _fluctuation(self, c: Crossings) -> np.ndarray:
-        """How much of its usual light each sweep brings the detector: log-normal with std
-        `light_noise` of its logarithm (1 when there is none). Near a detector's limit the
-        light hovers at the threshold, so such sweeps fire late or not at all."""
+    def _fluctuation(self, c: Crossings, sensitivity: np.ndarray) -> np.ndarray:
+        """The detector's response to each sweep: `sensitivity` times how much of its usual
+        light the sweep brings, log-normal with std `light_noise` of its logarithm (none when
+        0). Near a detector's limit the light hovers at the threshold, so such sweeps fire late
+        or not at all."""
         sigma = self.params.get("light_noise", 0.0)
+        if not sigma > 0:
+            return sensitivity
         out = np.ones(len(c))
-        if sigma > 0:
-            for r in np.unique(c.robot):
-                mine = np.nonzero(c.robot == r)[0]
-                out[mine] = np.exp(sigma * self.rng["detector"][r].normal(size=len(mine)))
-        return out
+        for r in np.unique(c.robot):
+            mine = np.nonzero(c.robot == r)[0]
+            out[mine] = np.exp(sigma * self.rng["detector"][r].normal(size=len(mine)))
+        return sensitivity * out
 
     def _false_returns(self, traj: Trajectory, r: int) -> list[det.Detection]:
         """Spurious pulses (shiny surfaces, stray light, electrical noise): a Poisson process in
