@@ -16,5 +16,6 @@ def wrap(angle: float) -> float:
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo)."""
-    return a - TWO_PI * np.round(a * (1.0 / TWO_PI))
+    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo; `rint` is
+    what `np.round` calls for whole numbers, without its Python wrapper)."""
+    return a - TWO_PI * np.rint(a * (1.0 / TWO_PI))
