@@ -75,7 +75,7 @@ class Sensing:
         self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
         self._rows: list[tuple] = []
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
-        self._powers: dict[tuple[float, int], np.ndarray] = {}  # (a, batch length) -> a^1..a^n
+        self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
         self._others = ~np.eye(self.n, dtype=bool)  # [r, o]: robot o is not robot r
         self._last = world.state
         self._last_t = world.time
@@ -156,26 +156,30 @@ class Sensing:
             change[0] = body[0] - self.body_rate
             np.subtract(body[1:], body[:-1], out=change[1:])
             a = math.exp(-self.dt / p["spin_time"])
-            lag = self._first_order(a, self.spin_lag, -a * change - (1 - a) * coupling * body)
+            drive = -a * change
+            if coupling:  # a zero coupling adds only signed zeros, which vanish in the sums
+                drive = drive - (1 - a) * coupling * body
+            lag = self._first_order(a, self.spin_lag, drive)
             rate = (self.omega if rate is None else rate) + lag
             self.spin_lag, self.body_rate = lag[-1], body[-1]
         if rate is None:
             rate = np.tile(self.omega, (steps, 1))
         phi = np.empty((steps + 1, self.n))
         phi[0] = 0.0
-        np.cumsum(rate * self.dt, axis=0, out=phi[1:])
+        np.add.accumulate(rate * self.dt, axis=0, out=phi[1:])  # np.cumsum, without its wrapper
         phi += self.phi
         return phi
 
     def _first_order(self, a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
-        """`first_order`, with the powers of `a` kept per batch length."""
-        key = (a, len(drive))
+        """`first_order`, with the powers of `a` kept per batch shape."""
+        key = (a, drive.shape)
         powers = self._powers.get(key)
         if powers is None:
             if a ** len(drive) < 1e-150:
                 return first_order(a, y0, drive)
-            powers = self._powers[key] = a ** np.arange(1, len(drive) + 1)[:, None]
-        return powers * (y0 + np.cumsum(drive / powers, axis=0))
+            powers = a ** np.arange(1, len(drive) + 1)[:, None]
+            powers = self._powers[key] = np.ascontiguousarray(np.broadcast_to(powers, drive.shape))
+        return powers * (y0 + np.add.accumulate(drive / powers, axis=0))
 
     # ---- occlusion ------------------------------------------------------------------------
 
@@ -194,9 +198,10 @@ class Sensing:
         if len(robot) == 0:
             return np.zeros(0, dtype=bool)
         bx, by = self.bx[beacon], self.by[beacon]
-        d = np.hypot(bx - px, by - py)
+        vx, vy = bx - px, by - py
+        d = np.hypot(vx, vy)
         shrink = np.where(d > self.beacon_radius, (d - self.beacon_radius) / np.maximum(d, 1e-12), 0.0)
-        qx, qy = px + (bx - px) * shrink, py + (by - py) * shrink
+        qx, qy = px + vx * shrink, py + vy * shrink
         blocked = np.zeros(len(robot), dtype=bool)
         if self.n > 1:  # every (segment, other robot) pair at once, as a (segments, robots) grid
             # cheap prefilter: the other robot's circumscribed circle (grown by its travel in
@@ -242,10 +247,11 @@ class Sensing:
             return out
         window = (traj.t[0], traj.t[-1])
         fired = np.maximum(times, window[0])
+        counts = np.bincount(c.robot, minlength=self.n).tolist()  # crossings per robot
         if p.get("timing_noise", 0.0) > 0:  # det.jitter, one draw per crossing from its robot's stream
             noise = np.empty(len(c))
             noise[np.argsort(c.robot, kind="stable")] = np.concatenate(
-                [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], self._counts(c.robot)) if k]
+                [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
             fired = np.clip(fired + noise, *window)
         # the laser's relative phase at the instant the detector fires (an encoder latches it);
@@ -278,16 +284,12 @@ class Sensing:
         # times never decrease within a robot; hits at one time go by their keys
         tied = set(robot[1:][(times[1:] == times[:-1]) & (robot[1:] == robot[:-1])].tolist())
         start = 0
-        for r, k in enumerate(self._counts(robot)):
+        for r, k in enumerate(counts):
             out[r] = events[start : start + k]
             start += k
             if r in tied:
                 out[r].sort(key=event_order)
         return out
-
-    def _counts(self, robot: np.ndarray) -> list[int]:
-        """How many of `robot` are each robot."""
-        return np.bincount(robot, minlength=self.n).tolist()
 
     def _fluctuation(self, c: Crossings, sensitivity: np.ndarray) -> np.ndarray:
         """The detector's response to each sweep: `sensitivity` times how much of its usual
