@@ -197,19 +197,22 @@ def first_tick_after(t: float, p: Mapping[str, float]) -> float:
     return math.nextafter(t, math.inf)
 
 
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64's constants
+_MIX = np.uint64(0xD1B54A32D192ED03)
+_MUL1, _MUL2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_LOW11 = np.uint64(0x7FF)
+
+
 def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """64 random bits per (match key, robot, revolution), vectorised: SplitMix64's finaliser,
     a counter-based hash, so a revolution's draw does not depend on which control period its
     pulses fall in."""
     with np.errstate(over="ignore"):
-        z = (
-            np.uint64(key)
-            + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-            + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03)
-        )
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return z ^ (z >> np.uint64(31))
+        z = np.uint64(key) + robot.astype(np.uint64) * _GOLDEN + turn.astype(np.int64).view(np.uint64) * _MIX
+        z = (z ^ (z >> _S30)) * _MUL1
+        z = (z ^ (z >> _S27)) * _MUL2
+    return z ^ (z >> _S31)
 
 
 def merge_measurements(
@@ -223,12 +226,14 @@ def merge_measurements(
     drawn uniformly) loses its own edge and is reported at the time of the pulse before it, so
     the duration before it reads 0 and the one after it reads the sum of both. `times` are
     sorted by (robot, time); a pulse whose predecessor fell in an earlier control period is
-    left alone (its time was already delivered)."""
+    left alone (its time was already delivered). Returns `times` itself when nothing merges."""
     if rate <= 0 or len(times) < 2:
         return times
     h = revolution_hash(key, robot, turn)
-    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0**-53 < rate  # the high 53 bits
-    victim = (h & np.uint64(0x7FF)).astype(np.int64) % n_beacons == beacon  # the low 11
+    merged = (h >> _S11).astype(np.float64) * 2.0**-53 < rate  # the high 53 bits
+    if not merged.any():  # most batches: no revolution in them merges
+        return times
+    victim = (h & _LOW11).astype(np.int64) % n_beacons == beacon  # the low 11
     has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
     hit = np.nonzero(merged & victim & has_pred)[0]
     out = times.copy()
