@@ -23,7 +23,6 @@ from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks,
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
-
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
 

@@ -541,7 +541,7 @@ def test_merge_measurements_matches_the_rule_pulse_by_pulse():
 
     g = np.random.default_rng(5)
     outcomes = set()
-    for batch in range(300):
+    for _ in range(300):
         n = int(g.integers(2, 12))
         robot = np.sort(g.integers(0, 3, n))
         beacon = g.integers(0, 4, n)
