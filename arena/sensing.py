@@ -57,8 +57,10 @@ class Sensing:
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
         self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
+        self._offsets = self.beam_offset if self.beam_offset.any() else None  # None: every beam on its axis
         self.direction = np.sign(self.omega)
         self.index = np.array([r.laser.index for r in robots])
+        self._any_index = bool(self.index.any())
         # what each robot puts in the laser plane: a circle at its centre (mast, laser housing)
         self.silhouette = np.array([r.model.silhouette_radius for r in robots])
         # how far that circle can reach from the robot's centre at a batch start, within a batch
@@ -111,7 +113,7 @@ class Sensing:
         sources = [self._light(traj) if self.kind == "light" else self._hits(traj)]
         if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
             sources.append([self._false_returns(traj, r) for r in range(self.n)])
-        if self.index.any():
+        if self._any_index:
             sources.append(self._index(traj))
         out = []
         for r in range(self.n):
@@ -232,7 +234,7 @@ class Sensing:
 
     def _hits(self, traj: Trajectory) -> list[list[det.Detection]]:
         out: list[list[det.Detection]] = [[] for _ in range(self.n)]
-        c = find_crossings(traj, self.bx, self.by, self.beam_offset)
+        c = find_crossings(traj, self.bx, self.by, self._offsets)
         if not len(c):
             return out
         keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
