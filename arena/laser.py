@@ -19,6 +19,8 @@ import numpy as np
 from arena.angles import TWO_PI, wrap_angle
 
 NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
+# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
+_ZERO, _ONE, _PI = np.array(0.0), np.array(1.0), np.array(np.pi)
 
 
 @dataclass(frozen=True)
@@ -94,7 +96,7 @@ def find_crossings(
     d = wrap_angle(d)
     # d passes zero in a step where it leaves a nonzero sign for zero or the other sign
     sign = np.sign(d)
-    passes = (sign[:-1] != 0) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < np.pi)
+    passes = (sign[:-1] != _ZERO) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < _PI)
     size = dx[0].size  # robots x beacons
     flat = np.flatnonzero(passes)  # passes in (step, robot, beacon) order
     step, rest = np.divmod(flat, size)
@@ -120,7 +122,8 @@ def find_crossings(
             f += np.arcsin(np.clip(o / r, -1.0, 1.0))
             slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
         f = wrap_angle(f)
-        s = np.clip(s - f / np.where(slope == 0.0, 1.0, slope), 0.0, 1.0)
+        # clipped to [0, 1]: minimum(maximum()) is np.clip's arithmetic (s is never -0)
+        s = np.minimum(np.maximum(s - f / np.where(slope == _ZERO, _ONE, slope), _ZERO), _ONE)
     ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey
     dt = traj.t[step + 1] - traj.t[step]
@@ -168,5 +171,6 @@ def segment_hits_circles(
     """Whether segments P-Q pass within `radius` of centres C (closed discs); elementwise."""
     ux, uy = qx - px, qy - py
     length2 = ux * ux + uy * uy
-    u = np.clip(((cx - px) * ux + (cy - py) * uy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    u = ((cx - px) * ux + (cy - py) * uy) / np.where(length2 > _ZERO, length2, _ONE)
+    u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
     return np.hypot(px + u * ux - cx, py + u * uy - cy) <= radius

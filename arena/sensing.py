@@ -23,6 +23,9 @@ from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks,
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
+# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
+_ZERO, _ONE, _TINY = np.array(0.0), np.array(1.0), np.array(1e-12)
+
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
 
@@ -53,6 +56,7 @@ class Sensing:
         self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
         self.facing = np.array([b.facing for b in items])
         self.beacon_radius = level.beacons.radius
+        self._beacon_radius = np.array(self.beacon_radius)
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
@@ -206,7 +210,8 @@ class Sensing:
         bx, by = self.bx[beacon], self.by[beacon]
         vx, vy = bx - px, by - py
         d = np.hypot(vx, vy)
-        shrink = np.where(d > self.beacon_radius, (d - self.beacon_radius) / np.maximum(d, 1e-12), 0.0)
+        radius = self._beacon_radius
+        shrink = np.where(d > radius, (d - radius) / np.maximum(d, _TINY), _ZERO)
         qx, qy = px + vx * shrink, py + vy * shrink
         blocked = np.zeros(len(robot), dtype=bool)
         if self.n > 1:  # every (segment, other robot) pair at once, as a (segments, robots) grid
@@ -215,7 +220,8 @@ class Sensing:
             cx, cy = traj.x[0], traj.y[0]
             ux, uy = (qx - px)[:, None], (qy - py)[:, None]
             px2, py2 = px[:, None], py[:, None]
-            u = np.clip(((cx - px2) * ux + (cy - py2) * uy) / (ux * ux + uy * uy), 0.0, 1.0)
+            u = ((cx - px2) * ux + (cy - py2) * uy) / (ux * ux + uy * uy)
+            u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
             gap = np.hypot((px2 + u * ux - cx).ravel(), (py2 + u * uy - cy).ravel())
             near = (self._others[robot] & (gap.reshape(u.shape) <= self.reach)).ravel()
             if near.any():
@@ -259,7 +265,7 @@ class Sensing:
             noise[np.argsort(c.robot, kind="stable")] = np.concatenate(
                 [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
-            fired = np.clip(fired + noise, *window)
+            fired = np.minimum(np.maximum(fired + noise, window[0]), window[1])  # clipped (times are never -0)
         # the laser's relative phase at the instant the detector fires (an encoder latches it);
         # a reflector's return carries the phase of the crossing itself
         phase = c.phi + (fired - (fired if self.kind == "reflector" else c.t)) * self.omega[c.robot]
