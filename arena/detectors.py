@@ -18,6 +18,9 @@ import numpy as np
 from arena.angles import TWO_PI, wrap_angle
 from arena.laser import Crossings
 
+# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
+_ZERO, _ONE, _TWO, _PI, _INF = (np.array(v) for v in (0.0, 1.0, 2.0, math.pi, math.inf))
+
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {
     "timing_noise": 0.0,
@@ -90,7 +93,7 @@ def angle_noise(kind: str, p: Mapping[str, float], omega: float) -> float:
 
 def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
     """Angle between each beacon's facing direction and the direction back to the laser (rad)."""
-    back = c.bearing + np.pi - facing[c.beacon]
+    back = c.bearing + _PI - facing[c.beacon]
     return np.abs(wrap_angle(back))
 
 
@@ -156,13 +159,14 @@ def optics(c: Crossings, inc: np.ndarray, sens: np.ndarray, p: Mapping[str, floa
     w = spot_width(r, p)
     a = p.get("aperture", 0.0) * np.cos(inc)
     eta = p.get("trigger_fraction", 0.0)
+    lit, across = sens > _ZERO, w + a
     with np.errstate(divide="ignore", invalid="ignore"):
-        peak = sens * np.where(w > a, a / w, 1.0)  # beam fraction on the detector at full overlap
-        x = np.where(sens > 0, eta * w / sens, np.inf)
-        dwell = (w + a - 2 * x) / v
-        offset = np.where(v > 0, (x - (w + a) / 2) / v, 0.0)
-    ok = (peak >= eta * (1 - 1e-9)) & (sens > 0) & (dwell >= p.get("rise_time", 0.0))
-    return ok, np.where(ok, offset, 0.0)
+        peak = sens * np.where(w > a, a / w, _ONE)  # beam fraction on the detector at full overlap
+        x = np.where(lit, eta * w / sens, _INF)
+        dwell = (across - _TWO * x) / v
+        offset = np.where(v > _ZERO, (x - across / _TWO) / v, _ZERO)
+    ok = (peak >= eta * (1 - 1e-9)) & lit & (dwell >= p.get("rise_time", 0.0))
+    return ok, np.where(ok, offset, _ZERO)
 
 
 def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
@@ -174,12 +178,11 @@ def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
     return rel
 
 
-def jitter(t: np.ndarray, p: Mapping[str, float], rng: np.random.Generator, window: tuple[float, float]) -> np.ndarray:
-    """Gaussian timing noise of the detector, kept inside the batch `window` (no event is
-    reported before the previous tick or after the one that delivers it)."""
-    if p.get("timing_noise", 0.0) > 0:
-        t = np.clip(t + rng.normal(0.0, p["timing_noise"], size=t.shape), *window)
-    return t
+def jitter(t: np.ndarray, noise: np.ndarray, window: tuple[float, float]) -> np.ndarray:
+    """Event times `t` (never -0) moved by the detector's timing noise, kept inside the batch
+    `window` (no event is reported before the previous tick or after the one that delivers
+    it): np.clip's arithmetic, as minimum(maximum()), which NumPy dispatches faster."""
+    return np.minimum(np.maximum(t + noise, window[0]), window[1])
 
 
 def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:

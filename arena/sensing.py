@@ -260,12 +260,12 @@ class Sensing:
         window = (traj.t[0], traj.t[-1])
         fired = np.maximum(times, window[0])
         counts = np.bincount(c.robot, minlength=self.n).tolist()  # crossings per robot
-        if p.get("timing_noise", 0.0) > 0:  # det.jitter, one draw per crossing from its robot's stream
+        if p.get("timing_noise", 0.0) > 0:  # one draw per crossing from its robot's stream
             noise = np.empty(len(c))
             noise[np.argsort(c.robot, kind="stable")] = np.concatenate(
                 [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
-            fired = np.minimum(np.maximum(fired + noise, window[0]), window[1])  # clipped (times are never -0)
+            fired = det.jitter(fired, noise, window)
         # the laser's relative phase at the instant the detector fires (an encoder latches it);
         # a reflector's return carries the phase of the crossing itself
         phase = c.phi + (fired - (fired if self.kind == "reflector" else c.t)) * self.omega[c.robot]
