@@ -12,7 +12,9 @@ derivative. All of it is vectorized over steps x robots x beacons.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -98,9 +100,8 @@ def find_crossings(
     sign = np.sign(d)
     passes = (sign[:-1] != _ZERO) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < _PI)
     size = dx[0].size  # robots x beacons
-    flat = np.flatnonzero(passes)  # passes in (step, robot, beacon) order
-    step, rest = np.divmod(flat, size)
-    robot, beacon = np.divmod(rest, dx.shape[2])
+    flat = passes.ravel().nonzero()[0]  # passes in (step, robot, beacon) order
+    step, robot, beacon = (i[flat] for i in grid_index(passes.shape))
     d = d.ravel()
     f0, f1 = d[flat], d[flat + size]
     s = f0 / (f0 - f1)  # linear first guess
@@ -140,6 +141,16 @@ def find_crossings(
         distance=np.sqrt(d2),
         bearing=np.arctan2(ey, ex),
     )
+
+
+@lru_cache(maxsize=64)
+def grid_index(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """The indices along each axis of every element of an array of `shape`, in C order: a
+    lookup that turns flat positions into indices cheaper than a division (read-only)."""
+    out = np.unravel_index(np.arange(math.prod(shape)), shape)
+    for axis in out:
+        axis.flags.writeable = False
+    return out
 
 
 def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:

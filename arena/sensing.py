@@ -19,7 +19,7 @@ import pymunk
 
 from arena import detectors as det
 from arena.angles import TWO_PI, wrap_angle
-from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_circles
+from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, grid_index, segment_hits_circles
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
@@ -225,7 +225,8 @@ class Sensing:
             gap = np.hypot((px2 + u * ux - cx).ravel(), (py2 + u * uy - cy).ravel())
             near = (self._others[robot] & (gap.reshape(u.shape) <= self.reach)).ravel()
             if near.any():
-                rows, o = np.divmod(np.flatnonzero(near), self.n)
+                pairs = near.nonzero()[0]
+                rows, o = (i[pairs] for i in grid_index(u.shape))
                 ox, oy = traj.position_at(step[rows], s[rows], o)
                 hit = segment_hits_circles(px[rows], py[rows], qx[rows], qy[rows], ox, oy, self.silhouette[o])
                 blocked[rows[hit]] = True
