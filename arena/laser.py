@@ -12,13 +12,17 @@ derivative. All of it is vectorized over steps x robots x beacons.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from arena.angles import TWO_PI, wrap_angle
 
 NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
+# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
+_ZERO, _ONE, _PI = np.array(0.0), np.array(1.0), np.array(np.pi)
 
 
 @dataclass(frozen=True)
@@ -35,11 +39,16 @@ class Trajectory:
     def pose_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
         """Interpolated (x, y, h) at fraction `s` of step `step` for robots `robot`."""
 
-        def lerp(a: np.ndarray) -> np.ndarray:
-            a0 = a[step, robot]
-            return a0 + s * (a[step + 1, robot] - a0)
+        return (*self.position_at(step, s, robot), _lerp(self.h, step, s, robot))
 
-        return lerp(self.x), lerp(self.y), lerp(self.h)
+    def position_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interpolated (x, y) at fraction `s` of step `step` for robots `robot`."""
+        return _lerp(self.x, step, s, robot), _lerp(self.y, step, s, robot)
+
+
+def _lerp(a: np.ndarray, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> np.ndarray:
+    a0 = a[step, robot]
+    return a0 + s * (a[step + 1, robot] - a0)
 
 
 @dataclass(frozen=True)
@@ -82,37 +91,40 @@ def find_crossings(
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi  # beam world angle (n+1, R)
-    off = np.zeros(traj.x.shape[1]) if beam_offset is None else beam_offset
-    lateral = off.any()
+    off = beam_offset if beam_offset is not None and beam_offset.any() else None
     d = a[:, :, None] - np.arctan2(dy, dx)
-    if lateral:
+    if off is not None:
         d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
     d = wrap_angle(d)
-    d0, d1 = d[:-1], d[1:]
-    passes = ((d0 < 0) & (d1 >= 0)) | ((d0 > 0) & (d1 <= 0))
-    passes &= np.abs(d1 - d0) < np.pi
-    step, robot, beacon = np.nonzero(passes)
-    f0, f1 = d0[step, robot, beacon], d1[step, robot, beacon]
+    # d passes zero in a step where it leaves a nonzero sign for zero or the other sign
+    sign = np.sign(d)
+    passes = (sign[:-1] != _ZERO) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < _PI)
+    size = dx[0].size  # robots x beacons
+    flat = passes.ravel().nonzero()[0]  # passes in (step, robot, beacon) order
+    step, robot, beacon = (i[flat] for i in grid_index(passes.shape))
+    d = d.ravel()
+    f0, f1 = d[flat], d[flat + size]
     s = f0 / (f0 - f1)  # linear first guess
     # the crossing's step, as start values and changes over the step
-    ex0, ey0 = dx[step, robot, beacon], dy[step, robot, beacon]  # laser -> beacon at the start
-    state = np.stack((traj.x, traj.y, a, traj.phi), axis=-1)
-    start, change = state[step, robot], state[step + 1, robot]
-    change -= start
-    ddx, ddy, da, dphi = change.T
-    a0, phi0 = start[:, 2], start[:, 3]
-    o = off[robot]
+    ex0, ey0 = dx.ravel()[flat], dy.ravel()[flat]  # laser -> beacon at the start
+    state = np.array((traj.x, traj.y, a, traj.phi)).reshape(4, -1)  # rows of (step, robot)
+    at = step * dx.shape[1] + robot
+    start = state[:, at]
+    ddx, ddy, da, dphi = state[:, at + dx.shape[1]] - start
+    a0, phi0 = start[2], start[3]
+    o = None if off is None else off[robot]
     for _ in range(NEWTON_ITERATIONS):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy
         r2 = ex * ex + ey * ey
         f = a0 + s * da - np.arctan2(ey, ex)
         slope = da - (ey * ddx - ex * ddy) / r2  # d(beam - bearing)/ds
-        if lateral:  # + asin(o / r), and its derivative through r
+        if o is not None:  # + asin(o / r), and its derivative through r
             r = np.sqrt(r2)
             f += np.arcsin(np.clip(o / r, -1.0, 1.0))
             slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
         f = wrap_angle(f)
-        s = np.clip(s - f / np.where(slope == 0.0, 1.0, slope), 0.0, 1.0)
+        # clipped to [0, 1]: minimum(maximum()) is np.clip's arithmetic (s is never -0)
+        s = np.minimum(np.maximum(s - f / np.where(slope == _ZERO, _ONE, slope), _ZERO), _ONE)
     ex, ey = ex0 - s * ddx, ey0 - s * ddy
     d2 = ex * ex + ey * ey
     dt = traj.t[step + 1] - traj.t[step]
@@ -129,6 +141,16 @@ def find_crossings(
         distance=np.sqrt(d2),
         bearing=np.arctan2(ey, ex),
     )
+
+
+@lru_cache(maxsize=64)
+def grid_index(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """The indices along each axis of every element of an array of `shape`, in C order: a
+    lookup that turns flat positions into indices cheaper than a division (read-only)."""
+    out = np.unravel_index(np.arange(math.prod(shape)), shape)
+    for axis in out:
+        axis.flags.writeable = False
+    return out
 
 
 def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -160,5 +182,6 @@ def segment_hits_circles(
     """Whether segments P-Q pass within `radius` of centres C (closed discs); elementwise."""
     ux, uy = qx - px, qy - py
     length2 = ux * ux + uy * uy
-    u = np.clip(((cx - px) * ux + (cy - py) * uy) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    u = ((cx - px) * ux + (cy - py) * uy) / np.where(length2 > _ZERO, length2, _ONE)
+    u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
     return np.hypot(px + u * ux - cx, py + u * uy - cy) <= radius

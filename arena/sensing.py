@@ -11,15 +11,28 @@ optics set when each pulse fires, or whether it does), index clicks, and the ran
 from __future__ import annotations
 
 import math
+from functools import partial
+from itertools import chain, repeat
 
 import numpy as np
 import pymunk
 
 from arena import detectors as det
 from arena.angles import TWO_PI, wrap_angle
-from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, segment_hits_circles
+from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, grid_index, segment_hits_circles
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
+
+# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
+_ZERO, _ONE, _TINY = np.array(0.0), np.array(1.0), np.array(1e-12)
+
+# a Detection from a tuple of all its fields in order, with no Python call per event
+NEW_DETECTION = partial(tuple.__new__, det.Detection)
+
+
+def event_order(d: det.Detection) -> tuple:
+    """The order of one controller's events: by time, then kind, beacon and source."""
+    return (d.time, d.kind, d.beacon or "", d.source)
 
 
 class Sensing:
@@ -43,12 +56,15 @@ class Sensing:
         self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
         self.facing = np.array([b.facing for b in items])
         self.beacon_radius = level.beacons.radius
+        self._beacon_radius = np.array(self.beacon_radius)
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
         self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
+        self._offsets = self.beam_offset if self.beam_offset.any() else None  # None: every beam on its axis
         self.direction = np.sign(self.omega)
         self.index = np.array([r.laser.index for r in robots])
+        self._any_index = bool(self.index.any())
         # what each robot puts in the laser plane: a circle at its centre (mast, laser housing)
         self.silhouette = np.array([r.model.silhouette_radius for r in robots])
         # how far that circle can reach from the robot's centre at a batch start, within a batch
@@ -68,6 +84,9 @@ class Sensing:
         self.phi = np.zeros(self.n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
         self._rows: list[tuple] = []
+        self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
+        self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
+        self._others = ~np.eye(self.n, dtype=bool)  # [r, o]: robot o is not robot r
         self._last = world.state
         self._last_t = world.time
 
@@ -80,26 +99,43 @@ class Sensing:
         self._rows.extend(states)
 
     def flush(self) -> list[list[det.Detection]]:
-        """Detections per robot for the steps recorded since the last flush, in time order."""
-        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
+        """Detections per robot for the steps recorded since the last flush, in event order
+        (`event_order`). Each source of events (hits, false returns, index clicks, scans)
+        yields its own events in that order; only a robot that got events from two sources,
+        or hits at one time, needs a sort."""
         steps = len(self._rows)
         if not steps:
-            return out
-        poses = np.array([self._last] + self._rows).reshape(steps + 1, self.n, 3)
-        t = self._last_t + np.arange(steps + 1) * self.dt
+            return [[] for _ in range(self.n)]
+        flat = np.fromiter(chain(self._last, chain.from_iterable(self._rows)), float, (steps + 1) * 3 * self.n)
+        poses = flat.reshape(steps + 1, self.n, 3)
+        t = self._last_t + self._ramp(steps)
         t[-1] = self.world.time  # exact at the end, so batches join without drift
         traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(poses[:, :, 2]))
         self._last, self._last_t, self._rows = self._rows[-1], self.world.time, []
         self.phi = traj.phi[-1].copy()
 
-        if self.kind == "light":
-            self._light(traj, out)
-        else:
-            self._hits(traj, out)
-        self._index(traj, out)
-        for events in out:
-            events.sort(key=lambda d: (d.time, d.kind, d.beacon or "", d.source))
+        sources = [self._light(traj) if self.kind == "light" else self._hits(traj)]
+        if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
+            sources.append([self._false_returns(traj, r) for r in range(self.n)])
+        if self._any_index:
+            sources.append(self._index(traj))
+        out = []
+        for r in range(self.n):
+            lists = [events[r] for events in sources if events[r]]
+            if len(lists) == 1:
+                out.append(lists[0])
+                continue
+            merged = [d for events in lists for d in events]
+            merged.sort(key=event_order)  # stable: what the sources yield in order stays so
+            out.append(merged)
         return out
+
+    def _ramp(self, steps: int) -> np.ndarray:
+        """Step-end times of a batch of `steps` steps from its start (cached per length)."""
+        ramp = self._ramps.get(steps)
+        if ramp is None:
+            ramp = self._ramps[steps] = np.arange(steps + 1) * self.dt
+        return ramp
 
     # ---- laser phase ---------------------------------------------------------------------
 
@@ -113,24 +149,47 @@ class Sensing:
         rate first drops by that change, then the motor brings it back, with time constant
         `spin_time`, to its steady value less `spin_coupling` x the body's yaw rate."""
         steps = len(heading) - 1
-        rate = np.tile(self.omega, (steps, 1))
+        rate = None  # None: the steady rate, omega
         p = self.params
-        sigma = p["wobble"]
-        if sigma > 0:
+        if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
-            noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
-            w = first_order(a, self.wobble, math.sqrt(1 - a * a) * sigma * noise)
-            rate *= 1.0 + w
+            noise = np.empty((steps, self.n))
+            for r, g in enumerate(self.rng["wobble"]):
+                noise[:, r] = g.normal(size=steps)
+            w = self._first_order(a, self.wobble, math.sqrt(1 - a * a) * p["wobble"] * noise)
+            rate = self.omega * (1.0 + w)
             self.wobble = w[-1]
         if p.get("spin_time", 0.0) > 0:
             coupling = p.get("spin_coupling", 0.0)
-            body = np.diff(heading, axis=0) / self.dt
-            change = np.diff(np.vstack([self.body_rate, body]), axis=0)
+            body = (heading[1:] - heading[:-1]) / self.dt
+            change = np.empty_like(body)
+            change[0] = body[0] - self.body_rate
+            np.subtract(body[1:], body[:-1], out=change[1:])
             a = math.exp(-self.dt / p["spin_time"])
-            lag = first_order(a, self.spin_lag, -a * change - (1 - a) * coupling * body)
-            rate += lag
+            drive = -a * change
+            if coupling:  # a zero coupling adds only signed zeros, which vanish in the sums
+                drive = drive - (1 - a) * coupling * body
+            lag = self._first_order(a, self.spin_lag, drive)
+            rate = (self.omega if rate is None else rate) + lag
             self.spin_lag, self.body_rate = lag[-1], body[-1]
-        return self.phi + np.vstack([np.zeros(self.n), np.cumsum(rate * self.dt, axis=0)])
+        if rate is None:
+            rate = np.tile(self.omega, (steps, 1))
+        phi = np.empty((steps + 1, self.n))
+        phi[0] = 0.0
+        np.add.accumulate(rate * self.dt, axis=0, out=phi[1:])  # np.cumsum, without its wrapper
+        phi += self.phi
+        return phi
+
+    def _first_order(self, a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
+        """`first_order`, with the powers of `a` kept per batch shape."""
+        key = (a, drive.shape)
+        powers = self._powers.get(key)
+        if powers is None:
+            if a ** len(drive) < 1e-150:
+                return first_order(a, y0, drive)
+            powers = a ** np.arange(1, len(drive) + 1)[:, None]
+            powers = self._powers[key] = np.ascontiguousarray(np.broadcast_to(powers, drive.shape))
+        return powers * (y0 + np.add.accumulate(drive / powers, axis=0))
 
     # ---- occlusion ------------------------------------------------------------------------
 
@@ -149,23 +208,26 @@ class Sensing:
         if len(robot) == 0:
             return np.zeros(0, dtype=bool)
         bx, by = self.bx[beacon], self.by[beacon]
-        d = np.hypot(bx - px, by - py)
-        shrink = np.where(d > self.beacon_radius, (d - self.beacon_radius) / np.maximum(d, 1e-12), 0.0)
-        qx, qy = px + (bx - px) * shrink, py + (by - py) * shrink
+        vx, vy = bx - px, by - py
+        d = np.hypot(vx, vy)
+        radius = self._beacon_radius
+        shrink = np.where(d > radius, (d - radius) / np.maximum(d, _TINY), _ZERO)
+        qx, qy = px + vx * shrink, py + vy * shrink
         blocked = np.zeros(len(robot), dtype=bool)
-        if self.n > 1:  # every (segment, other robot) pair at once
-            rows = np.repeat(np.arange(len(robot)), self.n)
-            o = np.tile(np.arange(self.n), len(robot))
+        if self.n > 1:  # every (segment, other robot) pair at once, as a (segments, robots) grid
             # cheap prefilter: the other robot's circumscribed circle (grown by its travel in
-            # the batch) must touch the segment; only those pairs get the exact box test
-            cx, cy = traj.x[0, o], traj.y[0, o]
-            ux, uy = qx[rows] - px[rows], qy[rows] - py[rows]
-            u = np.clip(((cx - px[rows]) * ux + (cy - py[rows]) * uy) / (ux * ux + uy * uy), 0.0, 1.0)
-            gap = np.hypot(px[rows] + u * ux - cx, py[rows] + u * uy - cy)
-            near = (o != robot[rows]) & (gap <= self.reach[o])
-            rows, o = rows[near], o[near]
-            if len(rows):
-                ox, oy, _ = traj.pose_at(step[rows], s[rows], o)
+            # the batch) must touch the segment; only those pairs get the exact test
+            cx, cy = traj.x[0], traj.y[0]
+            ux, uy = (qx - px)[:, None], (qy - py)[:, None]
+            px2, py2 = px[:, None], py[:, None]
+            u = ((cx - px2) * ux + (cy - py2) * uy) / (ux * ux + uy * uy)
+            u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
+            gap = np.hypot((px2 + u * ux - cx).ravel(), (py2 + u * uy - cy).ravel())
+            near = (self._others[robot] & (gap.reshape(u.shape) <= self.reach)).ravel()
+            if near.any():
+                pairs = near.nonzero()[0]
+                rows, o = (i[pairs] for i in grid_index(u.shape))
+                ox, oy = traj.position_at(step[rows], s[rows], o)
                 hit = segment_hits_circles(px[rows], py[rows], qx[rows], qy[rows], ox, oy, self.silhouette[o])
                 blocked[rows[hit]] = True
         if self.has_obstacles:
@@ -177,73 +239,102 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _hits(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
-        c = find_crossings(traj, self.bx, self.by, self.beam_offset)
-        if len(c):
-            keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
-            keep &= det.visible(self.kind, c, self.facing, self.params)
+    def _hits(self, traj: Trajectory) -> list[list[det.Detection]]:
+        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
+        c = find_crossings(traj, self.bx, self.by, self._offsets)
+        if not len(c):
+            return out
+        keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
+        keep &= det.visible(self.kind, c, self.facing, self.params)
+        if not keep.all():
             c = c.take(np.nonzero(keep)[0])
         p = self.params
         times = c.t
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            ok, offset = det.optics(c, inc, det.sensitivity(self.kind, c, inc, p) * self._fluctuation(c), p)
-            c = c.take(np.nonzero(ok)[0])
-            times = c.t + offset[ok]
+            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
+            if not ok.all():
+                c, offset = c.take(np.nonzero(ok)[0]), offset[ok]
+            times = c.t + offset
+        if not len(c):
+            return out
         window = (traj.t[0], traj.t[-1])
-        for r in np.unique(c.robot):
-            mine = np.nonzero(c.robot == r)[0]
-            times[mine] = det.jitter(np.maximum(times[mine], window[0]), p, self.rng["timing"][r], window)
-        # the laser's relative phase at the instant the detector fires (an encoder latches it)
-        phase = c.phi + (times - c.t) * self.omega[c.robot]
-        order = np.lexsort((c.beacon, times, c.robot))
-        c, phase, times = c.take(order), phase[order], det.counter_clock(times[order], p)
-        robot = c.robot  # sorted by robot, time, beacon
+        fired = np.maximum(times, window[0])
+        counts = np.bincount(c.robot, minlength=self.n).tolist()  # crossings per robot
+        if p.get("timing_noise", 0.0) > 0:  # one draw per crossing from its robot's stream
+            noise = np.empty(len(c))
+            noise[np.argsort(c.robot, kind="stable")] = np.concatenate(
+                [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
+            )
+            fired = det.jitter(fired, noise, window)
+        # the laser's relative phase at the instant the detector fires (an encoder latches it);
+        # a reflector's return carries the phase of the crossing itself
+        phase = c.phi + (fired - (fired if self.kind == "reflector" else c.t)) * self.omega[c.robot]
+        order = np.lexsort((c.beacon, fired, c.robot))
+        robot, beacon, phase = c.robot[order], c.beacon[order], phase[order]
+        times = det.counter_clock(fired[order], p)  # sorted by robot, time, beacon
         # a pulse that fired early, before this period began, is read at the counter's first
         # tick inside it: the previous period's events are delivered already
         times = np.maximum(times, det.first_tick_after(window[0], p))
         if self.kind == "sensor_array":
-            turn = np.floor(c.phi * self.direction[robot] / TWO_PI)
-            times = det.merge_measurements(times, robot, c.beacon, turn, len(self.ids), p["merge_rate"], self.merge_key)
+            turn = np.floor(c.phi[order] * self.direction[robot] / TWO_PI)
+            times = det.merge_measurements(times, robot, beacon, turn, len(self.ids), p["merge_rate"], self.merge_key)
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
-        angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * len(c)
-        labels = [self.ids[b] for b in c.beacon.tolist()] if self.kind != "reflector" else [None] * len(c)
-        shared = self.crosstalk == "shared"
-        beams = zip(c.x.tolist(), c.y.tolist(), self.bx[c.beacon].tolist(), self.by[c.beacon].tolist())
-        for r, t, beacon, angle, beam in zip(robot.tolist(), times.tolist(), labels, angles, beams):
-            for rx in range(self.n) if shared else (r,):
-                out[rx].append(det.Detection(rx, t, "hit", beacon, angle, source=r, beam=beam))
-        if self.kind in ("reflector", "sensor_array") and p["false_rate"] > 0:
-            for r in range(self.n):
-                self._false_returns(traj, r, out[r])
-
-    def _fluctuation(self, c: Crossings) -> np.ndarray:
-        """How much of its usual light each sweep brings the detector: log-normal with std
-        `light_noise` of its logarithm (1 when there is none). Near a detector's limit the
-        light hovers at the threshold, so such sweeps fire late or not at all."""
-        sigma = self.params.get("light_noise", 0.0)
-        out = np.ones(len(c))
-        if sigma > 0:
-            for r in np.unique(c.robot):
-                mine = np.nonzero(c.robot == r)[0]
-                out[mine] = np.exp(sigma * self.rng["detector"][r].normal(size=len(mine)))
+        m = len(order)
+        angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * m
+        labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
+        beams = zip(c.x[order].tolist(), c.y[order].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
+        robots, times_ = robot.tolist(), times.tolist()
+        if self.crosstalk == "shared":
+            for r, t, label, angle, beam in zip(robots, times_, labels, angles, beams):
+                for rx in range(self.n):
+                    out[rx].append(det.Detection(rx, t, "hit", label, angle, (), r, beam))
+            for events in out:
+                events.sort(key=event_order)
+            return out
+        fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
+        events = list(map(NEW_DETECTION, fields))
+        # times never decrease within a robot; hits at one time go by their keys
+        tied = set(robot[1:][(times[1:] == times[:-1]) & (robot[1:] == robot[:-1])].tolist())
+        start = 0
+        for r, k in enumerate(counts):
+            out[r] = events[start : start + k]
+            start += k
+            if r in tied:
+                out[r].sort(key=event_order)
         return out
 
-    def _false_returns(self, traj: Trajectory, r: int, events: list[det.Detection]) -> None:
+    def _fluctuation(self, c: Crossings, sensitivity: np.ndarray) -> np.ndarray:
+        """The detector's response to each sweep: `sensitivity` times how much of its usual
+        light the sweep brings, log-normal with std `light_noise` of its logarithm (none when
+        0). Near a detector's limit the light hovers at the threshold, so such sweeps fire late
+        or not at all."""
+        sigma = self.params.get("light_noise", 0.0)
+        if not sigma > 0:
+            return sensitivity
+        out = np.ones(len(c))
+        for r in np.unique(c.robot):
+            mine = np.nonzero(c.robot == r)[0]
+            out[mine] = np.exp(sigma * self.rng["detector"][r].normal(size=len(mine)))
+        return sensitivity * out
+
+    def _false_returns(self, traj: Trajectory, r: int) -> list[det.Detection]:
         """Spurious pulses (shiny surfaces, stray light, electrical noise): a Poisson process in
         time; a sensor array's false pulse carries the label of an array drawn uniformly."""
         g = self.rng["false"][r]
         t0, t1 = traj.t[0], traj.t[-1]
         count = g.poisson(self.params["false_rate"] * (t1 - t0))
         if not count:
-            return
+            return []
+        events = []
         times = np.sort(g.uniform(t0, t1, size=count))
         if self.kind == "sensor_array":
             labels = g.integers(len(self.ids), size=len(times))
             for t, b in zip(det.counter_clock(times, self.params).tolist(), labels.tolist()):
                 events.append(det.Detection(r, t, "hit", self.ids[b], None, source=-1))
-            return
+            events.sort(key=event_order)  # one clock tick may hold two
+            return events
         for t in times:
             angle = None
             if self.params["quantization"]:
@@ -252,27 +343,30 @@ class Sensing:
                 phase = traj.phi[k, r] + s * (traj.phi[k + 1, r] - traj.phi[k, r])
                 angle = float(det.quantize_angle(np.array([phase]), self.params["quantization"])[0])
             events.append(det.Detection(r, float(t), "hit", None, angle, source=-1))
+        return events
 
     # ---- index switch ---------------------------------------------------------------------
 
-    def _index(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
-        if not self.index.any():
-            return
+    def _index(self, traj: Trajectory) -> list[list[det.Detection]]:
+        """Index clicks per robot, in time order."""
+        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
         robot, _, _, t, _ = find_phase_marks(traj, 1, self.direction)
-        for r, ti in zip(robot, t):
+        for r, ti in zip(robot.tolist(), t.tolist()):
             if self.index[r]:
-                out[r].append(det.Detection(int(r), float(ti), "index", source=int(r)))
+                out[r].append(det.Detection(r, ti, "index", source=r))
+        return out
 
     # ---- lights and a sampled turret -------------------------------------------------------
 
-    def _light(self, traj: Trajectory, out: list[list[det.Detection]]) -> None:
+    def _light(self, traj: Trajectory) -> list[list[det.Detection]]:
         """Osentoski's turret: N brightness samples per turn at relative angles 2 pi k / N; a
         full turn of samples is one `scan` event at the time of its last sample."""
+        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
         p = self.params
         per_turn = int(p["samples_per_turn"])
         robot, step, s, t, mark = find_phase_marks(traj, per_turn, self.direction)
         if not len(robot):
-            return
+            return out
         x, y, h = traj.pose_at(step, s, robot)
         k = mark % per_turn
         beam = h + TWO_PI * k / per_turn
@@ -296,6 +390,7 @@ class Sensing:
                 del self.scans[(r, turn)]
                 samples = tuple(int(round(u)) for u in scan)
                 out[r].append(det.Detection(r, float(t[i]), "scan", samples=samples, source=r))
+        return out
 
 
 def first_order(a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:

@@ -524,3 +524,36 @@ def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
             assert t[1.0] - t[f] == pytest.approx(p["trigger_fraction"] * w * (1 - 1 / f) / (s[0] * v), rel=1e-9)
         spreads.append(t[1.0] - t[1.5])
     assert spreads[0] < spreads[1] < spreads[2]
+
+
+def test_merge_measurements_matches_the_rule_pulse_by_pulse():
+    from arena import detectors as det
+
+    # the vectorised merge (with its shortcut for batches where nothing merges) against the
+    # rule read one pulse at a time: SplitMix64 of (key, robot, revolution) in plain integers,
+    # its high 53 bits against the rate, its low 11 bits naming the victim array
+    def splitmix(key, robot, turn):
+        m = (1 << 64) - 1
+        z = (key + robot * 0x9E3779B97F4A7C15 + (turn & m) * 0xD1B54A32D192ED03) & m
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & m
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & m
+        return z ^ (z >> 31)
+
+    g = np.random.default_rng(5)
+    outcomes = set()
+    for _ in range(300):
+        n = int(g.integers(2, 12))
+        robot = np.sort(g.integers(0, 3, n))
+        beacon = g.integers(0, 4, n)
+        turn = g.integers(-3, 40, n).astype(float)
+        times = np.sort(g.uniform(0, 1, n))
+        key, rate = int(g.integers(1 << 62)), float(g.choice([0.05, 0.5]))
+        got = det.merge_measurements(times, robot, beacon, turn, 4, rate, key)
+        want = times.copy()
+        for i in range(1, n):
+            h = splitmix(key, int(robot[i]), int(turn[i]))
+            if (h >> 11) * 2.0**-53 < rate and (h & 0x7FF) % 4 == beacon[i] and robot[i] == robot[i - 1]:
+                want[i] = times[i - 1]
+        assert got.tolist() == want.tolist()
+        outcomes.add(bool((got != times).any()))
+    assert outcomes == {False, True}  # batches with and without merges
