@@ -96,6 +96,12 @@ def _string(value: str | None) -> str:
     return json.dumps(value)
 
 
+@functools.lru_cache(maxsize=1024)
+def _place(x: float, y: float) -> str:
+    """A point as two `_number`s: a beam's far end, formatted once per beacon."""
+    return _number(x) + "," + _number(y)
+
+
 def _floats(values: Iterable[float]) -> str:
     return "[" + ",".join(map(_number, values)) + "]"
 
@@ -109,9 +115,13 @@ def _event_line(f: dict[str, Any]) -> str:
     if len(f) != 6:
         raise KeyError("fields")
     beam = f["line"]
+    if beam is not None:
+        x, y, bx, by = beam  # the far end is a beacon's place: a handful per match
+        far = _place(bx, by) if bx and by else _number(bx) + "," + _number(by)  # -0.0 == 0.0 as a key
+        beam = "[" + _number(x) + "," + _number(y) + "," + far + "]"
     return (
         '{"b":' + _string(f["b"]) + ',"k":"e","kind":' + _string(f["kind"])
-        + ',"line":' + ("null" if beam is None else _floats(beam))
+        + ',"line":' + ("null" if beam is None else beam)
         + ',"r":' + _int(f["r"]) + ',"s":' + _int(f["s"]) + ',"t":' + _number(f["t"]) + "}"
     )  # fmt: skip
 
