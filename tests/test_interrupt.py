@@ -79,7 +79,9 @@ def _interrupt_when(proc, ready, bound=120.0, times=1):
 
 
 def _quiet_exit(proc, err, below):
-    assert proc.returncode == EXIT_INTERRUPTED, err
+    # 130, or ended by the SIGINT itself once its one line is out (about 1 run in 10 of the
+    # loading case; the shell reports both as 130, and the rest below is checked alike)
+    assert proc.returncode in (EXIT_INTERRUPTED, -signal.SIGINT), err
     assert "Traceback" not in err and len(err.strip().splitlines()) <= 1, err
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline and any(alive(p, s) for p, s in below.items()):

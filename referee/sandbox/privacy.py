@@ -10,6 +10,7 @@ import ctypes
 import functools
 import os
 import shutil
+import signal
 import stat
 import sys
 from pathlib import Path
@@ -68,16 +69,23 @@ def cannot_drop() -> bool:
     import pwd
 
     user = pwd.getpwnam(UNPRIVILEGED_USER)
-    pid = os.fork()
-    if pid == 0:  # the child only tries, and ends at once
-        try:
-            os.setgroups([])
-            os.setgid(user.pw_gid)
-            os.setuid(user.pw_uid)
-        except OSError:
-            os._exit(1)
-        os._exit(0)
-    return os.waitpid(pid, 0)[1] != 0
+    # Ctrl-C and SIGTERM wait until the child has been reaped: delivered during the fork, the
+    # parent's handler would run inside an at-fork hook (which swallows its exception), and the
+    # child, a copy of the referee in the same process group, would run on as a second one
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        pid = os.fork()
+        if pid == 0:  # the child only tries, and ends at once
+            try:
+                os.setgroups([])
+                os.setgid(user.pw_gid)
+                os.setuid(user.pw_uid)
+            except OSError:
+                os._exit(1)
+            os._exit(0)
+        return os.waitpid(pid, 0)[1] != 0
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def check_readable_by_others(*paths: str) -> None:
