@@ -60,6 +60,7 @@ def isolation_unavailable() -> str | None:
     return "Windows has no select() on pipes" if sys.platform == "win32" else None
 
 
+ENDING_TIME = 0.5  # seconds a controller whose output has ended may take to exit before it is killed
 MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
 
 
@@ -261,9 +262,10 @@ class ProcessBot:
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
+        elif what == "crash" and (code := self._ended()) is None:  # its output ended, not the process
+            kind = "protocol" if self.loaded else "load"
+            message = f"in {where}: closed its output and did not exit"
         elif what == "crash" and not self.loaded:
-            self._process().wait()
-            code = self._status()
             kind = "load"
             message = (
                 f"team {self.team.label}: "
@@ -271,8 +273,6 @@ class ProcessBot:
                 + " while its code was loading"
             )
         elif what == "crash":
-            self._process().wait()
-            code = self._status()
             if code == -signal.SIGXFSZ:
                 kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
             else:
@@ -308,6 +308,15 @@ class ProcessBot:
         if self.folder is not None:
             text = text.replace(self.folder.name + os.sep, "")
         return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
+
+    def _ended(self) -> int | None:
+        """The status (`_status`) of a controller whose output has ended, or None if it still
+        runs ENDING_TIME later: it closed its channel and lives on (`close` then kills it)."""
+        try:
+            self._process().wait(timeout=ENDING_TIME)
+        except subprocess.TimeoutExpired:
+            return None
+        return self._status()
 
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
@@ -418,6 +427,8 @@ class ProcessBot:
                 self.close()
                 return Fault(obs.tick, obs.time, "bad_command", problem)
             return cmd
+        if isinstance(reply, dict) and reply["type"] == "command":  # answered twice, or ahead
+            self.problem = f"an answer for tick {reply.get('tick')} when tick {obs.tick} was asked"
         if isinstance(reply, dict) and reply["type"] != "fault":
             reply = "protocol"
         return self._fault(obs.tick, obs.time, reply, "step")
