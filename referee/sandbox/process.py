@@ -12,6 +12,7 @@ than the step's time allowance; whatever goes wrong becomes a typed `Fault`.
 from __future__ import annotations
 
 import functools
+import io
 import os
 import select
 import signal
@@ -208,12 +209,32 @@ class ProcessBot:
             raise RuntimeError("the controller process has no pipes")
         return stdin, stdout
 
-    def _send(self, msg: dict) -> bool:
+    def _send(self, msg: dict, timeout: float) -> str | None:
+        """Send one message within `timeout` seconds (`_write`)."""
+        frame = io.BytesIO()
+        protocol.write(frame, msg)
+        return self._write(frame.getbuffer(), timeout)
+
+    def _write(self, data: bytes | bytearray | memoryview, timeout: float) -> str | None:
+        """Write `data` to the controller's input within `timeout` seconds (inf: no bound),
+        never blocking beyond it: None once written, else a fault kind, `crash` (its input is
+        closed: it ended) or `timeout` (it leaves its input unread and the pipe stays full)."""
+        fd = self._pipes()[0].fileno()
+        view, deadline = memoryview(data), time.monotonic() + timeout
         try:
-            protocol.write(self._pipes()[0], msg)
-            return True
-        except (BrokenPipeError, OSError):
-            return False
+            os.set_blocking(fd, False)
+            while view:
+                try:
+                    view = view[os.write(fd, view) :]
+                    continue
+                except BlockingIOError:
+                    pass
+                left = deadline - time.monotonic()
+                if left <= 0 or not select.select([], [fd], [], None if left == float("inf") else left)[1]:
+                    return "timeout"
+        except OSError:
+            return "crash"
+        return None
 
     def _frame(self) -> dict | str | None:
         """The next whole message already read, `protocol` for a malformed one, None if none yet."""
@@ -340,10 +361,11 @@ class ProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         self.launch()
-        if not self._send({"type": "setup", "brief": protocol.to_plain(brief)}):
-            return self._fault(0, 0.0, "crash", "setup")
         deadline = time.monotonic() + self.limits.setup_time
-        reply = self._receive(self.limits.setup_time)
+        unsent = self._send({"type": "setup", "brief": protocol.to_plain(brief)}, self.limits.setup_time)
+        if unsent:
+            return self._fault(0, 0.0, unsent, "setup")
+        reply = self._receive(deadline - time.monotonic())
         if isinstance(reply, dict) and reply["type"] == "loaded":
             self.loaded = True
             problem = protocol.api_problem(reply["api"])
@@ -391,11 +413,12 @@ class ProcessBot:
             fault = self._drain(obs)
             if fault:
                 return fault
-        try:
-            self._pipes()[0].write(protocol.step_frame(obs, self.frame))
-            self._pipes()[0].flush()
-        except OSError:
-            return self._fault(obs.tick, obs.time, "crash", "step")
+        unsent = self._write(protocol.step_frame(obs, self.frame), self.limits.step_deadline)
+        if unsent == "timeout":  # its input still full of observations: it answers without reading them
+            self.problem = "it does not read its observations"
+            return self._fault(obs.tick, obs.time, "protocol", "step")
+        if unsent:
+            return self._fault(obs.tick, obs.time, unsent, "step")
         self.sent = time.monotonic()
         return None
 
@@ -439,7 +462,7 @@ class ProcessBot:
         if self.proc is None:
             return
         if self.proc.poll() is None:
-            self._send({"type": "stop"})
+            self._send({"type": "stop"}, 0.0)  # no wait: an input left full is no reason to stay
             try:
                 self.proc.wait(timeout=0.5)
             except subprocess.TimeoutExpired:
