@@ -28,16 +28,20 @@ from referee.sandbox.teams import resolve
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the template serves a root referee only")
 
-# the controller's protocol output: the runner's private copy of its stdout, a pipe open for writing
+# the controller's protocol channel: the runner's private copies of its stdin and stdout (pipes)
 PROTOCOL_OUT = """
 import fcntl
-def protocol_out():
+def protocol_end(mode):
     for fd in range(3, 64):
         try:
-            if fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE == os.O_WRONLY and os.readlink(f"/proc/self/fd/{fd}").startswith("pipe:"):
+            if fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE == mode and os.readlink(f"/proc/self/fd/{fd}").startswith("pipe:"):
                 return fd
         except OSError:
             pass
+def protocol_out():
+    return protocol_end(os.O_WRONLY)
+def protocol_in():
+    return protocol_end(os.O_RDONLY)
 """
 
 
@@ -415,3 +419,30 @@ class Hoarder(Controller):
 """,
     )
     assert_contained(result)
+
+
+def test_answering_ahead_without_reading_does_not_block_the_referee(tmp_path):
+    # from tick 3 a thread answers every tick to come while nothing reads the observations:
+    # the referee's writes fill the controller's input pipe; a blocking write would hold the
+    # match (and every other slot) until the controller chose to read
+    result = hostile_match(
+        tmp_path,
+        PROTOCOL_OUT
+        + """
+import threading
+import robots.protocol as protocol
+def answer_ahead(out):
+    for tick in range(3, 100_000):
+        protocol.write(out, {"type": "command", "tick": tick, "command": protocol.to_plain(Command(0.05, 0.05))})
+class Deaf(Controller):
+    def step(self, obs):
+        if obs.tick == 3:
+            fcntl.fcntl(protocol_in(), 1031, 4096)  # F_SETPIPE_SZ: one page, full at once
+            out = os.fdopen(os.dup(protocol_out()), "wb")
+            threading.Thread(target=answer_ahead, args=(out,), daemon=True).start()
+            time.sleep(30)
+        return Command(0.05, 0.05)
+""",
+    )
+    bad = assert_contained(result, kind="protocol", words="does not read its observations")
+    assert_template_idle()
