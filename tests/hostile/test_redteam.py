@@ -446,3 +446,61 @@ class Deaf(Controller):
     )
     bad = assert_contained(result, kind="protocol", words="does not read its observations")
     assert_template_idle()
+
+
+def test_a_fork_bomb_in_one_match_leaves_a_match_in_another_thread_alone(tmp_path):
+    # two matches at once in two threads of one referee process (a Dask worker with several
+    # threads does this): slot 0 of one holds every process its uid may have; slot 0 of the
+    # other still starts a thread
+    import threading
+
+    bomb = team_file(
+        tmp_path,
+        """
+class Bomb(Controller):
+    def setup(self, brief):
+        try:
+            while True:
+                if os.fork() == 0:
+                    time.sleep(600)
+                    os._exit(0)
+        except OSError:
+            pass
+        open("/dev/null", "w").write("")
+    def step(self, obs):
+        return Command(0.0, 0.0)
+""",
+        "bomb.py",
+    )
+    probe = team_file(
+        tmp_path,
+        """
+import threading
+class Probe(Controller):
+    def step(self, obs):
+        try:
+            t = threading.Thread(target=lambda: None)
+            t.start()
+            t.join()
+        except RuntimeError as e:
+            raise RuntimeError(f"LEAK: no thread at tick {obs.tick}")
+        if obs.tick == 25:
+            raise RuntimeError("contained: started a thread every tick")
+        return Command(0.0, 0.0)
+""",
+        "probe.py",
+    )
+    results: dict[str, dict] = {}
+    started = threading.Barrier(2)
+
+    def play(name: str, first: str, seconds: float) -> None:
+        started.wait(timeout=30)
+        results[name] = run_match(short_race(seconds), [resolve(first)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+
+    threads = [threading.Thread(target=play, args=("bomb", bomb, 6.0)), threading.Thread(target=play, args=("probe", probe, 6.0))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    assert results["bomb"]["robots"][0]["faults"] == []
+    assert [f["message"] for f in results["probe"]["robots"][0]["faults"]] == ["in step: RuntimeError: contained: started a thread every tick"]
