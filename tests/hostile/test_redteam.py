@@ -595,3 +595,34 @@ class Hider(Controller):
     )
     assert_contained(result)
     assert_template_idle()
+
+
+def test_no_core_dump_and_no_real_time_priority(tmp_path):
+    # a core dump goes where the host's core_pattern says (a pipe to the host's handler on many
+    # systems: its disk); a real-time priority would let a busy loop starve everyone else
+    result = hostile_match(
+        tmp_path,
+        """
+import resource
+class Greedy(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        got = []
+        for name in ("RLIMIT_CORE", "RLIMIT_RTPRIO"):
+            limit = getattr(resource, name)
+            try:
+                resource.setrlimit(limit, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+                got.append(name)
+            except (ValueError, OSError):
+                if resource.getrlimit(limit)[1] != 0:
+                    got.append(name)
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+            got.append("SCHED_FIFO")
+        except OSError:
+            pass
+        raise RuntimeError(("contained: " if not got else "LEAK: ") + repr(got))
+""",
+    )
+    assert_contained(result)
