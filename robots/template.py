@@ -56,9 +56,6 @@ PR_SET_PDEATHSIG, PR_SET_DUMPABLE, PR_CAPBSET_DROP = 1, 4, 24
 PR_SET_NO_NEW_PRIVS, PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL = 38, 47, 4
 CAP_VERSION_3 = 0x20080522
 PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them in a new /proc
-# no core dump (the host's core_pattern may hand it to a handler writing to the host's disk),
-# no real-time priority (a busy loop would starve the referee and the other slots)
-HOST_LIMITS = (resource.RLIMIT_CORE, resource.RLIMIT_RTPRIO)
 PTYS = 16  # pseudo-terminals a slot may hold at once: the kernel's pool for every devpts but the host's is shared
 # the key management calls and the architecture they are numbered for (seccomp's AUDIT_ARCH_*)
 KEY_SYSCALLS = {"x86_64": (0xC000003E, (248, 249, 250)), "aarch64": (0xC00000B7, (217, 218, 219))}
@@ -201,8 +198,6 @@ def _controller(config: dict[str, Any], stdio: list[int]) -> None:
             os.dup2(fd, target)
         os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
         _drop_privileges(int(config["uid"]))
-        for limit in HOST_LIMITS:  # whatever the referee's limits allow, these stay closed
-            resource.setrlimit(limit, (0, 0))
         _no_keyrings()
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
