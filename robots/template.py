@@ -21,13 +21,11 @@ docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-tem
 from __future__ import annotations
 
 import ctypes
-import errno
 import gc
 import importlib.abc
 import importlib.machinery
 import json
 import os
-import platform
 import resource
 import select
 import signal
@@ -38,6 +36,7 @@ from types import ModuleType
 from typing import Any
 
 import robots.runner
+from robots import keyless
 from robots.controllers import REFERENCE
 
 REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
@@ -57,11 +56,6 @@ PR_SET_NO_NEW_PRIVS, PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL = 38, 47, 4
 CAP_VERSION_3 = 0x20080522
 PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them in a new /proc
 PTYS = 16  # pseudo-terminals a slot may hold at once: the kernel's pool for every devpts but the host's is shared
-# the key management calls and the architecture they are numbered for (seccomp's AUDIT_ARCH_*)
-KEY_SYSCALLS = {"x86_64": (0xC000003E, (248, 249, 250)), "aarch64": (0xC00000B7, (217, 218, 219))}
-PR_SET_SECCOMP, SECCOMP_MODE_FILTER, SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO = 22, 2, 0x7FFF0000, 0x00050000
-BPF_LD_ABS_W, BPF_JEQ, BPF_JGE, BPF_RET = 0x20, 0x15, 0x35, 0x06
-X32_SYSCALL_BIT = 0x40000000
 
 _libc = ctypes.CDLL(None, use_errno=True)
 
@@ -150,39 +144,6 @@ def _drop_privileges(uid: int) -> None:
     _prctl(PR_SET_DUMPABLE, 1)  # as after an exec: its own processes may inspect each other
 
 
-class _SockFilter(ctypes.Structure):
-    _fields_ = [("code", ctypes.c_ushort), ("jt", ctypes.c_ubyte), ("jf", ctypes.c_ubyte), ("k", ctypes.c_uint32)]
-
-
-class _SockFprog(ctypes.Structure):
-    _fields_ = [("len", ctypes.c_ushort), ("filter", ctypes.POINTER(_SockFilter))]
-
-
-def _no_keyrings() -> None:
-    """A seccomp filter under which add_key, request_key and keyctl fail with ENOSYS (as do
-    the calls of any other architecture's numbering): a uid's keyrings outlive its processes,
-    so a key left there would reach the next controller given that uid, or fill its quota."""
-    known = KEY_SYSCALLS.get(platform.machine())
-    if known is None:
-        return  # an architecture whose numbers we do not know: its slots keep the keyrings
-    arch, calls = known
-    deny = 5 + len(calls)  # the index of the denying RET below
-    program = [
-        (BPF_LD_ABS_W, 0, 0, 4),  # seccomp_data.arch
-        (BPF_JEQ, 0, deny - 2, arch),
-        (BPF_LD_ABS_W, 0, 0, 0),  # seccomp_data.nr
-        (BPF_JGE, deny - 4, 0, X32_SYSCALL_BIT),
-        *((BPF_JEQ, deny - 5 - i, 0, nr) for i, nr in enumerate(calls)),
-        (BPF_RET, 0, 0, SECCOMP_RET_ALLOW),
-        (BPF_RET, 0, 0, SECCOMP_RET_ERRNO | errno.ENOSYS),  # as on a kernel built without keys
-    ]
-    filters = (_SockFilter * len(program))(*(_SockFilter(*op) for op in program))
-    prog = _SockFprog(len(program), filters)
-    _check(
-        _libc.prctl(PR_SET_SECCOMP, ctypes.c_ulong(SECCOMP_MODE_FILTER), ctypes.byref(prog), 0, 0), "seccomp filter"
-    )
-
-
 def _controller(config: dict[str, Any], stdio: list[int]) -> None:
     """The slot's init: its /proc, its descriptors, its uid, then the runner. Never returns."""
     code = 1
@@ -198,7 +159,7 @@ def _controller(config: dict[str, Any], stdio: list[int]) -> None:
             os.dup2(fd, target)
         os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
         _drop_privileges(int(config["uid"]))
-        _no_keyrings()
+        keyless.install()
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)

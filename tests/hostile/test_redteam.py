@@ -5,9 +5,11 @@ attack and checks it was contained: the others unharmed, a typed fault, nothing 
 (the fixture), and the template holding no monitor once the match is over."""
 
 import dataclasses
+import errno
 import hashlib
 import os
 import secrets
+import subprocess
 import time
 from pathlib import Path
 
@@ -23,7 +25,7 @@ from hostile.hostile_kit import (
     team_file,
 )
 from referee.match.loop import run_match
-from referee.sandbox import forkserver
+from referee.sandbox import forkserver, kernel
 from referee.sandbox.privacy import slot_uid
 from referee.sandbox.teams import resolve
 
@@ -626,3 +628,22 @@ class Greedy(Controller):
 """,
     )
     assert_contained(result)
+
+
+def test_a_spawned_sandbox_is_closed_to_the_keyrings_too():
+    # where the template cannot serve, a root referee spawns a bwrap sandbox per controller
+    # instead: the same filter comes with it
+    adder = (
+        "import ctypes, platform; libc = ctypes.CDLL(None, use_errno=True); "
+        "nr = {'x86_64': 248, 'aarch64': 217}[platform.machine()]; "
+        "print(libc.syscall(nr, b'user', b'left', b'secret', 6, -4), ctypes.get_errno())"
+    )
+    launch = kernel.launch([kernel.PYTHON, "-c", adder], (), kernel.SANDBOX_ENV, slot_uid(7))
+    try:
+        done = subprocess.run(launch.argv, pass_fds=launch.pass_fds, capture_output=True, text=True, timeout=60)
+    finally:
+        for fd in (*launch.pass_fds, launch.info):
+            os.close(fd)
+    assert done.stdout.split() == ["-1", str(errno.ENOSYS)], done.stderr
+    owners = {int(line.split(":")[0]) for line in Path("/proc/key-users").read_text().splitlines()}
+    assert slot_uid(7) not in owners
