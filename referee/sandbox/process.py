@@ -283,26 +283,8 @@ class ProcessBot:
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
-        elif what == "crash" and (code := self._ended()) is None:  # its output ended, not the process
-            kind = "protocol" if self.loaded else "load"
-            message = f"in {where}: closed its output and did not exit"
-        elif what == "crash" and not self.loaded:
-            kind = "load"
-            message = (
-                f"team {self.team.label}: "
-                + (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}")
-                + " while its code was loading"
-            )
         elif what == "crash":
-            if code == -signal.SIGXFSZ:
-                kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
-            else:
-                kind = "crash"
-                message = (
-                    f"in {where}: killed by {signal.Signals(-code).name}"
-                    if code < 0
-                    else f"in {where}: exited with code {code}"
-                )
+            kind, message = self._crash(where)
         elif what == "timeout":
             kind = "timeout"
             message = (
@@ -329,6 +311,18 @@ class ProcessBot:
         if self.folder is not None:
             text = text.replace(self.folder.name + os.sep, "")
         return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
+
+    def _crash(self, where: str) -> tuple[str, str]:
+        """The fault kind and message once the controller's output has ended."""
+        code = self._ended()
+        if code is None:
+            return ("protocol" if self.loaded else "load"), f"in {where}: closed its output and did not exit"
+        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}"
+        if not self.loaded:
+            return "load", f"team {self.team.label}: {how} while its code was loading"
+        if code == -signal.SIGXFSZ:
+            return "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
+        return "crash", f"in {where}: {how}"
 
     def _ended(self) -> int | None:
         """The status (`_status`) of a controller whose output has ended, or None if it still

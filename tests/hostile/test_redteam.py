@@ -238,7 +238,9 @@ class Reader(Controller):
         short_race(), [resolve(writer), resolve(reader), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
     )
     assert result["robots"][0]["faults"] == []
-    assert [f["message"] for f in result["robots"][1]["faults"]] == ["in step: RuntimeError: contained: reached nothing"]
+    assert [f["message"] for f in result["robots"][1]["faults"]] == [
+        "in step: RuntimeError: contained: reached nothing"
+    ]
     assert_template_idle()
 
 
@@ -469,7 +471,7 @@ class Deaf(Controller):
         return Command(0.05, 0.05)
 """,
     )
-    bad = assert_contained(result, kind="protocol", words="does not read its observations")
+    assert_contained(result, kind="protocol", words="does not read its observations")
     assert_template_idle()
 
 
@@ -522,13 +524,18 @@ class Probe(Controller):
         started.wait(timeout=30)
         results[name] = run_match(short_race(seconds), [resolve(first)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
 
-    threads = [threading.Thread(target=play, args=("bomb", bomb, 6.0)), threading.Thread(target=play, args=("probe", probe, 6.0))]
+    threads = [
+        threading.Thread(target=play, args=("bomb", bomb, 6.0)),
+        threading.Thread(target=play, args=("probe", probe, 6.0)),
+    ]
     for t in threads:
         t.start()
     for t in threads:
         t.join(timeout=120)
     assert results["bomb"]["robots"][0]["faults"] == []
-    assert [f["message"] for f in results["probe"]["robots"][0]["faults"]] == ["in step: RuntimeError: contained: started a thread every tick"]
+    assert [f["message"] for f in results["probe"]["robots"][0]["faults"]] == [
+        "in step: RuntimeError: contained: started a thread every tick"
+    ]
 
 
 @pytest.mark.xfail(
