@@ -36,7 +36,7 @@ from types import ModuleType
 from typing import Any
 
 import robots.runner
-from robots import keyless
+from robots import seccomp
 from robots.controllers import REFERENCE
 
 REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
@@ -159,7 +159,7 @@ def _controller(config: dict[str, Any], stdio: list[int]) -> None:
             os.dup2(fd, target)
         os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
         _drop_privileges(int(config["uid"]))
-        keyless.install()
+        seccomp.install()
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)

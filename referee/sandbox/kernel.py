@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import robots
-import robots.keyless
+import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
 
 TEAM_DIR = "/team"  # the slot's code, read-only
@@ -173,21 +173,21 @@ def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[in
 
 
 def _sandbox(
-    files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool, keyless: bool = False
+    files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool, filtered: bool = False
 ) -> Launch:
     """bwrap's arguments up to `--`: the namespaces, the system view, `files` at TEAM_DIR, a
     private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`;
-    `keyless`: under robots/keyless.py's seccomp filter (no kernel keyrings)."""
+    `filtered`: under robots/seccomp.py's filter."""
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
-    code = robots.keyless.program() if keyless else None
+    code = robots.seccomp.program() if filtered else None
     if code is not None:
-        seccomp = os.memfd_create("seccomp", 0)
-        os.write(seccomp, code)
-        os.lseek(seccomp, 0, os.SEEK_SET)
-        fds.append(seccomp)
-        team += ["--seccomp", str(seccomp)]
+        rules = os.memfd_create("seccomp", 0)
+        os.write(rules, code)
+        os.lseek(rules, 0, os.SEEK_SET)
+        fds.append(rules)
+        team += ["--seccomp", str(rules)]
     args = (
         _namespaces(own_user_namespace)
         + ["--info-fd", str(info_w)]
@@ -227,7 +227,7 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
     `uid`: the host uid to run as (a root referee that can switch users), else None (a user
     namespace of its own, as the caller's user).
     The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
-    box = _sandbox(files, env, uid is None, keyless=True)
+    box = _sandbox(files, env, uid is None, filtered=True)
     args = box.argv
     if uid is not None:  # root: leave every privilege behind before the interpreter starts
         args += [

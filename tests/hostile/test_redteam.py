@@ -654,3 +654,43 @@ def test_a_spawned_sandbox_is_closed_to_the_keyrings_too():
     assert done.stdout.split() == ["-1", str(errno.ENOSYS)], done.stderr
     owners = {int(line.split(":")[0]) for line in Path("/proc/key-users").read_text().splitlines()}
     assert slot_uid(7) not in owners
+
+
+def test_its_log_cannot_take_more_disk_than_the_output_limit(tmp_path):
+    # its stderr is the referee's file for its log, open for writing: the file-size limit stops
+    # writes past `log_kb`, but fallocate(KEEP_SIZE) reserves blocks without growing the size
+    result = hostile_match(
+        tmp_path,
+        """
+import ctypes
+class Filler(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.fallocate.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.c_long, ctypes.c_long]
+        libc.fallocate(2, 1, 0, 64 << 20)  # FALLOC_FL_KEEP_SIZE
+        held = os.fstat(2).st_blocks * 512
+        raise RuntimeError(("contained: " if held <= 1 << 20 else "LEAK: ") + f"{held >> 20} MiB of disk")
+""",
+    )
+    assert_contained(result)
+
+
+def test_posix_fallocate_still_works_within_the_limit(tmp_path):
+    # what an honest controller may call: the C library writes zeros when the kernel says
+    # EOPNOTSUPP; the space is reserved in its private /tmp, within the file-size limit
+    result = hostile_match(
+        tmp_path,
+        """
+class Reserver(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        with open("/tmp/reserved", "wb") as f:
+            os.posix_fallocate(f.fileno(), 0, 1 << 16)
+            size = os.fstat(f.fileno()).st_size
+        raise RuntimeError(f"contained: reserved {size} bytes")
+""",
+    )
+    assert_contained(result, words=f"contained: reserved {1 << 16} bytes")
