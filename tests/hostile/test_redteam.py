@@ -694,3 +694,45 @@ class Reserver(Controller):
 """,
     )
     assert_contained(result, words=f"contained: reserved {1 << 16} bytes")
+
+
+def test_inotify_quota_is_each_slots_own(tmp_path):
+    # the kernel counts inotify instances per uid: one slot that takes all
+    # of its own leaves another slot's untouched
+    taker = team_file(
+        tmp_path,
+        """
+import ctypes, resource
+class Taker(Controller):
+    def setup(self, brief):
+        libc = ctypes.CDLL(None, use_errno=True)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (resource.getrlimit(resource.RLIMIT_NOFILE)[1],) * 2)
+        self.held = []
+        while len(self.held) < 100_000 and (fd := libc.inotify_init1(0)) >= 0:
+            self.held.append(fd)
+        assert len(self.held) < 100_000
+    def step(self, obs):
+        return Command(0.0, 0.0)
+""",
+        "taker.py",
+    )
+    prober = team_file(
+        tmp_path,
+        """
+import ctypes
+class Prober(Controller):
+    def step(self, obs):
+        if obs.tick < 4:
+            return Command(0.0, 0.0)
+        fd = ctypes.CDLL(None, use_errno=True).inotify_init1(0)
+        raise RuntimeError("contained: an inotify of its own" if fd >= 0 else f"LEAK: errno {ctypes.get_errno()}")
+""",
+        "prober.py",
+    )
+    result = run_match(
+        short_race(), [resolve(taker), resolve(prober), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
+    )
+    assert result["robots"][0]["faults"] == []
+    assert [f["message"] for f in result["robots"][1]["faults"]] == [
+        "in step: RuntimeError: contained: an inotify of its own"
+    ]
