@@ -12,7 +12,7 @@ namespaces, mounts its private /tmp, /dev/shm and /dev/pts, copies its team's fi
 memfd) to a read-only /team, makes every other mount read-only, and forks the controller:
 the init of the new PID namespace. That process mounts its own /proc, takes its pipes as fds
 0-2 and closes every other descriptor, leaves root for the slot's uid with no capabilities
-and no-new-privs, and runs `robots.runner.main`, which sets the limits before team code loads.
+and no-new-privs, puts itself under robots/seccomp.py's filter, and runs `robots.runner.main`, which sets the limits before team code loads.
 The monitor waits for it, kills it on the referee's word or when the referee's end of the
 socket closes, and sends its exit status back (bwrap's convention: the code, or 128 + signal).
 docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md say why.
