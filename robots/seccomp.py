@@ -10,7 +10,7 @@
 Every call made through another architecture's numbering (a 32-bit entry into the kernel,
 x32), which the filter cannot read, fails with ENOSYS. The template installs the filter in each
 forked controller; a spawned sandbox gets the same program through bwrap's `--seccomp`
-(referee/sandbox/kernel.py). docs/decisions/r0023-seccomp-filter-not-an-allowlist.md says why
+(referee/sandbox/kernel.py). docs/decisions/0024-seccomp-filter-not-an-allowlist.md says why
 no more.
 """
 
