@@ -111,6 +111,11 @@ def main(argv: list[str] | None = None) -> int:
         help="processes and threads of this user at once (0: no limit; only for a uid of its own)",
     )
     args = ap.parse_args(argv)
+    # whatever the referee's own limits allow: no core dump (the host's core_pattern may hand it
+    # to a handler writing to the host's disk), no real-time priority (a busy loop would starve
+    # the referee and the other controllers)
+    _limit("RLIMIT_CORE", 0, "core dump")
+    _limit("RLIMIT_RTPRIO", 0, "real-time priority")
     if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
         _limit("RLIMIT_NPROC", args.max_procs, "process count")
     if args.memory:

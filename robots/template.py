@@ -12,7 +12,7 @@ namespaces, mounts its private /tmp, /dev/shm and /dev/pts, copies its team's fi
 memfd) to a read-only /team, makes every other mount read-only, and forks the controller:
 the init of the new PID namespace. That process mounts its own /proc, takes its pipes as fds
 0-2 and closes every other descriptor, leaves root for the slot's uid with no capabilities
-and no-new-privs, and runs `robots.runner.main`, which sets the limits before team code loads.
+and no-new-privs, puts itself under robots/seccomp.py's filter, and runs `robots.runner.main`, which sets the limits before team code loads.
 The monitor waits for it, kills it on the referee's word or when the referee's end of the
 socket closes, and sends its exit status back (bwrap's convention: the code, or 128 + signal).
 docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md say why.
@@ -36,6 +36,7 @@ from types import ModuleType
 from typing import Any
 
 import robots.runner
+from robots import seccomp
 from robots.controllers import REFERENCE
 
 REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
@@ -54,14 +55,15 @@ PR_SET_PDEATHSIG, PR_SET_DUMPABLE, PR_CAPBSET_DROP = 1, 4, 24
 PR_SET_NO_NEW_PRIVS, PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL = 38, 47, 4
 CAP_VERSION_3 = 0x20080522
 PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them in a new /proc
+PTYS = 16  # pseudo-terminals a slot may hold at once: the kernel's pool for every devpts but the host's is shared
 
 _libc = ctypes.CDLL(None, use_errno=True)
 
 
 def _check(result: int, what: str) -> None:
     if result != 0:
-        errno = ctypes.get_errno()
-        raise OSError(errno, f"{what}: {os.strerror(errno)}")
+        code = ctypes.get_errno()
+        raise OSError(code, f"{what}: {os.strerror(code)}")
 
 
 def _mount(source: str | None, target: str, fstype: str | None, flags: int, data: str | None = None) -> None:
@@ -157,6 +159,7 @@ def _controller(config: dict[str, Any], stdio: list[int]) -> None:
             os.dup2(fd, target)
         os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
         _drop_privileges(int(config["uid"]))
+        seccomp.install()
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)
@@ -195,7 +198,7 @@ def _monitor(slot: socket.socket) -> None:
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
         _tmpfs("/tmp")
         _tmpfs("/dev/shm")
-        _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, "newinstance,ptmxmode=0666,mode=620")
+        _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, f"newinstance,ptmxmode=0666,mode=620,max={PTYS}")
         _team(bundle, [(rel, int(size)) for rel, size in config["files"]])
         os.close(bundle)
         _read_only_everywhere(("/tmp", "/dev/shm", "/dev/pts"))

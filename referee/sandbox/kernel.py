@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import robots
+import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
 
 TEAM_DIR = "/team"  # the slot's code, read-only
@@ -171,12 +172,22 @@ def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[in
     return args, fds
 
 
-def _sandbox(files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool) -> Launch:
+def _sandbox(
+    files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool, filtered: bool = False
+) -> Launch:
     """bwrap's arguments up to `--`: the namespaces, the system view, `files` at TEAM_DIR, a
-    private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`."""
+    private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`;
+    `filtered`: under robots/seccomp.py's filter."""
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
+    code = robots.seccomp.program() if filtered else None
+    if code is not None:
+        rules = os.memfd_create("seccomp", 0)
+        os.write(rules, code)
+        os.lseek(rules, 0, os.SEEK_SET)
+        fds.append(rules)
+        team += ["--seccomp", str(rules)]
     args = (
         _namespaces(own_user_namespace)
         + ["--info-fd", str(info_w)]
@@ -216,7 +227,7 @@ def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[st
     `uid`: the host uid to run as (a root referee that can switch users), else None (a user
     namespace of its own, as the caller's user).
     The caller must close `pass_fds` once the process has started, and `info` (`init_pid`)."""
-    box = _sandbox(files, env, uid is None)
+    box = _sandbox(files, env, uid is None, filtered=True)
     args = box.argv
     if uid is not None:  # root: leave every privilege behind before the interpreter starts
         args += [

@@ -12,6 +12,7 @@ than the step's time allowance; whatever goes wrong becomes a typed `Fault`.
 from __future__ import annotations
 
 import functools
+import io
 import os
 import select
 import signal
@@ -60,6 +61,7 @@ def isolation_unavailable() -> str | None:
     return "Windows has no select() on pipes" if sys.platform == "win32" else None
 
 
+ENDING_TIME = 0.5  # seconds a controller whose output has ended may take to exit before it is killed
 MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
 
 
@@ -207,12 +209,32 @@ class ProcessBot:
             raise RuntimeError("the controller process has no pipes")
         return stdin, stdout
 
-    def _send(self, msg: dict) -> bool:
+    def _send(self, msg: dict, timeout: float) -> str | None:
+        """Send one message within `timeout` seconds (`_write`)."""
+        frame = io.BytesIO()
+        protocol.write(frame, msg)
+        return self._write(frame.getbuffer(), timeout)
+
+    def _write(self, data: bytes | bytearray | memoryview, timeout: float) -> str | None:
+        """Write `data` to the controller's input within `timeout` seconds (inf: no bound),
+        never blocking beyond it: None once written, else a fault kind, `crash` (its input is
+        closed: it ended) or `timeout` (it leaves its input unread and the pipe stays full)."""
+        fd = self._pipes()[0].fileno()
+        view, deadline = memoryview(data), time.monotonic() + timeout
         try:
-            protocol.write(self._pipes()[0], msg)
-            return True
-        except (BrokenPipeError, OSError):
-            return False
+            os.set_blocking(fd, False)
+            while view:
+                try:
+                    view = view[os.write(fd, view) :]
+                    continue
+                except BlockingIOError:
+                    pass
+                left = deadline - time.monotonic()
+                if left <= 0 or not select.select([], [fd], [], None if left == float("inf") else left)[1]:
+                    return "timeout"
+        except OSError:
+            return "crash"
+        return None
 
     def _frame(self) -> dict | str | None:
         """The next whole message already read, `protocol` for a malformed one, None if none yet."""
@@ -261,27 +283,8 @@ class ProcessBot:
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
-        elif what == "crash" and not self.loaded:
-            self._process().wait()
-            code = self._status()
-            kind = "load"
-            message = (
-                f"team {self.team.label}: "
-                + (f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}")
-                + " while its code was loading"
-            )
         elif what == "crash":
-            self._process().wait()
-            code = self._status()
-            if code == -signal.SIGXFSZ:
-                kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
-            else:
-                kind = "crash"
-                message = (
-                    f"in {where}: killed by {signal.Signals(-code).name}"
-                    if code < 0
-                    else f"in {where}: exited with code {code}"
-                )
+            kind, message = self._crash(where)
         elif what == "timeout":
             kind = "timeout"
             message = (
@@ -309,6 +312,27 @@ class ProcessBot:
             text = text.replace(self.folder.name + os.sep, "")
         return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
 
+    def _crash(self, where: str) -> tuple[str, str]:
+        """The fault kind and message once the controller's output has ended."""
+        code = self._ended()
+        if code is None:
+            return ("protocol" if self.loaded else "load"), f"in {where}: closed its output and did not exit"
+        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}"
+        if not self.loaded:
+            return "load", f"team {self.team.label}: {how} while its code was loading"
+        if code == -signal.SIGXFSZ:
+            return "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
+        return "crash", f"in {where}: {how}"
+
+    def _ended(self) -> int | None:
+        """The status (`_status`) of a controller whose output has ended, or None if it still
+        runs ENDING_TIME later: it closed its channel and lives on (`close` then kills it)."""
+        try:
+            self._process().wait(timeout=ENDING_TIME)
+        except subprocess.TimeoutExpired:
+            return None
+        return self._status()
+
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
         passes a signal on as 128 + its number, and the runner ends so on an output flood."""
@@ -331,10 +355,11 @@ class ProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         self.launch()
-        if not self._send({"type": "setup", "brief": protocol.to_plain(brief)}):
-            return self._fault(0, 0.0, "crash", "setup")
         deadline = time.monotonic() + self.limits.setup_time
-        reply = self._receive(self.limits.setup_time)
+        unsent = self._send({"type": "setup", "brief": protocol.to_plain(brief)}, self.limits.setup_time)
+        if unsent:
+            return self._fault(0, 0.0, unsent, "setup")
+        reply = self._receive(deadline - time.monotonic())
         if isinstance(reply, dict) and reply["type"] == "loaded":
             self.loaded = True
             problem = protocol.api_problem(reply["api"])
@@ -382,11 +407,12 @@ class ProcessBot:
             fault = self._drain(obs)
             if fault:
                 return fault
-        try:
-            self._pipes()[0].write(protocol.step_frame(obs, self.frame))
-            self._pipes()[0].flush()
-        except OSError:
-            return self._fault(obs.tick, obs.time, "crash", "step")
+        unsent = self._write(protocol.step_frame(obs, self.frame), self.limits.step_deadline)
+        if unsent == "timeout":  # its input still full of observations: it answers without reading them
+            self.problem = "it does not read its observations"
+            return self._fault(obs.tick, obs.time, "protocol", "step")
+        if unsent:
+            return self._fault(obs.tick, obs.time, unsent, "step")
         self.sent = time.monotonic()
         return None
 
@@ -418,6 +444,8 @@ class ProcessBot:
                 self.close()
                 return Fault(obs.tick, obs.time, "bad_command", problem)
             return cmd
+        if isinstance(reply, dict) and reply["type"] == "command":  # answered twice, or ahead
+            self.problem = f"an answer for tick {reply.get('tick')} when tick {obs.tick} was asked"
         if isinstance(reply, dict) and reply["type"] != "fault":
             reply = "protocol"
         return self._fault(obs.tick, obs.time, reply, "step")
@@ -428,7 +456,7 @@ class ProcessBot:
         if self.proc is None:
             return
         if self.proc.poll() is None:
-            self._send({"type": "stop"})
+            self._send({"type": "stop"}, 0.0)  # no wait: an input left full is no reason to stay
             try:
                 self.proc.wait(timeout=0.5)
             except subprocess.TimeoutExpired:
