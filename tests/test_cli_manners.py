@@ -73,3 +73,15 @@ def test_team_label_is_relative_to_here(shared_dir):
     out = run_cli("run", "level.yaml", "--team", str(shared_dir / "bots" / "bot.py"), "--json", "-", cwd=shared_dir)
     assert out.returncode == 0, out.stderr
     assert json.loads(out.stdout)["robots"][0]["team"] == "bots/bot.py"
+
+
+def test_a_level_whose_own_controller_cannot_load_is_exit_2(shared_dir):
+    # no --team: the level's default controller plays; if it cannot even load, nothing ran
+    (shared_dir / "broken.py").write_text("raise RuntimeError('this controller is broken at import')\n")
+    (shared_dir / "broken.py").chmod(0o644)
+    (shared_dir / "lv.yaml").write_text(
+        MINI_LEVEL.replace("default_controller: ref:dead-reckoning", "default_controller: broken.py")
+    )
+    out = run_cli("run", "lv.yaml", "--quiet", cwd=shared_dir)
+    assert out.returncode == EXIT_BAD_INPUT, out.stderr
+    assert out.stderr.count("\n") == 1 and "broken at import" in out.stderr and "Traceback" not in out.stderr

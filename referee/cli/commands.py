@@ -77,9 +77,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         if scratch:
             shutil.rmtree(scratch, ignore_errors=True)
-    given = result["robots"][: len(args.team or [])]
+    given = result["robots"][: len(args.team)] if args.team else result["robots"]  # else the level's own
     unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
-    if given and len(unloadable) == len(given):  # nothing the user asked for could run
+    if given and len(unloadable) == len(given):  # nothing the user asked for (or the level named) could run
         raise UserError("; ".join(unloadable))
     if args.json == "-":  # the JSON is the output; the table goes to stderr
         print(dumps(result))
