@@ -17,6 +17,8 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from arena.angles import wrap
 from arena.detectors import Detection
 from arena.level import ControllerLimits, Level
@@ -301,8 +303,9 @@ class Match:
         states, speeds = world.run(count, speeds=bool(level.rules.speed_limit), until=until)
         self.sensing.record_many(states)
         every = level.steps_per_record
-        self.tracker.advance(states, first, level.physics_rate, every)
-        self.rules.after_steps(world, states, speeds)
+        table = np.asarray(states)  # one row per step, for the checks that look at all at once
+        self.tracker.advance(table, first, level.physics_rate, every)
+        self.rules.after_steps(world, table, speeds)
         if self.writer:
             for i, state in enumerate(states):
                 if (first + i) % every == 0:

@@ -64,9 +64,7 @@ class Rules:
         speeds = tuple(b.velocity.length for b in world.bodies) if self.rules.speed_limit else None
         self._check(world, world.tick, len(world.contacts), world.state, speeds)
 
-    def after_steps(
-        self, world: World, states: list[tuple[float, ...]], speeds: list[tuple[float, ...]] | None = None
-    ) -> None:
+    def after_steps(self, world: World, states: np.ndarray, speeds: list[tuple[float, ...]] | None = None) -> None:
         """The checks after each of the last `len(states)` steps (`states[i]` is the world's
         `state` then, `speeds[i]` its robots' speeds, needed with a speed limit), with the
         fouls exactly as step-by-step checks give them: only the steps where a contact ended or
@@ -76,8 +74,7 @@ class Rules:
         ends = world.contact_ends
         busy = set(ends[self.seen_contacts :])
         xmin, ymin, xmax, ymax = self.bounds
-        xy = np.asarray(states)
-        x, y = xy[:, 0::3], xy[:, 1::3]
+        x, y = states[:, 0::3], states[:, 1::3]
         out = ~((xmin <= x) & (x <= xmax) & (ymin <= y) & (y <= ymax))
         changed = out != np.vstack([self.outside, out[:-1]])
         limit = self.rules.speed_limit
@@ -87,7 +84,8 @@ class Rules:
         busy.update((first + np.flatnonzero(changed.any(axis=1))).tolist())
         for tick in sorted(busy):
             i = tick - first
-            self._check(world, tick, bisect_right(ends, tick), states[i], speeds[i] if limit and speeds else None)
+            state = tuple(states[i].tolist())
+            self._check(world, tick, bisect_right(ends, tick), state, speeds[i] if limit and speeds else None)
 
     def _check(
         self, world: World, tick: int, contacts: int, state: tuple[float, ...], speeds: tuple[float, ...] | None

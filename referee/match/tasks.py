@@ -57,7 +57,7 @@ class TaskTracker:
                 self.finished[slot] = time
                 self.finished_count += 1
 
-    def advance(self, states: list[tuple[float, ...]], first_tick: int, rate: int, every: int) -> None:
+    def advance(self, states: np.ndarray, first_tick: int, rate: int, every: int) -> None:
         """`update` every robot with each of a run of steps' states (`states[i]` at tick
         `first_tick + i`, time tick / `rate`), as calling it step by step would; and record
         its distance from the ideal path at the ticks that are multiples of `every` (the record
@@ -65,7 +65,7 @@ class TaskTracker:
         radius = self.level.task.radius
         near = radius * (1 + 1e-9) + 1e-12  # numpy's distances may differ from math.dist by an ulp
         samples = [i for i in range(len(states)) if (first_tick + i) % every == 0]
-        xy = np.asarray(states)
+        xy = states  # one row per step: every robot's x, y, heading
         for slot in range(len(self.next)):
             xs, ys = xy[:, 3 * slot], xy[:, 3 * slot + 1]
             targets = self.targets(slot)
