@@ -132,6 +132,18 @@ def _secret(args: argparse.Namespace) -> str | None:
     return given
 
 
+def _contest_options(args: argparse.Namespace) -> dict:
+    """What `grade` and `tournament` take alike from their command lines."""
+    return {
+        "workers": args.workers,
+        "db": args.db,
+        "out": args.out,
+        "secret": _secret(args),
+        "scheduler": args.scheduler,
+        "quiet": args.quiet,
+    }
+
+
 def cmd_grade(args: argparse.Namespace) -> int:
     from referee import api
     from referee.contest.grade import markdown
@@ -143,12 +155,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
         args.level,
         args.team,
         seeds=args.seeds,
-        workers=args.workers,
-        db=args.db,
-        out=args.out,
-        secret=_secret(args),
-        scheduler=args.scheduler,
-        quiet=args.quiet,
+        **_contest_options(args),
     )
     if not args.quiet:
         print(markdown([asdict(r) for r in rows]), end="")
@@ -171,12 +178,7 @@ def cmd_tournament(args: argparse.Namespace) -> int:
         args.level,
         args.team,
         rounds=args.rounds,
-        workers=args.workers,
-        db=args.db,
-        out=args.out,
-        secret=_secret(args),
-        scheduler=args.scheduler,
-        quiet=args.quiet,
+        **_contest_options(args),
     )
     if not args.quiet:
         for s in done.standings:
