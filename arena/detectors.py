@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from arena import kernels
 from arena.angles import TWO_PI, wrap_angle
 from arena.laser import Crossings
 
@@ -200,24 +201,6 @@ def first_tick_after(t: float, p: Mapping[str, float]) -> float:
     return math.nextafter(t, math.inf)
 
 
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64's constants
-_MIX = np.uint64(0xD1B54A32D192ED03)
-_MUL1, _MUL2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
-_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
-_LOW11 = np.uint64(0x7FF)
-
-
-def revolution_hash(key: int, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
-    """64 random bits per (match key, robot, revolution), vectorised: SplitMix64's finaliser,
-    a counter-based hash, so a revolution's draw does not depend on which control period its
-    pulses fall in."""
-    with np.errstate(over="ignore"):
-        z = np.uint64(key) + robot.astype(np.uint64) * _GOLDEN + turn.astype(np.int64).view(np.uint64) * _MIX
-        z = (z ^ (z >> _S30)) * _MUL1
-        z = (z ^ (z >> _S27)) * _MUL2
-    return z ^ (z >> _S31)
-
-
 def merge_measurements(
     times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray, n_beacons: int, rate: float, key: int
 ) -> np.ndarray:
@@ -227,21 +210,15 @@ def merge_measurements(
 
     A measurement is one laser revolution; with probability `rate` one of its pulses (array
     drawn uniformly) loses its own edge and is reported at the time of the pulse before it, so
-    the duration before it reads 0 and the one after it reads the sum of both. `times` are
-    sorted by (robot, time); a pulse whose predecessor fell in an earlier control period is
+    the duration before it reads 0 and the one after it reads the sum of both. The draw is a
+    counter-based hash of (match key, robot, revolution) (`arena.kernels.revolution_hash`), so
+    a revolution's draw does not depend on which control period its pulses fall in. `times`
+    are sorted by (robot, time); a pulse whose predecessor fell in an earlier control period is
     left alone (its time was already delivered). Returns `times` itself when nothing merges."""
     if rate <= 0 or len(times) < 2:
         return times
-    h = revolution_hash(key, robot, turn)
-    merged = (h >> _S11).astype(np.float64) * 2.0**-53 < rate  # the high 53 bits
-    if not merged.any():  # most batches: no revolution in them merges
-        return times
-    victim = (h & _LOW11).astype(np.int64) % n_beacons == beacon  # the low 11
-    has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
-    hit = np.nonzero(merged & victim & has_pred)[0]
-    out = times.copy()
-    out[hit] = times[hit - 1]
-    return out
+    out, changed = kernels.merge(times, robot, beacon, turn, n_beacons, float(rate), np.uint64(key))
+    return out if changed else times
 
 
 def brightness(delta: np.ndarray, distance: np.ndarray, visible_: np.ndarray, p: Mapping[str, float]) -> np.ndarray:

@@ -12,17 +12,15 @@ derivative. All of it is vectorized over steps x robots x beacons.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
-from arena.angles import TWO_PI, wrap_angle
+from arena import kernels
+from arena.angles import TWO_PI
 
 NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
-# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
-_ZERO, _ONE, _PI = np.array(0.0), np.array(1.0), np.array(np.pi)
+_NO_SHIFT, _NO_OFFSET = np.zeros((0, 0, 0)), np.zeros(0)  # for beams on their spin axis
 
 
 @dataclass(frozen=True)
@@ -78,7 +76,8 @@ class Crossings:
 def find_crossings(
     traj: Trajectory, bx: np.ndarray, by: np.ndarray, beam_offset: np.ndarray | None = None
 ) -> Crossings:
-    """All times at which a robot's beam points exactly at a beacon at (bx, by), unsorted.
+    """All times at which a robot's beam points exactly at a beacon at (bx, by), in (step,
+    robot, beacon) order.
 
     `beam_offset` (per robot, m, + = to the beam's left) is how far the beam line passes beside
     the spin axis: it meets a beacon at range r when its direction is the bearing minus
@@ -87,70 +86,33 @@ def find_crossings(
     d = wrap(beam - bearing) changes by well under pi per step (the loader bounds the beam's
     turn per step), so the beam passes a beacon in step k exactly when d changes sign there
     without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
-    hit at a step boundary is counted once, whichever way the beam turns."""
-    dx = bx[None, None, :] - traj.x[:, :, None]
-    dy = by[None, None, :] - traj.y[:, :, None]
+    hit at a step boundary is counted once, whichever way the beam turns. The loops are
+    compiled (arena.kernels); the arc functions are NumPy's."""
+    dx, dy = kernels.laser_to_beacons(traj.x, traj.y, bx, by)
     a = traj.h + traj.phi  # beam world angle (n+1, R)
     off = beam_offset if beam_offset is not None and beam_offset.any() else None
-    d = a[:, :, None] - np.arctan2(dy, dx)
-    if off is not None:
-        d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
-    d = wrap_angle(d)
-    # d passes zero in a step where it leaves a nonzero sign for zero or the other sign
-    sign = np.sign(d)
-    passes = (sign[:-1] != _ZERO) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < _PI)
-    size = dx[0].size  # robots x beacons
-    flat = passes.ravel().nonzero()[0]  # passes in (step, robot, beacon) order
-    step, robot, beacon = (i[flat] for i in grid_index(passes.shape))
-    d = d.ravel()
-    f0, f1 = d[flat], d[flat + size]
-    s = f0 / (f0 - f1)  # linear first guess
-    # the crossing's step, as start values and changes over the step
-    ex0, ey0 = dx.ravel()[flat], dy.ravel()[flat]  # laser -> beacon at the start
-    state = np.array((traj.x, traj.y, a, traj.phi)).reshape(4, -1)  # rows of (step, robot)
-    at = step * dx.shape[1] + robot
-    start = state[:, at]
-    ddx, ddy, da, dphi = state[:, at + dx.shape[1]] - start
-    a0, phi0 = start[2], start[3]
-    o = None if off is None else off[robot]
+    shift = _NO_SHIFT if off is None else np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
+    step, robot, beacon, s = kernels.passes(a, np.arctan2(dy, dx), shift, off is not None)
+    rows = kernels.crossing_steps(step, robot, beacon, dx, dy, traj.x, traj.y, a, traj.phi)
+    o = _NO_OFFSET if off is None else off[robot]
     for _ in range(NEWTON_ITERATIONS):
-        ex, ey = ex0 - s * ddx, ey0 - s * ddy
-        r2 = ex * ex + ey * ey
-        f = a0 + s * da - np.arctan2(ey, ex)
-        slope = da - (ey * ddx - ex * ddy) / r2  # d(beam - bearing)/ds
-        if o is not None:  # + asin(o / r), and its derivative through r
-            r = np.sqrt(r2)
-            f += np.arcsin(np.clip(o / r, -1.0, 1.0))
-            slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
-        f = wrap_angle(f)
-        # clipped to [0, 1]: minimum(maximum()) is np.clip's arithmetic (s is never -0)
-        s = np.minimum(np.maximum(s - f / np.where(slope == _ZERO, _ONE, slope), _ZERO), _ONE)
-    ex, ey = ex0 - s * ddx, ey0 - s * ddy
-    d2 = ex * ex + ey * ey
-    dt = traj.t[step + 1] - traj.t[step]
+        ex, ey = kernels.toward(rows, s)
+        turn = _NO_OFFSET if off is None else np.arcsin(kernels.offset_ratio(ex, ey, o))
+        s = kernels.newton_step(rows, s, ex, ey, np.arctan2(ey, ex), o, turn, off is not None)
+    ex, ey, t, x, y, phi, beam_rate, distance = kernels.crossing_values(rows, s, step, beacon, traj.t, bx, by)
     return Crossings(
         robot=robot,
         beacon=beacon,
         step=step,
         s=s,
-        t=traj.t[step] + s * dt,
-        x=bx[beacon] - ex,
-        y=by[beacon] - ey,
-        phi=phi0 + s * dphi,
-        beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt,
-        distance=np.sqrt(d2),
+        t=t,
+        x=x,
+        y=y,
+        phi=phi,
+        beam_rate=beam_rate,
+        distance=distance,
         bearing=np.arctan2(ey, ex),
     )
-
-
-@lru_cache(maxsize=64)
-def grid_index(shape: tuple[int, ...]) -> tuple[np.ndarray, ...]:
-    """The indices along each axis of every element of an array of `shape`, in C order: a
-    lookup that turns flat positions into indices cheaper than a division (read-only)."""
-    out = np.unravel_index(np.arange(math.prod(shape)), shape)
-    for axis in out:
-        axis.flags.writeable = False
-    return out
 
 
 def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -174,14 +136,3 @@ def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> 
     order = np.lexsort((robot, t))
     signed = (mark * direction[robot]).astype(np.int64)
     return robot[order], step[order], s[order], t[order], signed[order]
-
-
-def segment_hits_circles(
-    px: np.ndarray, py: np.ndarray, qx: np.ndarray, qy: np.ndarray, cx: np.ndarray, cy: np.ndarray, radius: np.ndarray
-) -> np.ndarray:
-    """Whether segments P-Q pass within `radius` of centres C (closed discs); elementwise."""
-    ux, uy = qx - px, qy - py
-    length2 = ux * ux + uy * uy
-    u = ((cx - px) * ux + (cy - py) * uy) / np.where(length2 > _ZERO, length2, _ONE)
-    u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
-    return np.hypot(px + u * ux - cx, py + u * uy - cy) <= radius

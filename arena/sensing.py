@@ -18,13 +18,11 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
+from arena import kernels
 from arena.angles import TWO_PI, wrap_angle
-from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks, grid_index, segment_hits_circles
+from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
-
-# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
-_ZERO, _ONE, _TINY = np.array(0.0), np.array(1.0), np.array(1e-12)
 
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
@@ -56,7 +54,6 @@ class Sensing:
         self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
         self.facing = np.array([b.facing for b in items])
         self.beacon_radius = level.beacons.radius
-        self._beacon_radius = np.array(self.beacon_radius)
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
@@ -86,7 +83,6 @@ class Sensing:
         self._rows: list[tuple] = []
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
-        self._others = ~np.eye(self.n, dtype=bool)  # [r, o]: robot o is not robot r
         self._last = world.state
         self._last_t = world.time
 
@@ -205,31 +201,10 @@ class Sensing:
     ) -> np.ndarray:
         """Whether the segment from each laser to each beacon's near edge is blocked by another
         robot (at that instant) or an obstacle. Walls bound a convex field and never block."""
-        if len(robot) == 0:
-            return np.zeros(0, dtype=bool)
-        bx, by = self.bx[beacon], self.by[beacon]
-        vx, vy = bx - px, by - py
-        d = np.hypot(vx, vy)
-        radius = self._beacon_radius
-        shrink = np.where(d > radius, (d - radius) / np.maximum(d, _TINY), _ZERO)
-        qx, qy = px + vx * shrink, py + vy * shrink
-        blocked = np.zeros(len(robot), dtype=bool)
-        if self.n > 1:  # every (segment, other robot) pair at once, as a (segments, robots) grid
-            # cheap prefilter: the other robot's circumscribed circle (grown by its travel in
-            # the batch) must touch the segment; only those pairs get the exact test
-            cx, cy = traj.x[0], traj.y[0]
-            ux, uy = (qx - px)[:, None], (qy - py)[:, None]
-            px2, py2 = px[:, None], py[:, None]
-            u = ((cx - px2) * ux + (cy - py2) * uy) / (ux * ux + uy * uy)
-            u = np.minimum(np.maximum(u, _ZERO), _ONE)  # np.clip's arithmetic; a zero's sign cannot change a distance
-            gap = np.hypot((px2 + u * ux - cx).ravel(), (py2 + u * uy - cy).ravel())
-            near = (self._others[robot] & (gap.reshape(u.shape) <= self.reach)).ravel()
-            if near.any():
-                pairs = near.nonzero()[0]
-                rows, o = (i[pairs] for i in grid_index(u.shape))
-                ox, oy = traj.position_at(step[rows], s[rows], o)
-                hit = segment_hits_circles(px[rows], py[rows], qx[rows], qy[rows], ox, oy, self.silhouette[o])
-                blocked[rows[hit]] = True
+        blocked, qx, qy = kernels.blocked(
+            px, py, self.bx[beacon], self.by[beacon], float(self.beacon_radius), robot, step, s,
+            traj.x, traj.y, self.reach, self.silhouette,
+        )  # fmt: skip
         if self.has_obstacles:
             space = self.world.space
             for i in np.nonzero(~blocked)[0]:

@@ -195,15 +195,3 @@ def test_a_beam_beside_the_axis_meets_each_beacon_earlier_by_its_range(omega):
     (ideal,), _ = sense(World(parse_level(edited(text, {"laser.beam_offset": d}).encode(), "t.yaml")), 3.0)
     centred = [e.time for e in hits(ideal)]
     assert [e.time for e in hits(events)] != pytest.approx(centred, abs=1e-7)  # ideal hardware has no offset
-
-
-def test_grid_index_turns_flat_positions_into_indices():
-    from arena.laser import grid_index
-
-    for shape in [(49, 4, 4), (1, 1, 3), (7, 2), (5,)]:
-        idx = grid_index(shape)
-        flat = np.zeros(len(idx[0]), dtype=np.int64)
-        for axis, size in zip(idx, shape):
-            assert axis.min() >= 0 and axis.max() < size
-            flat = flat * size + axis
-        assert flat.tolist() == list(range(math.prod(shape)))  # every position once, in C order

@@ -1,0 +1,306 @@
+"""The sensing hot path's loops, compiled (numba), with NumPy's own numbers.
+
+A control period's sensing is a few hundred small array operations, and NumPy's cost per call
+outweighs the arithmetic. These kernels run those loops compiled, one call each, and give the
+same bits as the NumPy expressions they replace (decision 0025):
+- arithmetic is written in NumPy's order of operations; numba neither reorders nor fuses it
+  (no fast-math, no fused multiply-add), and `hypot`, `sqrt` and `rint` are the C library's,
+  as NumPy's are;
+- `arctan2` and `arcsin` stay NumPy calls between kernels: NumPy takes its own SIMD code for
+  them on most processors, which differs from the C library's in the last bit;
+- `np.maximum` and `np.minimum` keep their NaN rule (`_max`, `_min`).
+`tests/test_kernels.py` holds the NumPy expressions and compares bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+TWO_PI = 2.0 * math.pi
+PER_TURN = 1.0 / TWO_PI
+TINY = 1e-12
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)  # SplitMix64's constants
+_MIX = np.uint64(0xD1B54A32D192ED03)
+_MUL1, _MUL2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_LOW11 = np.uint64(0x7FF)
+
+
+@njit(cache=True, inline="always")
+def _max(a: float, b: float) -> float:
+    """np.maximum of two floats: a NaN in either wins."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@njit(cache=True, inline="always")
+def _min(a: float, b: float) -> float:
+    """np.minimum of two floats: a NaN in either wins."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
+
+
+@njit(cache=True, inline="always")
+def _wrap(a: float) -> float:
+    """arena.angles.wrap_angle of one angle."""
+    return a - TWO_PI * np.rint(a * PER_TURN)
+
+
+@njit(cache=True, inline="always")
+def _sign(v: float) -> float:
+    if v > 0.0:
+        return 1.0
+    if v < 0.0:
+        return -1.0
+    return v  # 0, -0 or NaN, as np.sign
+
+
+@njit(cache=True)
+def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vectors from every laser (steps, robots) to every beacon: (steps, robots, beacons)."""
+    k, r, b = x.shape[0], x.shape[1], bx.shape[0]
+    dx, dy = np.empty((k, r, b)), np.empty((k, r, b))
+    for i in range(k):
+        for j in range(r):
+            for m in range(b):
+                dx[i, j, m] = bx[m] - x[i, j]
+                dy[i, j, m] = by[m] - y[i, j]
+    return dx, dy
+
+
+@njit(cache=True)
+def passes(
+    beam: np.ndarray, bearing: np.ndarray, shift: np.ndarray, shifted: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where the wrapped angle d = beam - bearing (+ shift) passes zero within a step, in
+    (step, robot, beacon) order: those indices and the linear first guess of the instant."""
+    k, r, b = bearing.shape
+    d = np.empty((k, r, b))
+    for i in range(k):
+        for j in range(r):
+            for m in range(b):
+                v = beam[i, j] - bearing[i, j, m]
+                if shifted:
+                    v = v + shift[i, j, m]
+                d[i, j, m] = _wrap(v)
+    count = 0
+    for pass_ in range(2):  # count, then fill
+        if pass_ == 1:
+            step, robot, beacon = np.empty(count, np.int64), np.empty(count, np.int64), np.empty(count, np.int64)
+            s = np.empty(count)
+            count = 0
+        for i in range(k - 1):
+            for j in range(r):
+                for m in range(b):
+                    d0, d1 = d[i, j, m], d[i + 1, j, m]
+                    s0, s1 = _sign(d0), _sign(d1)
+                    if s0 != 0.0 and s1 != s0 and abs(d1 - d0) < math.pi:
+                        if pass_ == 1:
+                            step[count], robot[count], beacon[count] = i, j, m
+                            s[count] = d0 / (d0 - d1)
+                        count += 1
+    return step, robot, beacon, s
+
+
+@njit(cache=True)
+def crossing_steps(
+    step: np.ndarray,
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    beam: np.ndarray,
+    phi: np.ndarray,
+) -> np.ndarray:
+    """Per crossing, its step as rows: laser -> beacon at the start (ex0, ey0), the changes over
+    the step (ddx, ddy, d beam, d phase) and the start's beam angle and phase: (8, crossings)."""
+    out = np.empty((8, step.shape[0]))
+    for n in range(step.shape[0]):
+        i, j, m = step[n], robot[n], beacon[n]
+        out[0, n], out[1, n] = dx[i, j, m], dy[i, j, m]
+        out[2, n] = x[i + 1, j] - x[i, j]
+        out[3, n] = y[i + 1, j] - y[i, j]
+        out[4, n] = beam[i + 1, j] - beam[i, j]
+        out[5, n] = phi[i + 1, j] - phi[i, j]
+        out[6, n], out[7, n] = beam[i, j], phi[i, j]
+    return out
+
+
+@njit(cache=True)
+def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Laser -> beacon at fraction `s` of each crossing's step."""
+    n = s.shape[0]
+    ex, ey = np.empty(n), np.empty(n)
+    for c in range(n):
+        ex[c] = rows[0, c] - s[c] * rows[2, c]
+        ey[c] = rows[1, c] - s[c] * rows[3, c]
+    return ex, ey
+
+
+@njit(cache=True)
+def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """clip(offset / range, -1, 1): what the beam's offset asks of arcsin."""
+    n = ex.shape[0]
+    out = np.empty(n)
+    for c in range(n):
+        r = math.sqrt(ex[c] * ex[c] + ey[c] * ey[c])
+        out[c] = _min(_max(offset[c] / r, -1.0), 1.0)
+    return out
+
+
+@njit(cache=True)
+def newton_step(
+    rows: np.ndarray,
+    s: np.ndarray,
+    ex: np.ndarray,
+    ey: np.ndarray,
+    bearing: np.ndarray,
+    offset: np.ndarray,
+    shift: np.ndarray,
+    shifted: bool,
+) -> np.ndarray:
+    """One Newton step of each crossing's instant, clipped to its step (arena.laser)."""
+    n = s.shape[0]
+    out = np.empty(n)
+    for c in range(n):
+        ddx, ddy, da = rows[2, c], rows[3, c], rows[4, c]
+        r2 = ex[c] * ex[c] + ey[c] * ey[c]
+        f = rows[6, c] + s[c] * da - bearing[c]
+        slope = da - (ey[c] * ddx - ex[c] * ddy) / r2
+        if shifted:
+            o = offset[c]
+            r = math.sqrt(r2)
+            f = f + shift[c]
+            slope = slope + o * (ex[c] * ddx + ey[c] * ddy) / (r2 * r * math.sqrt(_max(1.0 - o * o / r2, 1e-12)))
+        f = _wrap(f)
+        out[c] = _min(_max(s[c] - f / (1.0 if slope == 0.0 else slope), 0.0), 1.0)
+    return out
+
+
+@njit(cache=True)
+def crossing_values(
+    rows: np.ndarray,
+    s: np.ndarray,
+    step: np.ndarray,
+    beacon: np.ndarray,
+    t: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+) -> np.ndarray:
+    """Per crossing at its instant: laser -> beacon (ex, ey), time, laser (x, y), phase, the
+    beam's world rate and the range, as rows (8, crossings)."""
+    n = s.shape[0]
+    out = np.empty((8, n))
+    for c in range(n):
+        ddx, ddy = rows[2, c], rows[3, c]
+        ex = rows[0, c] - s[c] * ddx
+        ey = rows[1, c] - s[c] * ddy
+        d2 = ex * ex + ey * ey
+        k = step[c]
+        dt = t[k + 1] - t[k]
+        out[0, c], out[1, c] = ex, ey
+        out[2, c] = t[k] + s[c] * dt
+        out[3, c] = bx[beacon[c]] - ex
+        out[4, c] = by[beacon[c]] - ey
+        out[5, c] = rows[7, c] + s[c] * rows[5, c]
+        out[6, c] = (rows[4, c] - (ey * ddx - ex * ddy) / d2) / dt
+        out[7, c] = math.sqrt(d2)
+    return out
+
+
+@njit(cache=True)
+def blocked(
+    px: np.ndarray,
+    py: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    radius: float,
+    robot: np.ndarray,
+    step: np.ndarray,
+    s: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    reach: np.ndarray,
+    silhouette: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Whether each segment from a laser (px, py) to the near edge (qx, qy) of a beacon of
+    `radius` at (bx, by) passes through another robot's silhouette at that instant (fraction
+    `s` of step `step` of the trajectory x, y). A robot whose circle, grown by its `reach`
+    in the batch, misses the segment at the batch start is not tested exactly. Returns
+    (blocked, qx, qy)."""
+    n, robots = px.shape[0], x.shape[1]
+    qx, qy = np.empty(n), np.empty(n)
+    out = np.zeros(n, np.bool_)
+    for i in range(n):
+        vx, vy = bx[i] - px[i], by[i] - py[i]
+        d = math.hypot(vx, vy)
+        shrink = (d - radius) / _max(d, TINY) if d > radius else 0.0
+        qx[i], qy[i] = px[i] + vx * shrink, py[i] + vy * shrink
+        if robots < 2:
+            continue
+        ux, uy = qx[i] - px[i], qy[i] - py[i]
+        length2 = ux * ux + uy * uy
+        for o in range(robots):
+            if o == robot[i]:
+                continue
+            cx, cy = x[0, o], y[0, o]
+            u = _min(_max(((cx - px[i]) * ux + (cy - py[i]) * uy) / length2, 0.0), 1.0)
+            if not math.hypot(px[i] + u * ux - cx, py[i] + u * uy - cy) <= reach[o]:
+                continue
+            k = step[i]
+            ox = x[k, o] + s[i] * (x[k + 1, o] - x[k, o])
+            oy = y[k, o] + s[i] * (y[k + 1, o] - y[k, o])
+            u = ((ox - px[i]) * ux + (oy - py[i]) * uy) / (length2 if length2 > 0.0 else 1.0)
+            u = _min(_max(u, 0.0), 1.0)
+            if math.hypot(px[i] + u * ux - ox, py[i] + u * uy - oy) <= silhouette[o]:
+                out[i] = True
+                break
+    return out, qx, qy
+
+
+@njit(cache=True)
+def revolution_hash(key: np.uint64, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """arena.detectors.revolution_hash, compiled: SplitMix64's finaliser of (key, robot, turn)."""
+    n = robot.shape[0]
+    out = np.empty(n, np.uint64)
+    for i in range(n):
+        z = key + np.uint64(robot[i]) * _GOLDEN + np.uint64(np.int64(turn[i])) * _MIX
+        z = (z ^ (z >> _S30)) * _MUL1
+        z = (z ^ (z >> _S27)) * _MUL2
+        out[i] = z ^ (z >> _S31)
+    return out
+
+
+@njit(cache=True)
+def merge(
+    times: np.ndarray,
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    turn: np.ndarray,
+    n_beacons: int,
+    rate: float,
+    key: np.uint64,
+) -> tuple[np.ndarray, bool]:
+    """arena.detectors.merge_measurements' draw and effect: (new times, whether any merged)."""
+    h = revolution_hash(key, robot, turn)
+    out = times.copy()
+    changed = False
+    for i in range(1, times.shape[0]):
+        if np.float64(h[i] >> _S11) * 2.0**-53 >= rate:
+            continue
+        if np.int64(h[i] & _LOW11) % n_beacons != beacon[i] or robot[i] != robot[i - 1]:
+            continue
+        out[i] = times[i - 1]
+        changed = True
+    return out, changed

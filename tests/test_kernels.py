@@ -1,0 +1,181 @@
+"""The compiled sensing kernels give NumPy's own bits (decision 0025).
+
+Each kernel replaced a run of NumPy expressions; those expressions are kept here, as written
+before, and both are run on random trajectories: crossings (beams on and beside their axis),
+occlusion by other robots, and Bac's merged pulses. Equality is exact, bit for bit, so results
+and replays stay what they were (tests/test_golden.py guards the whole match)."""
+
+import numpy as np
+import pytest
+
+from arena import detectors as det
+from arena import kernels
+from arena.angles import wrap_angle
+from arena.laser import Trajectory, find_crossings
+
+# ---- the NumPy expressions, as they were ----------------------------------------------------
+
+
+def numpy_crossings(traj, bx, by, off):
+    dx = bx[None, None, :] - traj.x[:, :, None]
+    dy = by[None, None, :] - traj.y[:, :, None]
+    a = traj.h + traj.phi
+    d = a[:, :, None] - np.arctan2(dy, dx)
+    if off is not None:
+        d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
+    d = wrap_angle(d)
+    sign = np.sign(d)
+    passes = (sign[:-1] != 0) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < np.pi)
+    size = dx[0].size
+    flat = passes.ravel().nonzero()[0]
+    step, robot, beacon = np.unravel_index(flat, passes.shape)
+    d = d.ravel()
+    f0, f1 = d[flat], d[flat + size]
+    s = f0 / (f0 - f1)
+    ex0, ey0 = dx.ravel()[flat], dy.ravel()[flat]
+    state = np.array((traj.x, traj.y, a, traj.phi)).reshape(4, -1)
+    at = step * dx.shape[1] + robot
+    start = state[:, at]
+    ddx, ddy, da, dphi = state[:, at + dx.shape[1]] - start
+    a0, phi0 = start[2], start[3]
+    o = None if off is None else off[robot]
+    for _ in range(2):
+        ex, ey = ex0 - s * ddx, ey0 - s * ddy
+        r2 = ex * ex + ey * ey
+        f = a0 + s * da - np.arctan2(ey, ex)
+        slope = da - (ey * ddx - ex * ddy) / r2
+        if o is not None:
+            r = np.sqrt(r2)
+            f += np.arcsin(np.clip(o / r, -1.0, 1.0))
+            slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
+        f = wrap_angle(f)
+        s = np.minimum(np.maximum(s - f / np.where(slope == 0, 1.0, slope), 0.0), 1.0)
+    ex, ey = ex0 - s * ddx, ey0 - s * ddy
+    d2 = ex * ex + ey * ey
+    dt = traj.t[step + 1] - traj.t[step]
+    return dict(
+        robot=robot,
+        beacon=beacon,
+        step=step,
+        s=s,
+        t=traj.t[step] + s * dt,
+        x=bx[beacon] - ex,
+        y=by[beacon] - ey,
+        phi=phi0 + s * dphi,
+        beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt,
+        distance=np.sqrt(d2),
+        bearing=np.arctan2(ey, ex),
+    )
+
+
+def numpy_blocked(traj, robot, step, s, px, py, bx, by, radius, reach, silhouette):
+    n = traj.x.shape[1]
+    vx, vy = bx - px, by - py
+    d = np.hypot(vx, vy)
+    shrink = np.where(d > radius, (d - radius) / np.maximum(d, 1e-12), 0.0)
+    qx, qy = px + vx * shrink, py + vy * shrink
+    blocked = np.zeros(len(robot), dtype=bool)
+    if n > 1:
+        cx, cy = traj.x[0], traj.y[0]
+        ux, uy = (qx - px)[:, None], (qy - py)[:, None]
+        px2, py2 = px[:, None], py[:, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u = ((cx - px2) * ux + (cy - py2) * uy) / (ux * ux + uy * uy)
+        u = np.minimum(np.maximum(u, 0.0), 1.0)
+        gap = np.hypot(px2 + u * ux - cx, py2 + u * uy - cy)
+        near = (~np.eye(n, dtype=bool))[robot] & (gap <= reach)
+        rows, o = near.nonzero()
+        ox = traj.x[step[rows], o] + s[rows] * (traj.x[step[rows] + 1, o] - traj.x[step[rows], o])
+        oy = traj.y[step[rows], o] + s[rows] * (traj.y[step[rows] + 1, o] - traj.y[step[rows], o])
+        sx, sy, tx, ty = px[rows], py[rows], qx[rows], qy[rows]
+        ux, uy = tx - sx, ty - sy
+        length2 = ux * ux + uy * uy
+        u = ((ox - sx) * ux + (oy - sy) * uy) / np.where(length2 > 0, length2, 1.0)
+        u = np.minimum(np.maximum(u, 0.0), 1.0)
+        hit = np.hypot(sx + u * ux - ox, sy + u * uy - oy) <= silhouette[o]
+        blocked[rows[hit]] = True
+    return blocked, qx, qy
+
+
+def numpy_merge(times, robot, beacon, turn, n_beacons, rate, key):
+    with np.errstate(over="ignore"):
+        z = np.uint64(key) + robot.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        z = z + turn.astype(np.int64).view(np.uint64) * np.uint64(0xD1B54A32D192ED03)
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    h = z ^ (z >> np.uint64(31))
+    merged = (h >> np.uint64(11)).astype(np.float64) * 2.0**-53 < rate
+    victim = (h & np.uint64(0x7FF)).astype(np.int64) % n_beacons == beacon
+    has_pred = np.concatenate(([False], robot[1:] == robot[:-1]))
+    hit = np.nonzero(merged & victim & has_pred)[0]
+    out = times.copy()
+    out[hit] = times[hit - 1]
+    return out
+
+
+# ---- random worlds --------------------------------------------------------------------------
+
+
+def random_trajectory(g, steps=48, robots=4, dt=1 / 240):
+    """Robots wandering and turning on a 2 x 1.5 m table, lasers spinning either way."""
+    t = 10.0 + np.arange(steps + 1) * dt
+    x = g.uniform(0.1, 1.9, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
+    y = g.uniform(0.1, 1.4, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
+    h = g.uniform(-4, 4, robots) + np.cumsum(g.normal(0, 0.01, (steps + 1, robots)), axis=0)
+    omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
+    phi = g.uniform(-50, 50, robots) + np.arange(steps + 1)[:, None] * omega * dt * (1 + g.normal(0, 0.003, robots))
+    return Trajectory(t=t, x=x, y=y, h=h, phi=phi)
+
+
+BEACONS = (np.array([0.0, 2.0, 2.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.5, 1.5, 1.6]))
+
+
+@pytest.mark.parametrize("offset", [False, True])
+def test_crossings_are_numpys_bit_for_bit(offset):
+    g = np.random.default_rng(7 + offset)
+    total = 0
+    for _ in range(60):
+        traj = random_trajectory(g)
+        off = g.uniform(-0.05, 0.05, traj.x.shape[1]) if offset else None
+        want = numpy_crossings(traj, *BEACONS, off)
+        got = find_crossings(traj, *BEACONS, off)
+        total += len(got)
+        for name, value in want.items():
+            assert np.array_equal(getattr(got, name), value), name
+            assert getattr(got, name).tobytes() == np.asarray(value, dtype=getattr(got, name).dtype).tobytes(), name
+    assert total > 60 * 4 * 5 * 1.5  # about 3 passes per robot and beacon in 0.2 s
+
+
+def test_occlusion_is_numpys_bit_for_bit():
+    g = np.random.default_rng(3)
+    bx, by = BEACONS
+    blocked_any = 0
+    for _ in range(200):
+        traj = random_trajectory(g, robots=int(g.integers(1, 6)))
+        c = find_crossings(traj, bx, by)
+        reach = g.uniform(0.05, 0.3, traj.x.shape[1])
+        silhouette = g.uniform(0.02, 0.2, traj.x.shape[1])
+        args = (c.robot, c.step, c.s, c.x, c.y, bx[c.beacon], by[c.beacon])
+        want = numpy_blocked(traj, *args, 0.02, reach, silhouette)
+        got = kernels.blocked(
+            c.x, c.y, bx[c.beacon], by[c.beacon], 0.02, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
+        )
+        for w, v in zip(want, got):
+            assert w.tobytes() == v.tobytes()
+        blocked_any += int(want[0].sum())
+    assert blocked_any > 50  # the geometry does block beams, often enough to test
+
+
+def test_merged_pulses_are_numpys_bit_for_bit():
+    g = np.random.default_rng(5)
+    for rate in (0.034, 0.5, 1.0):
+        for _ in range(200):
+            m = int(g.integers(2, 60))
+            robot = np.sort(g.integers(0, 4, m))
+            times = np.sort(g.uniform(0, 100, m))
+            turn = np.floor(g.uniform(-3000, 3000, m))  # laser turning either way
+            beacon = g.integers(0, 4, m)
+            key = int(g.integers(1 << 62))
+            want = numpy_merge(times, robot, beacon, turn, 4, rate, key)
+            got = det.merge_measurements(times, robot, beacon, turn, 4, rate, key)
+            assert got.tobytes() == want.tobytes()
