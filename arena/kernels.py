@@ -304,3 +304,78 @@ def merge(
         out[i] = times[i - 1]
         changed = True
     return out, changed
+
+
+@njit(cache=True)
+def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
+    """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, per column. With `powers`
+    (a^1..a^steps per row) in closed form, y[k] = a^k (y0 + sum_j<=k a^-j drive[j]), as NumPy
+    summed it; with none (a^k would underflow), by the recursion."""
+    steps, n = drive.shape
+    out = np.empty((steps, n))
+    for r in range(n):
+        if powers.shape[0] == 0:
+            y = y0[r]
+            for k in range(steps):
+                y = a * y + drive[k, r]
+                out[k, r] = y
+            continue
+        acc = 0.0
+        for k in range(steps):
+            q = drive[k, r] / powers[k, r]
+            acc = q if k == 0 else acc + q
+            out[k, r] = powers[k, r] * (y0[r] + acc)
+    return out
+
+
+@njit(cache=True)
+def laser_phases(
+    omega: np.ndarray,
+    dt: float,
+    phi0: np.ndarray,
+    heading: np.ndarray,
+    noise: np.ndarray,
+    wobble: tuple[float, float, np.ndarray, np.ndarray],
+    spin: tuple[float, float, np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Unwrapped laser phases at the step ends (arena.sensing.Sensing._phases): the steady rate
+    `omega`, times 1 + the wobble when `noise` has rows (`wobble` = the noise's scale, the
+    decay per step, its powers, the wobble before), plus the spin lag when the spin's decay
+    per step is not negative (`spin` = that decay, (1 - decay) x coupling, its powers, the lag
+    and the body's yaw rate before). Returns the phases and the wobble, lag and yaw rate after."""
+    steps, n = heading.shape[0] - 1, omega.shape[0]
+    rate = np.empty((steps, n))
+    for k in range(steps):
+        rate[k] = omega
+    scale, a, powers, last_wobble = wobble
+    if noise.shape[0]:
+        w = first_order(a, powers, last_wobble, scale * noise)
+        for k in range(steps):
+            for r in range(n):
+                rate[k, r] = omega[r] * (1.0 + w[k, r])
+        last_wobble = w[steps - 1].copy()
+    a, coupled, powers, last_lag, last_body = spin
+    if a >= 0.0:
+        body = np.empty((steps, n))
+        drive = np.empty((steps, n))
+        for k in range(steps):
+            for r in range(n):
+                body[k, r] = (heading[k + 1, r] - heading[k, r]) / dt
+                change = body[k, r] - (last_body[r] if k == 0 else body[k - 1, r])
+                drive[k, r] = -a * change
+                if coupled != 0.0:  # a zero coupling adds only signed zeros, which vanish in the sums
+                    drive[k, r] = drive[k, r] - coupled * body[k, r]
+        lag = first_order(a, powers, last_lag, drive)
+        for k in range(steps):
+            for r in range(n):
+                rate[k, r] = rate[k, r] + lag[k, r]
+        last_lag, last_body = lag[steps - 1].copy(), body[steps - 1].copy()
+    phi = np.empty((steps + 1, n))
+    for r in range(n):
+        acc = 0.0
+        phi[0, r] = 0.0 + phi0[r]
+        for k in range(steps):
+            v = rate[k, r] * dt
+            acc = v if k == 0 else acc + v
+            phi[k + 1, r] = acc + phi0[r]
+    return phi, last_wobble, last_lag, last_body

@@ -24,6 +24,8 @@ from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
+_NO_NOISE, _NO_POWERS = np.zeros((0, 0)), np.zeros((0, 0))
+
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
 
@@ -145,47 +147,36 @@ class Sensing:
         rate first drops by that change, then the motor brings it back, with time constant
         `spin_time`, to its steady value less `spin_coupling` x the body's yaw rate."""
         steps = len(heading) - 1
-        rate = None  # None: the steady rate, omega
         p = self.params
+        noise = _NO_NOISE
+        wobble = (0.0, 0.0, _NO_POWERS, self.wobble)
         if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
             noise = np.empty((steps, self.n))
             for r, g in enumerate(self.rng["wobble"]):
                 noise[:, r] = g.normal(size=steps)
-            w = self._first_order(a, self.wobble, math.sqrt(1 - a * a) * p["wobble"] * noise)
-            rate = self.omega * (1.0 + w)
-            self.wobble = w[-1]
+            wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
+        spin = (-1.0, 0.0, _NO_POWERS, self.spin_lag, self.body_rate)  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
-            coupling = p.get("spin_coupling", 0.0)
-            body = (heading[1:] - heading[:-1]) / self.dt
-            change = np.empty_like(body)
-            change[0] = body[0] - self.body_rate
-            np.subtract(body[1:], body[:-1], out=change[1:])
             a = math.exp(-self.dt / p["spin_time"])
-            drive = -a * change
-            if coupling:  # a zero coupling adds only signed zeros, which vanish in the sums
-                drive = drive - (1 - a) * coupling * body
-            lag = self._first_order(a, self.spin_lag, drive)
-            rate = (self.omega if rate is None else rate) + lag
-            self.spin_lag, self.body_rate = lag[-1], body[-1]
-        if rate is None:
-            rate = np.tile(self.omega, (steps, 1))
-        phi = np.empty((steps + 1, self.n))
-        phi[0] = 0.0
-        np.add.accumulate(rate * self.dt, axis=0, out=phi[1:])  # np.cumsum, without its wrapper
-        phi += self.phi
+            spin = (a, (1 - a) * p.get("spin_coupling", 0.0), self._powers_of(a, (steps, self.n)), *spin[3:])
+        phi, self.wobble, self.spin_lag, self.body_rate = kernels.laser_phases(
+            self.omega, self.dt, self.phi, heading, noise, wobble, spin
+        )
         return phi
 
-    def _first_order(self, a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
-        """`first_order`, with the powers of `a` kept per batch shape."""
-        key = (a, drive.shape)
+    def _powers_of(self, a: float, shape: tuple[int, int]) -> np.ndarray:
+        """a^1..a^steps per row for a batch of `shape` (cached), or none where a^steps
+        underflows (kernels.first_order then takes the recursion)."""
+        key = (a, shape)
         powers = self._powers.get(key)
         if powers is None:
-            if a ** len(drive) < 1e-150:
-                return first_order(a, y0, drive)
-            powers = a ** np.arange(1, len(drive) + 1)[:, None]
-            powers = self._powers[key] = np.ascontiguousarray(np.broadcast_to(powers, drive.shape))
-        return powers * (y0 + np.add.accumulate(drive / powers, axis=0))
+            if a ** shape[0] < 1e-150:
+                powers = _NO_POWERS
+            else:
+                powers = np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, shape[0] + 1)[:, None], shape))
+            self._powers[key] = powers
+        return powers
 
     # ---- occlusion ------------------------------------------------------------------------
 
@@ -366,16 +357,3 @@ class Sensing:
                 samples = tuple(int(round(u)) for u in scan)
                 out[r].append(det.Detection(r, float(t[i]), "scan", samples=samples, source=r))
         return out
-
-
-def first_order(a: float, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
-    """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, in closed form (vectorised
-    over the steps): y[k] = a^k (y0 + sum_j<=k a^-j drive[j]). A time constant so short that
-    a^k underflows within the batch takes the step-by-step recursion instead."""
-    if a ** len(drive) < 1e-150:
-        out, y = np.empty_like(drive), y0
-        for k in range(len(drive)):
-            y = out[k] = a * y + drive[k]
-        return out
-    powers = a ** np.arange(1, len(drive) + 1)[:, None]
-    return powers * (y0 + np.cumsum(drive / powers, axis=0))

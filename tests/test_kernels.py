@@ -179,3 +179,60 @@ def test_merged_pulses_are_numpys_bit_for_bit():
             want = numpy_merge(times, robot, beacon, turn, 4, rate, key)
             got = det.merge_measurements(times, robot, beacon, turn, 4, rate, key)
             assert got.tobytes() == want.tobytes()
+
+
+def numpy_phases(omega, dt, phi0, heading, noise, wobble, spin):
+    """Sensing._phases as NumPy wrote it (closed-form first-order filters, accumulated sums)."""
+
+    def first_order(a, y0, drive):
+        powers = a ** np.arange(1, len(drive) + 1)[:, None]
+        return powers * (y0 + np.add.accumulate(drive / powers, axis=0))
+
+    steps = len(heading) - 1
+    rate, outs = None, [wobble[1], spin[2], spin[3]]
+    if noise is not None:
+        w = first_order(wobble[0], wobble[1], np.sqrt(1 - wobble[0] ** 2) * 0.003 * noise)
+        rate = omega * (1.0 + w)
+        outs[0] = w[-1]
+    a, coupling, lag0, body0 = spin
+    body = (heading[1:] - heading[:-1]) / dt
+    change = np.empty_like(body)
+    change[0] = body[0] - body0
+    np.subtract(body[1:], body[:-1], out=change[1:])
+    drive = -a * change
+    if coupling:
+        drive = drive - (1 - a) * coupling * body
+    lag = first_order(a, lag0, drive)
+    rate = (omega if rate is None else rate) + lag
+    outs[1:] = lag[-1], body[-1]
+    phi = np.empty((steps + 1, len(omega)))
+    phi[0] = 0.0
+    np.add.accumulate(rate * dt, axis=0, out=phi[1:])
+    phi += phi0
+    return phi, *outs
+
+
+@pytest.mark.parametrize("wobbles", [False, True])
+@pytest.mark.parametrize("coupling", [0.0, 0.2])
+def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
+    g = np.random.default_rng(11)
+    dt, steps, n = 1 / 240, 48, 3
+    powers = lambda a: np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, steps + 1)[:, None], (steps, n)))  # noqa: E731
+    for _ in range(30):
+        omega = g.choice([-1.0, 1.0], n) * g.uniform(20, 90, n)
+        phi0, heading = g.uniform(-40, 40, n), np.cumsum(g.normal(0, 0.02, (steps + 1, n)), axis=0)
+        wa, sa = np.exp(-dt / 0.5), np.exp(-dt / 0.03)
+        w0, lag0, body0 = g.normal(0, 0.003, n), g.normal(0, 0.5, n), g.normal(0, 1, n)
+        noise = g.normal(size=(steps, n)) if wobbles else None
+        want = numpy_phases(omega, dt, phi0, heading, noise, (wa, w0), (sa, coupling, lag0, body0))
+        got = kernels.laser_phases(
+            omega,
+            dt,
+            phi0,
+            heading,
+            np.zeros((0, 0)) if noise is None else noise,
+            (np.sqrt(1 - wa * wa) * 0.003, wa, powers(wa), w0),
+            (sa, (1 - sa) * coupling, powers(sa), lag0, body0),
+        )
+        for w, v in zip(want, got):
+            assert np.asarray(w).tobytes() == v.tobytes()
