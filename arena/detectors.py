@@ -16,11 +16,8 @@ from typing import NamedTuple
 import numpy as np
 
 from arena import kernels
-from arena.angles import TWO_PI, wrap_angle
+from arena.angles import TWO_PI
 from arena.laser import Crossings
-
-# constants as 0-d arrays: NumPy combines them with small arrays faster than Python floats
-_ZERO, _ONE, _TWO, _PI, _INF = (np.array(v) for v in (0.0, 1.0, 2.0, math.pi, math.inf))
 
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {
@@ -94,8 +91,7 @@ def angle_noise(kind: str, p: Mapping[str, float], omega: float) -> float:
 
 def incidence(c: Crossings, facing: np.ndarray) -> np.ndarray:
     """Angle between each beacon's facing direction and the direction back to the laser (rad)."""
-    back = c.bearing + _PI - facing[c.beacon]
-    return np.abs(wrap_angle(back))
+    return kernels.incidence(c.bearing, facing, c.beacon)
 
 
 def visible(kind: str, c: Crossings, facing: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
@@ -155,19 +151,14 @@ def optics(c: Crossings, inc: np.ndarray, sens: np.ndarray, p: Mapping[str, floa
     at least `rise_time` (Simi's sizing rule); it fires x - (w + a) / 2 of travel before the
     spot is centred on the detector: the time offset returned (negative: early). Zero widths
     give the exact crossing."""
-    r = c.distance
-    v = np.abs(c.beam_rate) * r
-    w = spot_width(r, p)
-    a = p.get("aperture", 0.0) * np.cos(inc)
-    eta = p.get("trigger_fraction", 0.0)
-    lit, across = sens > _ZERO, w + a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        peak = sens * np.where(w > a, a / w, _ONE)  # beam fraction on the detector at full overlap
-        x = np.where(lit, eta * w / sens, _INF)
-        dwell = (across - _TWO * x) / v
-        offset = np.where(v > _ZERO, (x - across / _TWO) / v, _ZERO)
-    ok = (peak >= eta * (1 - 1e-9)) & lit & (dwell >= p.get("rise_time", 0.0))
-    return ok, np.where(ok, offset, _ZERO)
+    hardware = (
+        float(p.get("beam_diameter", 0.0)),
+        float(p.get("beam_divergence", 0.0)),
+        float(p.get("aperture", 0.0)),
+        float(p.get("trigger_fraction", 0.0)),
+        float(p.get("rise_time", 0.0)),
+    )
+    return kernels.optics(c.distance, c.beam_rate, np.cos(inc), sens, hardware)
 
 
 def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:

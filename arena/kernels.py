@@ -8,7 +8,8 @@ same bits as the NumPy expressions they replace (decision 0025):
   as NumPy's are;
 - `arctan2` and `arcsin` stay NumPy calls between kernels: NumPy takes its own SIMD code for
   them on most processors, which differs from the C library's in the last bit;
-- `np.maximum` and `np.minimum` keep their NaN rule (`_max`, `_min`).
+- `np.maximum` and `np.minimum` keep their NaN rule (`_max`, `_min`), and a division by zero
+  gives an infinity or a NaN, as in NumPy (`error_model="numpy"`), not an exception.
 `tests/test_kernels.py` holds the NumPy expressions and compares bit for bit.
 """
 
@@ -29,7 +30,7 @@ _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(
 _LOW11 = np.uint64(0x7FF)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _max(a: float, b: float) -> float:
     """np.maximum of two floats: a NaN in either wins."""
     if a != a:
@@ -39,7 +40,7 @@ def _max(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _min(a: float, b: float) -> float:
     """np.minimum of two floats: a NaN in either wins."""
     if a != a:
@@ -49,13 +50,13 @@ def _min(a: float, b: float) -> float:
     return a if a <= b else b
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _wrap(a: float) -> float:
     """arena.angles.wrap_angle of one angle."""
     return a - TWO_PI * np.rint(a * PER_TURN)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _sign(v: float) -> float:
     if v > 0.0:
         return 1.0
@@ -64,7 +65,7 @@ def _sign(v: float) -> float:
     return v  # 0, -0 or NaN, as np.sign
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The vectors from every laser (steps, robots) to every beacon: (steps, robots, beacons)."""
     k, r, b = x.shape[0], x.shape[1], bx.shape[0]
@@ -77,7 +78,7 @@ def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarra
     return dx, dy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def passes(
     beam: np.ndarray, bearing: np.ndarray, shift: np.ndarray, shifted: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -111,7 +112,7 @@ def passes(
     return step, robot, beacon, s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def crossing_steps(
     step: np.ndarray,
     robot: np.ndarray,
@@ -137,7 +138,7 @@ def crossing_steps(
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Laser -> beacon at fraction `s` of each crossing's step."""
     n = s.shape[0]
@@ -148,7 +149,7 @@ def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ex, ey
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarray:
     """clip(offset / range, -1, 1): what the beam's offset asks of arcsin."""
     n = ex.shape[0]
@@ -159,7 +160,7 @@ def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarr
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def newton_step(
     rows: np.ndarray,
     s: np.ndarray,
@@ -188,7 +189,7 @@ def newton_step(
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def crossing_values(
     rows: np.ndarray,
     s: np.ndarray,
@@ -219,7 +220,7 @@ def crossing_values(
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def blocked(
     px: np.ndarray,
     py: np.ndarray,
@@ -269,7 +270,7 @@ def blocked(
     return out, qx, qy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def revolution_hash(key: np.uint64, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """arena.detectors.revolution_hash, compiled: SplitMix64's finaliser of (key, robot, turn)."""
     n = robot.shape[0]
@@ -282,7 +283,7 @@ def revolution_hash(key: np.uint64, robot: np.ndarray, turn: np.ndarray) -> np.n
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def merge(
     times: np.ndarray,
     robot: np.ndarray,
@@ -306,7 +307,7 @@ def merge(
     return out, changed
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
     """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, per column. With `powers`
     (a^1..a^steps per row) in closed form, y[k] = a^k (y0 + sum_j<=k a^-j drive[j]), as NumPy
@@ -328,7 +329,7 @@ def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray)
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def laser_phases(
     omega: np.ndarray,
     dt: float,
@@ -379,3 +380,122 @@ def laser_phases(
             acc = v if k == 0 else acc + v
             phi[k + 1, r] = acc + phi0[r]
     return phi, last_wobble, last_lag, last_body
+
+
+@njit(cache=True, error_model="numpy")
+def _before(robot: np.ndarray, fired: np.ndarray, beacon: np.ndarray, i: int, j: int) -> bool:
+    """Whether pulse i sorts strictly before pulse j: by robot, firing time, beacon."""
+    if robot[i] != robot[j]:
+        return robot[i] < robot[j]
+    if fired[i] != fired[j]:
+        return fired[i] < fired[j]
+    return beacon[i] < beacon[j]
+
+
+@njit(cache=True, error_model="numpy")
+def pulses(
+    t: np.ndarray,
+    offset: np.ndarray,
+    detected: np.ndarray,
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    phi: np.ndarray,
+    draws: np.ndarray,
+    window: tuple[float, float],
+    omega: np.ndarray,
+    reflector: bool,
+    clock_hz: float,
+    first_tick: float,
+    merging: tuple[bool, np.ndarray, int, float, np.uint64],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The detected crossings as read by the hardware (arena.sensing.Sensing._hits), sorted by
+    robot, time and beacon: which crossing each pulse is, its robot, beacon, clock reading and
+    the laser's phase when it fired; and per robot, its pulse count and whether two of its
+    pulses read one time. A pulse fires at t + offset, no earlier than the period's start;
+    `draws` (one timing-noise draw per pulse, grouped by robot in crossing order; none: no
+    noise) jitter it within the period; a counter of `clock_hz` (0: none) truncates it, no
+    earlier than `first_tick`; `merging` = (whether to, each robot's spin sign, the number of
+    arrays, the rate, the key) applies Bac's merged measurements (arena.detectors)."""
+    w0, w1 = window
+    source = np.flatnonzero(detected)
+    m, n_robots = source.shape[0], omega.shape[0]
+    fired, phase = np.empty(m), np.empty(m)
+    rob, bea = robot[source], beacon[source]
+    for j in range(m):
+        fired[j] = _max(t[source[j]] + offset[source[j]], w0)
+    if draws.shape[0]:
+        k = 0
+        for r in range(n_robots):
+            for j in range(m):
+                if rob[j] == r:
+                    fired[j] = _min(_max(fired[j] + draws[k], w0), w1)
+                    k += 1
+    for j in range(m):
+        i = source[j]
+        phase[j] = phi[i] + (fired[j] - (fired[j] if reflector else t[i])) * omega[rob[j]]
+    order = np.arange(m)
+    for a in range(1, m):  # insertion sort: stable, as np.lexsort
+        j = order[a]
+        b = a
+        while b > 0 and _before(rob, fired, bea, j, order[b - 1]):
+            order[b] = order[b - 1]
+            b -= 1
+        order[b] = j
+    times = np.empty(m)
+    for a in range(m):
+        v = fired[order[a]]
+        if clock_hz > 0:
+            v = np.floor(v * clock_hz + 1e-6) / clock_hz
+        times[a] = _max(v, first_tick)
+    rob, bea, phase = rob[order], bea[order], phase[order]
+    merge_on, direction, n_beacons, rate, key = merging
+    if merge_on and rate > 0 and m >= 2:
+        turn = np.empty(m)
+        for a in range(m):
+            turn[a] = np.floor(phi[source[order[a]]] * direction[rob[a]] / TWO_PI)
+        times, _ = merge(times, rob, bea, turn, n_beacons, rate, key)
+    counts = np.zeros(n_robots, np.int64)
+    tied = np.zeros(n_robots, np.bool_)
+    for a in range(m):
+        counts[rob[a]] += 1
+        if a and rob[a] == rob[a - 1] and times[a] == times[a - 1]:
+            tied[rob[a]] = True
+    return source[order], rob, bea, times, phase, np.stack((counts, tied.astype(np.int64)))
+
+
+@njit(cache=True, error_model="numpy")
+def incidence(bearing: np.ndarray, facing: np.ndarray, beacon: np.ndarray) -> np.ndarray:
+    """arena.detectors.incidence: |wrap(bearing + pi - facing of the beacon)| per crossing."""
+    n = bearing.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        out[i] = abs(_wrap(bearing[i] + math.pi - facing[beacon[i]]))
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def optics(
+    distance: np.ndarray,
+    beam_rate: np.ndarray,
+    cos_incidence: np.ndarray,
+    sens: np.ndarray,
+    hardware: tuple[float, float, float, float, float],
+) -> tuple[np.ndarray, np.ndarray]:
+    """arena.detectors.optics' arithmetic: (detected, time offset) per crossing, for
+    `hardware` = (beam diameter, divergence, aperture, trigger fraction, rise time)."""
+    diameter, divergence, aperture, eta, rise = hardware
+    n = distance.shape[0]
+    ok, out = np.empty(n, np.bool_), np.empty(n)
+    for i in range(n):
+        r = distance[i]
+        v = abs(beam_rate[i]) * r
+        w = diameter + divergence * r
+        a = aperture * cos_incidence[i]
+        lit, across = sens[i] > 0.0, w + a
+        peak = sens[i] * (a / w if w > a else 1.0)
+        x = eta * w / sens[i] if lit else math.inf
+        dwell = (across - 2.0 * x) / v
+        offset = (x - across / 2.0) / v if v > 0.0 else 0.0
+        ok[i] = peak >= eta * (1 - 1e-9) and lit and dwell >= rise
+        out[i] = offset if ok[i] else 0.0
+    return ok, out

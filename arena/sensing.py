@@ -25,6 +25,7 @@ from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
 _NO_NOISE, _NO_POWERS = np.zeros((0, 0)), np.zeros((0, 0))
+_NO_OFFSETS, _NO_DRAWS, _ALL = np.zeros(0), np.zeros(0), np.ones(0, dtype=bool)
 
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
@@ -77,6 +78,7 @@ class Sensing:
             for name in ("wobble", "detector", "timing", "false", "light")
         }
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
+        self._merge_key = np.uint64(self.merge_key)
         self.wobble = np.zeros(self.n)
         self.spin_lag = np.zeros(self.n)  # the laser's relative rate minus its steady value (rad/s)
         self.body_rate = np.zeros(self.n)  # the body's yaw rate in the last step (rad/s)
@@ -215,42 +217,39 @@ class Sensing:
         if not keep.all():
             c = c.take(np.nonzero(keep)[0])
         p = self.params
-        times = c.t
+        offset, detected = _NO_OFFSETS, _ALL
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
-            if not ok.all():
-                c, offset = c.take(np.nonzero(ok)[0]), offset[ok]
-            times = c.t + offset
-        if not len(c):
+            detected, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
+        if len(offset) != len(c):
+            offset, detected = np.zeros(len(c)), np.ones(len(c), dtype=bool)
+        if not detected.any():
             return out
-        window = (traj.t[0], traj.t[-1])
-        fired = np.maximum(times, window[0])
-        counts = np.bincount(c.robot, minlength=self.n).tolist()  # crossings per robot
-        if p.get("timing_noise", 0.0) > 0:  # one draw per crossing from its robot's stream
-            noise = np.empty(len(c))
-            noise[np.argsort(c.robot, kind="stable")] = np.concatenate(
+        draws = _NO_DRAWS
+        if p.get("timing_noise", 0.0) > 0:  # one draw per pulse from its robot's stream
+            counts = np.bincount(c.robot[detected], minlength=self.n).tolist()
+            draws = np.concatenate(
                 [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
-            fired = det.jitter(fired, noise, window)
-        # the laser's relative phase at the instant the detector fires (an encoder latches it);
-        # a reflector's return carries the phase of the crossing itself
-        phase = c.phi + (fired - (fired if self.kind == "reflector" else c.t)) * self.omega[c.robot]
-        order = np.lexsort((c.beacon, fired, c.robot))
-        robot, beacon, phase = c.robot[order], c.beacon[order], phase[order]
-        times = det.counter_clock(fired[order], p)  # sorted by robot, time, beacon
-        # a pulse that fired early, before this period began, is read at the counter's first
-        # tick inside it: the previous period's events are delivered already
-        times = np.maximum(times, det.first_tick_after(window[0], p))
-        if self.kind == "sensor_array":
-            turn = np.floor(c.phi[order] * self.direction[robot] / TWO_PI)
-            times = det.merge_measurements(times, robot, beacon, turn, len(self.ids), p["merge_rate"], self.merge_key)
+        window = (float(traj.t[0]), float(traj.t[-1]))
+        merging = (
+            self.kind == "sensor_array",
+            self.direction,
+            len(self.ids),
+            float(p.get("merge_rate", 0.0)),
+            self._merge_key,
+        )
+        source, robot, beacon, times, phase, (counts_, tied_) = kernels.pulses(
+            c.t, offset, detected, c.robot, c.beacon, c.phi, draws, window, self.omega,
+            self.kind == "reflector", float(p.get("clock_hz", 0.0)), det.first_tick_after(window[0], p), merging,
+        )  # fmt: skip
+        counts = counts_.tolist()
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
-        m = len(order)
+        m = len(source)
         angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * m
         labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
-        beams = zip(c.x[order].tolist(), c.y[order].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
+        beams = zip(c.x[source].tolist(), c.y[source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
         robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
             for r, t, label, angle, beam in zip(robots, times_, labels, angles, beams):
@@ -262,12 +261,11 @@ class Sensing:
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
         events = list(map(NEW_DETECTION, fields))
         # times never decrease within a robot; hits at one time go by their keys
-        tied = set(robot[1:][(times[1:] == times[:-1]) & (robot[1:] == robot[:-1])].tolist())
         start = 0
-        for r, k in enumerate(counts):
+        for r, (k, tied) in enumerate(zip(counts, tied_.tolist())):
             out[r] = events[start : start + k]
             start += k
-            if r in tied:
+            if tied:
                 out[r].sort(key=event_order)
         return out
 

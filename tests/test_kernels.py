@@ -236,3 +236,29 @@ def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
         )
         for w, v in zip(want, got):
             assert np.asarray(w).tobytes() == v.tobytes()
+
+
+def test_optics_and_incidence_are_numpys_bit_for_bit():
+    g = np.random.default_rng(13)
+    n = 5000
+    distance, rate = g.uniform(0.05, 3, n), g.normal(0, 80, n)
+    rate[:50] = 0.0  # a beam that stands still
+    bearing, facing, beacon = g.uniform(-7, 7, n), g.uniform(-4, 4, 4), g.integers(0, 4, n)
+    sens = np.where(g.random(n) < 0.1, 0.0, g.uniform(0, 1, n))
+    hardware = (0.0015, 1e-3, 0.003, 0.5, 1.11e-5)
+    inc = np.abs(wrap_angle(bearing + np.pi - facing[beacon]))
+    assert kernels.incidence(bearing, facing, beacon).tobytes() == inc.tobytes()
+    d, div, ap, eta, rise = hardware
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.abs(rate) * distance
+        w = d + div * distance
+        a = ap * np.cos(inc)
+        lit, across = sens > 0, w + a
+        peak = sens * np.where(w > a, a / w, 1.0)
+        x = np.where(lit, eta * w / sens, np.inf)
+        dwell = (across - 2.0 * x) / v
+        offset = np.where(v > 0, (x - across / 2.0) / v, 0.0)
+    ok = (peak >= eta * (1 - 1e-9)) & lit & (dwell >= rise)
+    got_ok, got_offset = kernels.optics(distance, rate, np.cos(inc), sens, hardware)
+    assert got_ok.tobytes() == ok.tobytes() and 0 < ok.sum() < n
+    assert got_offset.tobytes() == np.where(ok, offset, 0.0).tobytes()
