@@ -16,9 +16,13 @@ same bits as the NumPy expressions they replace (decision 0025):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Literal, TypeVar, cast
 
 import numpy as np
 from numba import njit
+
+F = TypeVar("F", bound=Callable)
 
 TWO_PI = 2.0 * math.pi
 PER_TURN = 1.0 / TWO_PI
@@ -30,7 +34,20 @@ _S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(
 _LOW11 = np.uint64(0x7FF)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
+    """numba's `njit` with NumPy's division rule, cached beside this module (or in the user's
+    cache folder); where neither can be written, compiled afresh in each process instead."""
+
+    def wrap(f: F) -> F:
+        try:
+            return cast(F, njit(cache=True, error_model="numpy", inline=inline)(f))
+        except RuntimeError:  # "cannot cache function ...: no locator available"
+            return cast(F, njit(error_model="numpy", inline=inline)(f))
+
+    return wrap
+
+
+@compiled(inline="always")
 def _max(a: float, b: float) -> float:
     """np.maximum of two floats: a NaN in either wins."""
     if a != a:
@@ -40,7 +57,7 @@ def _max(a: float, b: float) -> float:
     return a if a >= b else b
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@compiled(inline="always")
 def _min(a: float, b: float) -> float:
     """np.minimum of two floats: a NaN in either wins."""
     if a != a:
@@ -50,13 +67,13 @@ def _min(a: float, b: float) -> float:
     return a if a <= b else b
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@compiled(inline="always")
 def _wrap(a: float) -> float:
     """arena.angles.wrap_angle of one angle."""
     return a - TWO_PI * np.rint(a * PER_TURN)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@compiled(inline="always")
 def _sign(v: float) -> float:
     if v > 0.0:
         return 1.0
@@ -65,7 +82,7 @@ def _sign(v: float) -> float:
     return v  # 0, -0 or NaN, as np.sign
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The vectors from every laser (steps, robots) to every beacon: (steps, robots, beacons)."""
     k, r, b = x.shape[0], x.shape[1], bx.shape[0]
@@ -78,7 +95,7 @@ def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarra
     return dx, dy
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def passes(
     beam: np.ndarray, bearing: np.ndarray, shift: np.ndarray, shifted: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -112,7 +129,7 @@ def passes(
     return step, robot, beacon, s
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def crossing_steps(
     step: np.ndarray,
     robot: np.ndarray,
@@ -138,7 +155,7 @@ def crossing_steps(
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Laser -> beacon at fraction `s` of each crossing's step."""
     n = s.shape[0]
@@ -149,7 +166,7 @@ def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ex, ey
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarray:
     """clip(offset / range, -1, 1): what the beam's offset asks of arcsin."""
     n = ex.shape[0]
@@ -160,7 +177,7 @@ def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarr
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def newton_step(
     rows: np.ndarray,
     s: np.ndarray,
@@ -189,7 +206,7 @@ def newton_step(
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def crossing_values(
     rows: np.ndarray,
     s: np.ndarray,
@@ -220,7 +237,7 @@ def crossing_values(
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def blocked(
     px: np.ndarray,
     py: np.ndarray,
@@ -270,7 +287,7 @@ def blocked(
     return out, qx, qy
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def revolution_hash(key: np.uint64, robot: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """arena.detectors.revolution_hash, compiled: SplitMix64's finaliser of (key, robot, turn)."""
     n = robot.shape[0]
@@ -283,7 +300,7 @@ def revolution_hash(key: np.uint64, robot: np.ndarray, turn: np.ndarray) -> np.n
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def merge(
     times: np.ndarray,
     robot: np.ndarray,
@@ -307,7 +324,7 @@ def merge(
     return out, changed
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
     """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, per column. With `powers`
     (a^1..a^steps per row) in closed form, y[k] = a^k (y0 + sum_j<=k a^-j drive[j]), as NumPy
@@ -329,7 +346,7 @@ def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray)
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def laser_phases(
     omega: np.ndarray,
     dt: float,
@@ -382,7 +399,7 @@ def laser_phases(
     return phi, last_wobble, last_lag, last_body
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def _before(robot: np.ndarray, fired: np.ndarray, beacon: np.ndarray, i: int, j: int) -> bool:
     """Whether pulse i sorts strictly before pulse j: by robot, firing time, beacon."""
     if robot[i] != robot[j]:
@@ -392,7 +409,7 @@ def _before(robot: np.ndarray, fired: np.ndarray, beacon: np.ndarray, i: int, j:
     return beacon[i] < beacon[j]
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def pulses(
     t: np.ndarray,
     offset: np.ndarray,
@@ -463,7 +480,7 @@ def pulses(
     return source[order], rob, bea, times, phase, np.stack((counts, tied.astype(np.int64)))
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def incidence(bearing: np.ndarray, facing: np.ndarray, beacon: np.ndarray) -> np.ndarray:
     """arena.detectors.incidence: |wrap(bearing + pi - facing of the beacon)| per crossing."""
     n = bearing.shape[0]
@@ -473,7 +490,7 @@ def incidence(bearing: np.ndarray, facing: np.ndarray, beacon: np.ndarray) -> np
     return out
 
 
-@njit(cache=True, error_model="numpy")
+@compiled()
 def optics(
     distance: np.ndarray,
     beam_rate: np.ndarray,

@@ -5,6 +5,9 @@ before, and both are run on random trajectories: crossings (beams on and beside 
 occlusion by other robots, and Bac's merged pulses. Equality is exact, bit for bit, so results
 and replays stay what they were (tests/test_golden.py guards the whole match)."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -262,3 +265,18 @@ def test_optics_and_incidence_are_numpys_bit_for_bit():
     got_ok, got_offset = kernels.optics(distance, rate, np.cos(inc), sens, hardware)
     assert got_ok.tobytes() == ok.tobytes() and 0 < ok.sum() < n
     assert got_offset.tobytes() == np.where(ok, offset, 0.0).tobytes()
+
+
+def test_kernels_compile_where_no_cache_folder_can_be_written():
+    """A user who can write neither the installation nor a cache folder still gets sensing."""
+    code = (
+        "import numba.core.caching as c\n"
+        "c.CacheImpl._locator_classes = []\n"  # what numba finds for such a user: no place to cache
+        "import numpy as np\n"
+        "from arena import kernels\n"
+        "ex, ey = kernels.toward(np.ones((8, 2)), np.array([0.5, 0.25]))\n"
+        "print(ex.tolist(), ey.tolist())\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-500:]
+    assert out.stdout.split() == ["[0.5,", "0.75]", "[0.5,", "0.75]"]
