@@ -15,6 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from robots.toolkit import dense
+
 TWO_PI = 2 * math.pi
 COT_CLAMP = 1e8  # cot of an angle this close to 0 or pi stands for infinity (ToTal's advice)
 DEGENERATE = 1e-12
@@ -239,13 +241,13 @@ def newton(
             f.append(math.remainder(math.atan2(dy, dx) - h - b, TWO_PI))
             jac.append((dy / d2, -dx / d2, -1.0))
         j = np.array(jac)
-        step, *_ = np.linalg.lstsq(j, -np.array(f), rcond=None)
+        step = dense.lstsq(j, -np.array(f))
         grow = max(abs(step[0]), abs(step[1])) / MAX_STEP
         if grow > 1:  # a trust region: far from the answer, never jump across the field
             step = step / grow
         x, y, h = x + step[0], y + step[1], h + step[2]
         if abs(step[0]) + abs(step[1]) + abs(step[2]) < tolerance:
-            cond = np.linalg.cond(j)
+            cond = dense.condition(j)
             if not math.isfinite(cond) or cond > 1e10:
                 return failed("robot on the circle through the beacons")
             return Fix(float(x), float(y), math.remainder(float(h), TWO_PI), float(1.0 / cond))
@@ -316,7 +318,7 @@ def least_squares(
         jac.append((dy / d2, -dx / d2, -1.0))
     j = np.array(jac)
     try:
-        cov = sigma * sigma * np.linalg.inv(j.T @ j)
+        cov = sigma * sigma * dense.inverse(j.T @ j)
     except np.linalg.LinAlgError:
         return failed("robot on the circle through the beacons")
     pos = ((float(cov[0, 0]), float(cov[0, 1])), (float(cov[1, 0]), float(cov[1, 1])))
