@@ -81,3 +81,54 @@ def test_a_number_is_what_json_writes_for_it_rounded(value):
         except TypeError:
             return
         raise AssertionError("a non-finite value must go to JSON's own encoder")
+
+
+@given(st.lists(st.floats(min_value=-2e6, max_value=2e6) | st.sampled_from(AWKWARD), max_size=40))
+def test_numbers_at_once_are_each_number_as_json_writes_it(values):
+    from referee.records.replay import _numbers
+
+    assert _numbers(values) == [json.dumps(round(v, DECIMALS)) for v in values]
+
+
+def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
+    """Frames and one robot's detections, written a control period at a time."""
+    from arena.detectors import Detection
+
+    level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
+    path = tmp_path / "r.replay"
+    w = ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    rng = random.Random(11)
+    expected = []
+    for k in range(400):
+        if k % 2:
+            frames = [
+                (abs(floats(rng, 1)[0]), [tuple(floats(rng, 3)) for _ in range(4)]) for _ in range(rng.randint(1, 7))
+            ]
+            if k % 10 == 1:  # a value only JSON's encoder writes: those frames go one by one
+                frames[0] = (frames[0][0], [(math.inf, 1.0, 2.0)] * 4)
+            w.frames(frames)
+            for t, poses in frames:
+                rec = {"k": "f", "t": round(t, DECIMALS), "p": [rounded(p) for p in poses]}
+                expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
+            continue
+        slot, detections = rng.randint(0, 3), []
+        for _ in range(rng.randint(1, 12)):
+            beam = None if rng.random() < 0.2 else (*floats(rng, 2), *rng.choice([(0.0, 2.0), (-0.0, 2.0), (1.5, 2.5)]))
+            d = Detection(
+                slot,
+                abs(floats(rng, 1)[0]),
+                rng.choice(["hit", "index"]),
+                rng.choice([None, "A", 'q"']),
+                None,
+                (),
+                rng.randint(-1, 3),
+                beam,
+            )
+            detections.append(d)
+            rec = {"k": "e", "t": round(d.time, DECIMALS), "r": slot, "s": d.source, "kind": d.kind, "b": d.beacon}
+            rec["line"] = None if beam is None else rounded(beam)
+            expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
+        w.events(slot, detections)
+    w.close({"done": True})
+    lines = gzip.open(path).read().decode().splitlines()
+    assert lines[1:-1] == expected

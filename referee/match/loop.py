@@ -132,7 +132,7 @@ class Match:
         # 0.5 m/s for a push or a bounce on top (the match can only end near a final target)
         top = max((r.model.max_wheel_speed for r in level.robots), default=0.0)
         self.reach = (2 * top + 0.5) * level.control_period
-        self.writer = recorder  # anything with ReplayWriter's frame / record / close
+        self.writer = recorder  # anything with ReplayWriter's frame(s) / events / record / close
         if replay is not None:
             self.writer = ReplayWriter(
                 replay,
@@ -165,9 +165,8 @@ class Match:
         time, tick = self.world.time, self.world.tick // self.level.steps_per_control
         for slot, detections in enumerate(self.sensing.flush()):
             self.inbox[slot].extend(to_event(d) for d in detections)
-            if self.writer:
-                for d in detections:
-                    self.writer.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+            if self.writer and detections:
+                self.writer.events(slot, detections)
         out: list[Observation | None] = []
         for slot in range(len(self.bots)):
             if self.stopped[slot]:
@@ -307,9 +306,10 @@ class Match:
         self.tracker.advance(table, first, level.physics_rate, every)
         self.rules.after_steps(world, table, speeds)
         if self.writer:
-            for i, state in enumerate(states):
-                if (first + i) % every == 0:
-                    self.writer.frame((first + i) / level.physics_rate, poses(state))
+            start = -first % every  # the first step of this run that is recorded
+            frames = [((first + i) / level.physics_rate, poses(states[i])) for i in range(start, len(states), every)]
+            if frames:
+                self.writer.frames(frames)
         return len(states)
 
     def end(self) -> MatchResult:

@@ -19,9 +19,10 @@ import gzip
 import io
 import json
 import os
+import re
 import tempfile
 import zlib
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Annotated, Any
@@ -90,6 +91,23 @@ def _number(value: float) -> str:
     return text
 
 
+_TRAILING_ZEROS = re.compile("0+\n")
+
+
+def _numbers(values: list[float]) -> list[str]:
+    """`_number` of each value, formatted at once: where every value is a float of the fast
+    range, one `%` for all of them and one pass to drop their trailing zeros."""
+    if (
+        values
+        and all(type(v) is float for v in values)
+        and 1e-4 <= min(map(abs, values))
+        and max(map(abs, values)) < 1e6
+    ):
+        text = _TRAILING_ZEROS.sub("\n", (_FIXED + "\n") * len(values) % tuple(values)).replace(".\n", ".0\n")
+        return text.split("\n")[:-1]
+    return list(map(_number, values))
+
+
 @functools.cache
 def _string(value: str | None) -> str:
     """A string (beacon ids, event kinds: a handful per match) or None as JSON."""
@@ -116,14 +134,40 @@ def _event_line(f: dict[str, Any]) -> str:
         raise KeyError("fields")
     beam = f["line"]
     if beam is not None:
-        x, y, bx, by = beam  # the far end is a beacon's place: a handful per match
-        far = _place(bx, by) if bx and by else _number(bx) + "," + _number(by)  # -0.0 == 0.0 as a key
-        beam = "[" + _number(x) + "," + _number(y) + "," + far + "]"
-    return (
-        '{"b":' + _string(f["b"]) + ',"k":"e","kind":' + _string(f["kind"])
-        + ',"line":' + ("null" if beam is None else beam)
-        + ',"r":' + _int(f["r"]) + ',"s":' + _int(f["s"]) + ',"t":' + _number(f["t"]) + "}"
-    )  # fmt: skip
+        x, y, bx, by = beam
+        beam = _beam(_number(x), _number(y), bx, by)
+    return _EVENT % (_string(f["b"]), _string(f["kind"]), beam or "null", _int(f["r"]), _int(f["s"]), _number(f["t"]))
+
+
+_EVENT = '{"b":%s,"k":"e","kind":%s,"line":%s,"r":%s,"s":%s,"t":%s}'
+
+
+def _beam(x: str, y: str, bx: float, by: float) -> str:
+    """A beam as JSON: the laser's place (formatted) and its far end, a beacon's place: a
+    handful per match, each formatted once (never for a zero: 0.0 and -0.0 are one key)."""
+    return "[" + x + "," + y + "," + (_place(bx, by) if bx and by else _number(bx) + "," + _number(by)) + "]"
+
+
+def _event_lines(slot: int, detections: Sequence[Any]) -> list[str]:
+    """The `e` records of one robot's detections, as `_event_line` writes each: their numbers
+    formatted at once (`_numbers`). TypeError or ValueError where the encoder must write them."""
+    if type(slot) is not int:
+        raise TypeError("not an int")
+    values: list[float] = []
+    for d in detections:
+        values.append(d.time)
+        if d.beam is not None:
+            values += d.beam[:2]
+    numbers = iter(_numbers(values))
+    r, lines = int.__repr__(slot), []
+    for d in detections:
+        t, beam = next(numbers), d.beam
+        if beam is not None:
+            beam = _beam(next(numbers), next(numbers), *beam[2:])
+        if type(d.source) is not int:
+            raise TypeError("not an int")
+        lines.append(_EVENT % (_string(d.beacon), _string(d.kind), beam or "null", r, int.__repr__(d.source), t) + "\n")
+    return lines
 
 
 def _estimate_line(f: dict[str, Any]) -> str:
@@ -204,12 +248,45 @@ class ReplayWriter:
         self._lines.clear()
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
+        self.frames([(time, poses)])
+
+    def _frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         line: str | None
         try:
             line = '{"k":"f","p":[' + ",".join(map(_floats, poses)) + '],"t":' + _number(time) + "}"
         except TypeError:
             line = None
         self._hot(line, lambda: {"k": "f", "t": round(time, DECIMALS), "p": [_rounded(p) for p in poses]})
+
+    def frames(self, frames: list[tuple[float, list[tuple[float, float, float]]]]) -> None:
+        """Frames (time, every robot's pose), their numbers formatted at once."""
+        try:
+            if any(len(p) != 3 for _, poses in frames for p in poses):
+                raise ValueError("a pose is (x, y, heading)")
+            numbers = iter(_numbers([v for time, poses in frames for v in (time, *(u for p in poses for u in p))]))
+            lines = []
+            for _, poses in frames:
+                t = next(numbers)
+                p = ",".join("[" + next(numbers) + "," + next(numbers) + "," + next(numbers) + "]" for _ in poses)
+                lines.append('{"k":"f","p":[' + p + '],"t":' + t + "}\n")
+        except (TypeError, ValueError):  # a value the encoder must write: one frame at a time
+            for time, poses in frames:
+                self._frame(time, poses)
+            return
+        self._lines += lines
+        if len(self._lines) >= 512:
+            self._flush()
+
+    def events(self, slot: int, detections: Sequence[Any]) -> None:
+        """The `e` records of robot `slot`'s detections (arena.detectors.Detection), at once."""
+        try:
+            self._lines += _event_lines(slot, detections)
+        except (TypeError, ValueError):  # a value the encoder must write: one record at a time
+            for d in detections:
+                self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+            return
+        if len(self._lines) >= 512:
+            self._flush()
 
     def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind not in ("e", "est"):
@@ -268,6 +345,14 @@ class MemoryRecorder:
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         self.replay.frames.append((time, [list(p) for p in poses]))
+
+    def frames(self, frames: list[tuple[float, list[tuple[float, float, float]]]]) -> None:
+        for time, poses in frames:
+            self.frame(time, poses)
+
+    def events(self, slot: int, detections: Sequence[Any]) -> None:
+        for d in detections:
+            self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
 
     def record(self, record_kind: str, **fields: Any) -> None:
         lists = {
