@@ -95,17 +95,19 @@ _TRAILING_ZEROS = re.compile("0+\n")
 
 
 def _numbers(values: list[float]) -> list[str]:
-    """`_number` of each value, formatted at once: where every value is a float of the fast
-    range, one `%` for all of them and one pass to drop their trailing zeros."""
-    if (
-        values
-        and all(type(v) is float for v in values)
-        and 1e-4 <= min(map(abs, values))
-        and max(map(abs, values)) < 1e6
-    ):
-        text = _TRAILING_ZEROS.sub("\n", (_FIXED + "\n") * len(values) % tuple(values)).replace(".\n", ".0\n")
-        return text.split("\n")[:-1]
-    return list(map(_number, values))
+    """`_number` of each value, formatted at once: one `%` for all of them and one pass to
+    drop their trailing zeros; the few outside the fast range (a heading near 0) one by one."""
+    if not values or not all(type(v) is float for v in values):
+        return list(map(_number, values))
+    text = _TRAILING_ZEROS.sub("\n", (_FIXED + "\n") * len(values) % tuple(values)).replace(".\n", ".0\n")
+    if "n" in text:  # nan, inf
+        raise TypeError("not finite")
+    texts = text.split("\n")
+    if not (1e-4 <= min(map(abs, values)) and max(map(abs, values)) < 1e6):
+        for i, v in enumerate(values):
+            if not 1e-4 <= abs(v) < 1e6:
+                texts[i] = _number(v)
+    return texts[:-1]
 
 
 @functools.cache
