@@ -167,6 +167,26 @@ def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @compiled()
+def first_guesses(
+    beam: np.ndarray,
+    bearing: np.ndarray,
+    shift: np.ndarray,
+    shifted: bool,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    phi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`passes`, then `crossing_steps` and `toward` of the first guesses, in one call: (step,
+    robot, beacon, s, rows, ex, ey)."""
+    step, robot, beacon, s = passes(beam, bearing, shift, shifted)
+    rows = crossing_steps(step, robot, beacon, dx, dy, x, y, beam, phi)
+    ex, ey = toward(rows, s)
+    return step, robot, beacon, s, rows, ex, ey
+
+
+@compiled()
 def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarray:
     """clip(offset / range, -1, 1): what the beam's offset asks of arcsin."""
     n = ex.shape[0]
@@ -187,8 +207,9 @@ def newton_step(
     offset: np.ndarray,
     shift: np.ndarray,
     shifted: bool,
-) -> np.ndarray:
-    """One Newton step of each crossing's instant, clipped to its step (arena.laser)."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One Newton step of each crossing's instant, clipped to its step (arena.laser), and
+    laser -> beacon there (`toward`)."""
     n = s.shape[0]
     out = np.empty(n)
     for c in range(n):
@@ -203,27 +224,29 @@ def newton_step(
             slope = slope + o * (ex[c] * ddx + ey[c] * ddy) / (r2 * r * math.sqrt(_max(1.0 - o * o / r2, 1e-12)))
         f = _wrap(f)
         out[c] = _min(_max(s[c] - f / (1.0 if slope == 0.0 else slope), 0.0), 1.0)
-    return out
+    ex, ey = toward(rows, out)
+    return out, ex, ey
 
 
 @compiled()
 def crossing_values(
     rows: np.ndarray,
     s: np.ndarray,
+    exs: np.ndarray,
+    eys: np.ndarray,
     step: np.ndarray,
     beacon: np.ndarray,
     t: np.ndarray,
     bx: np.ndarray,
     by: np.ndarray,
 ) -> np.ndarray:
-    """Per crossing at its instant: laser -> beacon (ex, ey), time, laser (x, y), phase, the
-    beam's world rate and the range, as rows (8, crossings)."""
+    """Per crossing at its instant (laser -> beacon there: exs, eys): laser -> beacon, time,
+    laser (x, y), phase, the beam's world rate and the range, as rows (8, crossings)."""
     n = s.shape[0]
     out = np.empty((8, n))
     for c in range(n):
         ddx, ddy = rows[2, c], rows[3, c]
-        ex = rows[0, c] - s[c] * ddx
-        ey = rows[1, c] - s[c] * ddy
+        ex, ey = exs[c], eys[c]
         d2 = ex * ex + ey * ey
         k = step[c]
         dt = t[k + 1] - t[k]

@@ -92,14 +92,14 @@ def find_crossings(
     a = traj.h + traj.phi  # beam world angle (n+1, R)
     off = beam_offset if beam_offset is not None and beam_offset.any() else None
     shift = _NO_SHIFT if off is None else np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
-    step, robot, beacon, s = kernels.passes(a, np.arctan2(dy, dx), shift, off is not None)
-    rows = kernels.crossing_steps(step, robot, beacon, dx, dy, traj.x, traj.y, a, traj.phi)
+    step, robot, beacon, s, rows, ex, ey = kernels.first_guesses(
+        a, np.arctan2(dy, dx), shift, off is not None, dx, dy, traj.x, traj.y, traj.phi
+    )
     o = _NO_OFFSET if off is None else off[robot]
     for _ in range(NEWTON_ITERATIONS):
-        ex, ey = kernels.toward(rows, s)
         turn = _NO_OFFSET if off is None else np.arcsin(kernels.offset_ratio(ex, ey, o))
-        s = kernels.newton_step(rows, s, ex, ey, np.arctan2(ey, ex), o, turn, off is not None)
-    ex, ey, t, x, y, phi, beam_rate, distance = kernels.crossing_values(rows, s, step, beacon, traj.t, bx, by)
+        s, ex, ey = kernels.newton_step(rows, s, ex, ey, np.arctan2(ey, ex), o, turn, off is not None)
+    ex, ey, t, x, y, phi, beam_rate, distance = kernels.crossing_values(rows, s, ex, ey, step, beacon, traj.t, bx, by)
     return Crossings(
         robot=robot,
         beacon=beacon,

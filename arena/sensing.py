@@ -25,7 +25,7 @@ from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
 _NO_NOISE, _NO_POWERS = np.zeros((0, 0)), np.zeros((0, 0))
-_NO_OFFSETS, _NO_DRAWS, _ALL = np.zeros(0), np.zeros(0), np.ones(0, dtype=bool)
+_NO_OFFSETS, _NO_DRAWS = np.zeros(0), np.zeros(0)
 
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
@@ -154,9 +154,7 @@ class Sensing:
         wobble = (0.0, 0.0, _NO_POWERS, self.wobble)
         if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
-            noise = np.empty((steps, self.n))
-            for r, g in enumerate(self.rng["wobble"]):
-                noise[:, r] = g.normal(size=steps)
+            noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
             wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
         spin = (-1.0, 0.0, _NO_POWERS, self.spin_lag, self.body_rate)  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
@@ -212,17 +210,20 @@ class Sensing:
         c = find_crossings(traj, self.bx, self.by, self._offsets)
         if not len(c):
             return out
-        keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
-        keep &= det.visible(self.kind, c, self.facing, self.params)
-        if not keep.all():
-            c = c.take(np.nonzero(keep)[0])
         p = self.params
-        offset, detected = _NO_OFFSETS, _ALL
+        keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
+        keep &= det.visible(self.kind, c, self.facing, p)
+        if p.get("light_noise", 0.0) > 0 and not keep.all():
+            c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone
+        offset, detected = _NO_OFFSETS, keep
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            detected, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
+            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
+            detected = ok if keep is None else ok & keep
         if len(offset) != len(c):
-            offset, detected = np.zeros(len(c)), np.ones(len(c), dtype=bool)
+            offset = np.zeros(len(c))
+        if detected is None:
+            detected = np.ones(len(c), dtype=bool)
         if not detected.any():
             return out
         draws = _NO_DRAWS
