@@ -18,6 +18,7 @@ import functools
 import gzip
 import io
 import json
+import math
 import os
 import re
 import tempfile
@@ -117,8 +118,9 @@ def _string(value: str | None) -> str:
 
 
 @functools.lru_cache(maxsize=1024)
-def _place(x: float, y: float) -> str:
-    """A point as two `_number`s: a beam's far end, formatted once per beacon."""
+def _place(x: float, y: float, x_sign: float, y_sign: float) -> str:
+    """A point as two `_number`s: a beam's far end, formatted once per beacon. The signs are
+    part of the key, since 0.0 and -0.0 are one key but two texts."""
     return _number(x) + "," + _number(y)
 
 
@@ -146,8 +148,8 @@ _EVENT = '{"b":%s,"k":"e","kind":%s,"line":%s,"r":%s,"s":%s,"t":%s}'
 
 def _beam(x: str, y: str, bx: float, by: float) -> str:
     """A beam as JSON: the laser's place (formatted) and its far end, a beacon's place: a
-    handful per match, each formatted once (never for a zero: 0.0 and -0.0 are one key)."""
-    return "[" + x + "," + y + "," + (_place(bx, by) if bx and by else _number(bx) + "," + _number(by)) + "]"
+    handful per match, each formatted once."""
+    return "[" + x + "," + y + "," + _place(bx, by, math.copysign(1.0, bx), math.copysign(1.0, by)) + "]"
 
 
 def _event_lines(slot: int, detections: Sequence[Any]) -> list[str]:
