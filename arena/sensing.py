@@ -211,7 +211,7 @@ class Sensing:
         if not len(c):
             return out
         p = self.params
-        keep = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
+        keep: np.ndarray | None = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
         keep &= det.visible(self.kind, c, self.facing, p)
         if p.get("light_noise", 0.0) > 0 and not keep.all():
             c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone

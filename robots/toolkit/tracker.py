@@ -94,6 +94,7 @@ class HitTracker:
         self.disagree_since: float | None = None  # since when every closed-form fix disagrees
         self.track_check, self.heading_check = track_check, heading_check
         self.first_fix = first_fix or self._labelled_fix
+        self._own_fix = first_fix is None  # the labelled fix: it has no state, so it may be skipped
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
         if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
@@ -178,6 +179,8 @@ class HitTracker:
                 self.recent.pop(0)
         ekf = self.ekf
         lost = ekf is None or not self._update(ekf, e)
+        if not lost and self.disagree_since is None and abs(self.turn_rate) > STEADY_TURN and self._own_fix:
+            return  # whatever the revolution's fix, it would change nothing (below): not worth solving
         fix = self.first_fix(e)
         if fix is None:
             return
