@@ -280,3 +280,26 @@ def test_kernels_compile_where_no_cache_folder_can_be_written():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-500:]
     assert out.stdout.split() == ["[0.5,", "0.75]", "[0.5,", "0.75]"]
+
+
+def test_distances_to_a_path_are_numpys_bit_for_bit():
+    from referee.match.paths import Polyline, first_near
+
+    g = np.random.default_rng(19)
+    for _ in range(300):
+        points = [tuple(p) for p in g.uniform(0, 2, (int(g.integers(2, 9)), 2))]
+        if g.random() < 0.2:
+            points.insert(1, points[0])  # a segment of length 0
+        line = Polyline(points)
+        x, y = g.uniform(-0.5, 2.5, 60), g.uniform(-0.5, 2.5, 60)
+        p = np.asarray(points, dtype=float)
+        a, d = p[:-1], p[1:] - p[:-1]
+        n2 = np.maximum((d**2).sum(axis=1), 1e-300)
+        rx, ry = x[:, None] - a[:, 0], y[:, None] - a[:, 1]
+        t = np.clip((rx * d[:, 0] + ry * d[:, 1]) / n2, 0.0, 1.0)
+        want = np.sqrt((rx - t * d[:, 0]) ** 2 + (ry - t * d[:, 1]) ** 2).min(axis=1)
+        assert np.array(line.distances(x, y)).tobytes() == want.tobytes()
+        near = np.hypot(x - points[-1][0], y - points[-1][1]) <= 0.3
+        start = int(g.integers(0, 60))
+        hits = np.flatnonzero(near[start:])
+        assert first_near(x, y, start, *points[-1], 0.3) == (start + hits[0] if len(hits) else -1)

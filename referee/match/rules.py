@@ -9,7 +9,6 @@ controller faults become fouls too (the match reports them here).
 from __future__ import annotations
 
 from bisect import bisect_right
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,20 +122,3 @@ class Rules:
         """End of match: contacts still going on count too."""
         world.end_contacts()
         self.after_step(world)
-
-
-class Polyline:
-    """A path as arrays of segments, for fast distances to it."""
-
-    def __init__(self, points: list[tuple[float, float]]):
-        p = np.asarray(points, dtype=float)
-        self.a = p[:-1]
-        self.d = p[1:] - p[:-1]
-        self.n2 = np.maximum((self.d**2).sum(axis=1), 1e-300)
-
-    def distances(self, x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray) -> list[float]:
-        """Distances (m) from each point (x[i], y[i]) to the polyline, at once."""
-        rx = np.asarray(x, dtype=float)[:, None] - self.a[:, 0]
-        ry = np.asarray(y, dtype=float)[:, None] - self.a[:, 1]
-        t = np.clip((rx * self.d[:, 0] + ry * self.d[:, 1]) / self.n2, 0.0, 1.0)
-        return np.sqrt((rx - t * self.d[:, 0]) ** 2 + (ry - t * self.d[:, 1]) ** 2).min(axis=1).tolist()

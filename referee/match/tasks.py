@@ -11,7 +11,7 @@ import numpy as np
 from msgspec import UNSET, UnsetType
 
 from arena.level import Level
-from referee.match.rules import Polyline
+from referee.match.paths import Polyline, first_near
 from referee.records.results import CrossTrack, TaskProgress
 
 
@@ -64,31 +64,30 @@ class TaskTracker:
         rate), until it finishes."""
         radius = self.level.task.radius
         near = radius * (1 + 1e-9) + 1e-12  # numpy's distances may differ from math.dist by an ulp
-        samples = [i for i in range(len(states)) if (first_tick + i) % every == 0]
-        xy = states  # one row per step: every robot's x, y, heading
+        n, start = len(states), -first_tick % every  # states[start::every] are sampled
         for slot in range(len(self.next)):
-            xs, ys = xy[:, 3 * slot], xy[:, 3 * slot + 1]
+            xs, ys = states[:, 3 * slot], states[:, 3 * slot + 1]
             targets = self.targets(slot)
-            end = len(states)  # the step after which the robot has finished (no more samples)
+            end = n  # the step after which the robot has finished (no more samples)
             i = 0
-            while self.next[slot] < len(targets) and i < len(states):
+            while self.next[slot] < len(targets) and i < n:
                 tx, ty = targets[self.next[slot]]
-                close = np.flatnonzero(np.hypot(xs[i:] - tx, ys[i:] - ty) <= near)
-                hit = next((i + int(k) for k in close if math.dist((xs[i + k], ys[i + k]), (tx, ty)) <= radius), None)
-                if hit is None:
+                k = first_near(xs, ys, i, float(tx), float(ty), near)
+                while k >= 0 and math.dist((xs[k], ys[k]), (tx, ty)) > radius:
+                    k = first_near(xs, ys, k + 1, float(tx), float(ty), near)
+                if k < 0:
                     break
-                i = hit
+                i = k
                 self.update(slot, float(xs[i]), float(ys[i]), (first_tick + i) / rate)
                 if self.done(slot):
                     end = i
             if self.kind == "goto":  # as every step's update leaves it: from the last step
                 self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
             line = self.polyline[slot]
-            if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == len(states)):
+            if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == n):
                 continue  # no path to stray from, or finished before these steps
-            kept = [k for k in samples if k < end]
-            if kept:
-                self.deviation[slot].extend(line.distances(xs[kept], ys[kept]))
+            if start < end:
+                self.deviation[slot].extend(line.distances(xs[start:end:every], ys[start:end:every]))
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None
