@@ -202,6 +202,8 @@ def _monitor(slot: socket.socket) -> None:
         _team(bundle, [(rel, int(size)) for rel, size in config["files"]])
         os.close(bundle)
         _read_only_everywhere(("/tmp", "/dev/shm", "/dev/pts"))
+        if config.get("cpus"):  # the referee's CPU, shared with it (referee/sandbox/affinity.py)
+            os.sched_setaffinity(0, [int(c) for c in config["cpus"]])
         pid = os.fork()
         if pid == 0:
             slot.close()

@@ -31,6 +31,7 @@ from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
 from referee.records.replay import ReplayWriter
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
+from referee.sandbox import affinity
 from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
@@ -121,6 +122,7 @@ class Match:
             ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate else InProcessBot(t)
             for i, t in enumerate(teams)
         ]
+        self.cpu: affinity.Claim | None = None  # the CPU a lone controller shares with this thread
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
@@ -228,14 +230,24 @@ class Match:
             self.close()
 
     def close(self) -> None:
-        """End every controller (their processes, if isolated)."""
-        for bot in self.bots:
-            bot.close()
+        """End every controller (their processes, if isolated) and give back the CPU, if one was claimed."""
+        try:
+            for bot in self.bots:
+                bot.close()
+        finally:
+            if self.cpu is not None:
+                affinity.release(self.cpu)
+                self.cpu = None
 
     def begin(self) -> None:
         """Start the controllers, give each its brief, record the first frame. A step-wise
         driver (referee.gym) then repeats observe / answer / advance until `ended`, and calls `end()`."""
         level, world = self.level, self.world
+        processes = [bot for bot in self.bots if isinstance(bot, ProcessBot)]
+        if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
+            self.cpu = affinity.claim()
+            if self.cpu is not None:
+                processes[0].cpus = [self.cpu.cpu]
         for bot in self.bots:
             bot.launch()
         for slot, bot in enumerate(self.bots):

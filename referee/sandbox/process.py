@@ -97,6 +97,7 @@ class ProcessBot:
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
         self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
         self.in_sandbox = False
+        self.cpus: list[int] | None = None  # the CPUs the controller may run on (None: the referee's)
         if sandboxed and forked:
             forkserver.start()  # a root referee's template imports while the match is being made
 
@@ -130,7 +131,8 @@ class ProcessBot:
         self.in_sandbox = True
         server = forkserver.server() if uid is not None and self.forked else None
         if server is not None:  # forked from the template, into namespaces of its own
-            self.proc = self._forked(server, {"uid": uid, "argv": [entry, *limits]}, stderr)
+            config = {"uid": uid, "argv": [entry, *limits], **({"cpus": self.cpus} if self.cpus else {})}
+            self.proc = self._forked(server, config, stderr)
             return
         launch = kernel.launch(
             [kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], self.team.files, kernel.SANDBOX_ENV, uid
