@@ -190,3 +190,30 @@ def _race():
     from helpers import edited
 
     return edited("asabe-race", {"time_limit": 10})
+
+
+def test_an_interrupt_inside_a_finalizer_is_not_lost():
+    """Python drops what a `__del__` raises (numba's LLVM objects run finalizers while compiled
+    code loads): a Ctrl-C that lands there is taken again a moment later, not lost."""
+    script = (
+        "import os, signal, sys, time\n"
+        "from referee.cli.main import _interrupt\n"
+        "signal.signal(signal.SIGINT, _interrupt)\n"
+        "class Finalized:\n"
+        "    def __del__(self):\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        end = time.monotonic() + 0.05\n"
+        "        while time.monotonic() < end:\n"
+        "            pass  # the handler runs here, inside __del__\n"
+        "try:\n"
+        "    Finalized()  # dropped at once: its __del__ runs now\n"
+        "    end = time.monotonic() + 20\n"
+        "    while time.monotonic() < end:\n"
+        "        time.sleep(0.01)\n"
+        "    sys.exit(0)\n"
+        "except KeyboardInterrupt:\n"
+        "    sys.exit(130)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 130, out.stderr
+    assert "Exception ignored" not in out.stderr

@@ -5,22 +5,43 @@ that a Ctrl-C that comes while the commands' modules are still loading ends quie
 
 from __future__ import annotations
 
+import _thread
 import os
 import signal
 import sys
+import threading
+from types import FrameType
 
 from arena.errors import LaserArenaError
 from referee.errors import EXIT_INTERRUPTED, EXIT_PIPE
 from referee.terminal import safe
 
+RETRY = 0.02  # seconds before an interrupt that came inside a finalizer is taken again
 
-def _interrupt(signum: int, frame: object) -> None:
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
     """Ctrl-C (SIGINT) or SIGTERM: unwind the command, closing every controller sandbox and
     worker on the way out. Further signals are ignored from here on, so that a second Ctrl-C
-    does not cut that clean-up short (SIGKILL still ends the process)."""
+    does not cut that clean-up short (SIGKILL still ends the process).
+
+    Python drops an exception raised inside a finalizer (`__del__`: numba's LLVM objects run
+    them while compiled code loads), which would lose the interrupt and, with further signals
+    ignored, leave the command unstoppable: there the signal is taken again a moment later."""
+    if _in_finalizer(frame):
+        threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
+        return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt
+
+
+def _in_finalizer(frame: FrameType | None) -> bool:
+    """Whether `frame` runs inside a `__del__`, which drops any exception it raises."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -16,7 +16,6 @@ taken: a referee whose CPU is claimed takes a free one, or none (the match runs 
 from __future__ import annotations
 
 import ctypes
-import fcntl
 import os
 import tempfile
 from dataclasses import dataclass
@@ -42,6 +41,8 @@ def _current_cpu() -> int | None:
 
 def _lock(cpu: int) -> int | None:
     """The lock file of `cpu`, held (its descriptor), or None if another process holds it."""
+    import fcntl  # POSIX; claim() is never called without sched_setaffinity (Linux)
+
     path = os.path.join(tempfile.gettempdir(), f"laserarena-cpu-{cpu}.lock")
     flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC  # a lock needs no write access: any user's file serves
     try:
