@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from functools import partial
 from itertools import chain, repeat
+from types import SimpleNamespace
+from typing import cast
 
 import numpy as np
 import pymunk
@@ -78,7 +80,13 @@ class Sensing:
             for name in ("wobble", "detector", "timing", "false", "light")
         }
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
-        self._merge_key = np.uint64(self.merge_key)
+        p = self.params
+        self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
+        self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
+        self._clock_hz = float(p.get("clock_hz", 0.0))
+        # Bac's merged measurements (arena.detectors.merge_measurements), as kernels.pulses takes them
+        merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
+        self._merging = (merges[0], self.direction, len(self.ids), merges[1], np.uint64(self.merge_key))
         self.wobble = np.zeros(self.n)
         self.spin_lag = np.zeros(self.n)  # the laser's relative rate minus its steady value (rad/s)
         self.body_rate = np.zeros(self.n)  # the body's yaw rate in the last step (rad/s)
@@ -89,6 +97,8 @@ class Sensing:
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
         self._last = world.state
         self._last_t = world.time
+        if not _loaded:
+            _load_kernels(world, ideal)
 
     def record(self) -> None:
         """Store the robots' poses after a physics step."""
@@ -154,7 +164,7 @@ class Sensing:
         wobble = (0.0, 0.0, _NO_POWERS, self.wobble)
         if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
-            noise = np.stack([g.normal(size=steps) for g in self.rng["wobble"]], axis=1)
+            noise = np.array([g.normal(size=steps) for g in self.rng["wobble"]]).T
             wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
         spin = (-1.0, 0.0, _NO_POWERS, self.spin_lag, self.body_rate)  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
@@ -213,7 +223,7 @@ class Sensing:
         p = self.params
         keep: np.ndarray | None = ~self._blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
         keep &= det.visible(self.kind, c, self.facing, p)
-        if p.get("light_noise", 0.0) > 0 and not keep.all():
+        if self._light_noise and not keep.all():
             c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone
         offset, detected = _NO_OFFSETS, keep
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
@@ -227,22 +237,15 @@ class Sensing:
         if not detected.any():
             return out
         draws = _NO_DRAWS
-        if p.get("timing_noise", 0.0) > 0:  # one draw per pulse from its robot's stream
+        if self._timing_noise:  # one draw per pulse from its robot's stream
             counts = np.bincount(c.robot[detected], minlength=self.n).tolist()
             draws = np.concatenate(
-                [g.normal(0.0, p["timing_noise"], size=k) for g, k in zip(self.rng["timing"], counts) if k]
+                [g.normal(0.0, self._timing_noise, size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
         window = (float(traj.t[0]), float(traj.t[-1]))
-        merging = (
-            self.kind == "sensor_array",
-            self.direction,
-            len(self.ids),
-            float(p.get("merge_rate", 0.0)),
-            self._merge_key,
-        )
         source, robot, beacon, times, phase, (counts_, tied_) = kernels.pulses(
             c.t, offset, detected, c.robot, c.beacon, c.phi, draws, window, self.omega,
-            self.kind == "reflector", float(p.get("clock_hz", 0.0)), det.first_tick_after(window[0], p), merging,
+            self.kind == "reflector", self._clock_hz, det.first_tick_after(window[0], p), self._merging,
         )  # fmt: skip
         counts = counts_.tolist()
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
@@ -356,3 +359,22 @@ class Sensing:
                 samples = tuple(int(round(u)) for u in scan)
                 out[r].append(det.Detection(r, float(t[i]), "scan", samples=samples, source=r))
         return out
+
+
+_loaded = False  # this process has run every sensing kernel once (numba loads them on first use)
+
+
+def _load_kernels(world: World, ideal: bool) -> None:
+    """Run one control period of a throwaway Sensing (its own random streams, the world's
+    poses held still while the lasers turn), so that numba loads the compiled kernels now, when
+    a match is made, rather than inside its first period: loading takes a tenth of a second or
+    more, which is no cost of sensing."""
+    global _loaded
+    _loaded = True
+    level = world.level
+    still = SimpleNamespace(level=level, dt=world.dt, state=world.state, time=0.0, space=world.space)
+    sensing = Sensing(cast(World, still), RandomTree(0), ideal)
+    still.time = level.steps_per_control * world.dt
+    for _ in range(level.steps_per_control):
+        sensing.record()
+    sensing.flush()

@@ -42,8 +42,9 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per run")
     ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
     args = ap.parse_args()
-    bare = min(run(args.seconds, False)[0] for _ in range(3))
-    sensed, events = min((run(args.seconds, True) for _ in range(3)), key=lambda r: r[0])
+    pairs = [(run(args.seconds, False)[0], run(args.seconds, True)) for _ in range(3)]  # interleaved
+    bare = min(b for b, _ in pairs)
+    sensed, events = min((s for _, s in pairs), key=lambda r: r[0])
     out = {
         "level": "asabe-race",
         "simulated_s": args.seconds,
