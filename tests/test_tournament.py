@@ -284,6 +284,19 @@ def stop(proc: subprocess.Popen) -> None:
             proc.wait(timeout=20)
 
 
+def scheduler_address(sched_file: Path, scheduler: subprocess.Popen) -> str:
+    """The scheduler's address from its file, once Dask has written it whole (the file appears
+    empty first), within 60 s."""
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        assert scheduler.poll() is None, scheduler.stderr.read().decode()
+        try:
+            return json.loads(sched_file.read_text())["address"]
+        except (FileNotFoundError, json.JSONDecodeError, KeyError):
+            time.sleep(0.1)
+    raise AssertionError("the Dask scheduler wrote no address within 60 s")
+
+
 def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest, tmp_path):
     """A scheduler and two workers started as an operator would; the workers run in a mount
     namespace of their own whose /tmp is an empty tmpfs, so the level, the team files, the
@@ -307,11 +320,7 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
     )
     workers = None
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not sched_file.exists():
-            assert scheduler.poll() is None, scheduler.stderr.read().decode()
-            time.sleep(0.1)
-        address = json.loads(sched_file.read_text())["address"]
+        address = scheduler_address(sched_file, scheduler)
         hidden = "mount -t tmpfs tmpfs /tmp && cd /tmp && exec " + " ".join(
             [sys.executable, "-m", "dask", "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard"]
         )
