@@ -6,8 +6,9 @@ same bits as the NumPy expressions they replace (decision 0025):
 - arithmetic is written in NumPy's order of operations; numba neither reorders nor fuses it
   (no fast-math, no fused multiply-add), and `hypot`, `sqrt` and `rint` are the C library's,
   as NumPy's are;
-- `arctan2` and `arcsin` stay NumPy calls between kernels: NumPy takes its own SIMD code for
-  them on most processors, which differs from the C library's in the last bit;
+- `arctan2`, `arcsin`, `exp2` and `cos` stay NumPy calls between kernels: NumPy takes its own
+  SIMD code for most of them on most processors, which differs from the C library's in the
+  last bit;
 - `np.maximum` and `np.minimum` keep their NaN rule (`_max`, `_min`), and a division by zero
   gives an infinity or a NaN, as in NumPy (`error_model="numpy"`), not an exception.
 `tests/test_kernels.py` holds the NumPy expressions and compares bit for bit.

@@ -7,7 +7,8 @@ step). The beam's world angle is heading(t) + phase(t). A crossing with beacon b
 at which that angle equals the bearing from the laser to b (mod 2 pi). We never step the
 beam: for each step we compare the wrapped difference beam - bearing at the step's ends,
 and where it passes zero we solve for the instant by Newton's method with the analytic
-derivative. All of it is vectorized over steps x robots x beacons.
+derivative. All of it runs over steps x robots x beacons at once, in compiled loops
+(arena.kernels) with NumPy's arc functions between them.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 `record()` runs after every physics step and only stores each robot's pose (cheap);
 `flush()` runs at each control tick and turns the steps since the last tick into
-detections, all at once and vectorized: laser phases (with speed wobble and the lag when the
+detections, all at once (compiled loops, arena.kernels): laser phases (with speed wobble and the lag when the
 body turns), exact crossing times (arena.laser), occlusion by other robots' silhouettes at
 the crossing instant and by obstacles, the detector model of the level's beacon kind (its
 optics set when each pulse fires, or whether it does), index clicks, and the random errors.
