@@ -217,3 +217,24 @@ def test_an_interrupt_inside_a_finalizer_is_not_lost():
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
     assert out.returncode == 130, out.stderr
     assert "Exception ignored" not in out.stderr
+
+
+def test_an_interrupt_is_held_back_inside_numba_llvmlite_and_pymunk_only():
+    """Where a raised interrupt would be lost or mangled (numba's C dispatcher turns it into a
+    SystemError; cffi drops one raised in a pymunk callback) it waits; elsewhere it is raised."""
+    from referee.cli.main import _fragile
+
+    def frame_of(filename: str, name: str = "f"):
+        namespace: dict = {}
+        exec(compile(f"import sys\ndef {name}():\n    return sys._getframe()\n", filename, "exec"), namespace)
+        return namespace[name]()
+
+    import llvmlite
+    import numba
+    import pymunk
+
+    for package in (numba, llvmlite, pymunk):
+        assert _fragile(frame_of(os.path.join(os.path.dirname(package.__file__), "core.py")))
+    assert _fragile(frame_of(os.path.join(os.sep, "anywhere", "mod.py"), "__del__"))
+    assert not _fragile(frame_of(os.path.join(os.sep, "site-packages", "referee", "match", "loop.py")))
+    assert not _fragile(frame_of(os.path.join(os.sep, "home", "numba", "project", "mod.py")))  # a folder of that name

@@ -16,7 +16,9 @@ from arena.errors import LaserArenaError
 from referee.errors import EXIT_INTERRUPTED, EXIT_PIPE
 from referee.terminal import safe
 
-RETRY = 0.02  # seconds before an interrupt that came inside a finalizer is taken again
+RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
+# packages whose code, when an exception is raised inside it, loses it or turns it into another
+FRAGILE = ("numba", "llvmlite", "pymunk")
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
@@ -24,10 +26,9 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     worker on the way out. Further signals are ignored from here on, so that a second Ctrl-C
     does not cut that clean-up short (SIGKILL still ends the process).
 
-    Python drops an exception raised inside a finalizer (`__del__`: numba's LLVM objects run
-    them while compiled code loads), which would lose the interrupt and, with further signals
-    ignored, leave the command unstoppable: there the signal is taken again a moment later."""
-    if _in_finalizer(frame):
+    Raised at a fragile moment (`_fragile`), the interrupt would be lost or mangled and, with
+    further signals ignored, the command left unstoppable: there it is taken again a moment later."""
+    if _fragile(frame):
         threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -35,10 +36,16 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
-def _in_finalizer(frame: FrameType | None) -> bool:
-    """Whether `frame` runs inside a `__del__`, which drops any exception it raises."""
+def _fragile(frame: FrameType | None) -> bool:
+    """Whether `frame` runs where a raised exception does not reach the command: in a finalizer
+    (`__del__`: Python drops what it raises; numba's LLVM objects run them while compiled code
+    loads), in numba's or llvmlite's machinery (their C code turns it into a SystemError), or
+    in a pymunk callback from chipmunk (cffi prints it and goes on)."""
+    files = [getattr(sys.modules.get(name), "__file__", None) for name in FRAGILE]
+    folders = tuple(os.path.dirname(file) + os.sep for file in files if file)
     while frame is not None:
-        if frame.f_code.co_name == "__del__":
+        code = frame.f_code
+        if code.co_name == "__del__" or code.co_filename.startswith(folders):
             return True
         frame = frame.f_back
     return False
