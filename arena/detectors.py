@@ -192,26 +192,6 @@ def first_tick_after(t: float, p: Mapping[str, float]) -> float:
     return math.nextafter(t, math.inf)
 
 
-def merge_measurements(
-    times: np.ndarray, robot: np.ndarray, beacon: np.ndarray, turn: np.ndarray, n_beacons: int, rate: float, key: int
-) -> np.ndarray:
-    """Bac's hardware error: "occasionally the measured duration of any pulse was added to the
-    next pulse duration. If, for example, pulse T_1 and T_2 read 15 and 20 ms, respectively,
-    T_2 was occasionally processed as 35 ms" ("about 3.4% of all incoming measurements").
-
-    A measurement is one laser revolution; with probability `rate` one of its pulses (array
-    drawn uniformly) loses its own edge and is reported at the time of the pulse before it, so
-    the duration before it reads 0 and the one after it reads the sum of both. The draw is a
-    counter-based hash of (match key, robot, revolution) (`arena.kernels.revolution_hash`), so
-    a revolution's draw does not depend on which control period its pulses fall in. `times`
-    are sorted by (robot, time); a pulse whose predecessor fell in an earlier control period is
-    left alone (its time was already delivered). Returns `times` itself when nothing merges."""
-    if rate <= 0 or len(times) < 2:
-        return times
-    out, changed = kernels.merge(times, robot, beacon, turn, n_beacons, float(rate), np.uint64(key))
-    return out if changed else times
-
-
 def brightness(delta: np.ndarray, distance: np.ndarray, visible_: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     """Osentoski's turret photoresistor on the 0 (bright) .. 255 (dark) scale, before noise.
 

@@ -84,7 +84,7 @@ class Sensing:
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
         self._clock_hz = float(p.get("clock_hz", 0.0))
-        # Bac's merged measurements (arena.detectors.merge_measurements), as kernels.pulses takes them
+        # Bac's merged measurements (arena.kernels.merge), as kernels.pulses takes them
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
         self._merging = (merges[0], self.direction, len(self.ids), merges[1], np.uint64(self.merge_key))
         self.wobble = np.zeros(self.n)

@@ -527,9 +527,9 @@ def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
 
 
 def test_merge_measurements_matches_the_rule_pulse_by_pulse():
-    from arena import detectors as det
+    from arena import kernels
 
-    # the vectorised merge (with its shortcut for batches where nothing merges) against the
+    # the compiled merge against the
     # rule read one pulse at a time: SplitMix64 of (key, robot, revolution) in plain integers,
     # its high 53 bits against the rate, its low 11 bits naming the victim array
     def splitmix(key, robot, turn):
@@ -548,7 +548,7 @@ def test_merge_measurements_matches_the_rule_pulse_by_pulse():
         turn = g.integers(-3, 40, n).astype(float)
         times = np.sort(g.uniform(0, 1, n))
         key, rate = int(g.integers(1 << 62)), float(g.choice([0.05, 0.5]))
-        got = det.merge_measurements(times, robot, beacon, turn, 4, rate, key)
+        got, _ = kernels.merge(times, robot, beacon, turn, 4, rate, np.uint64(key))
         want = times.copy()
         for i in range(1, n):
             h = splitmix(key, int(robot[i]), int(turn[i]))
