@@ -26,8 +26,7 @@ from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks
 from arena.rng import RandomTree
 from arena.world import CAT_OBSTACLE, World
 
-_NO_NOISE, _NO_POWERS = np.zeros((0, 0)), np.zeros((0, 0))
-_NO_OFFSETS, _NO_DRAWS = np.zeros(0), np.zeros(0)
+_NONE, _NO_ROWS = np.zeros(0), np.zeros((0, 0))  # a kernel's array argument that is not there
 
 # a Detection from a tuple of all its fields in order, with no Python call per event
 NEW_DETECTION = partial(tuple.__new__, det.Detection)
@@ -160,13 +159,13 @@ class Sensing:
         `spin_time`, to its steady value less `spin_coupling` x the body's yaw rate."""
         steps = len(heading) - 1
         p = self.params
-        noise = _NO_NOISE
-        wobble = (0.0, 0.0, _NO_POWERS, self.wobble)
+        noise = _NO_ROWS
+        wobble = (0.0, 0.0, _NO_ROWS, self.wobble)
         if p["wobble"] > 0:
             a = math.exp(-self.dt / p["wobble_time"])
             noise = np.array([g.normal(size=steps) for g in self.rng["wobble"]]).T
             wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
-        spin = (-1.0, 0.0, _NO_POWERS, self.spin_lag, self.body_rate)  # a negative decay: no lag
+        spin = (-1.0, 0.0, _NO_ROWS, self.spin_lag, self.body_rate)  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
             a = math.exp(-self.dt / p["spin_time"])
             spin = (a, (1 - a) * p.get("spin_coupling", 0.0), self._powers_of(a, (steps, self.n)), *spin[3:])
@@ -182,7 +181,7 @@ class Sensing:
         powers = self._powers.get(key)
         if powers is None:
             if a ** shape[0] < 1e-150:
-                powers = _NO_POWERS
+                powers = _NO_ROWS
             else:
                 powers = np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, shape[0] + 1)[:, None], shape))
             self._powers[key] = powers
@@ -225,7 +224,7 @@ class Sensing:
         keep &= det.visible(self.kind, c, self.facing, p)
         if self._light_noise and not keep.all():
             c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone
-        offset, detected = _NO_OFFSETS, keep
+        offset, detected = _NONE, keep
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
             ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
@@ -236,7 +235,7 @@ class Sensing:
             detected = np.ones(len(c), dtype=bool)
         if not detected.any():
             return out
-        draws = _NO_DRAWS
+        draws = _NONE
         if self._timing_noise:  # one draw per pulse from its robot's stream
             counts = np.bincount(c.robot[detected], minlength=self.n).tolist()
             draws = np.concatenate(
