@@ -6,6 +6,7 @@ import stat
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -348,3 +349,26 @@ def test_a_python_under_tmp_gets_no_sandbox_and_says_why_in_one_line():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.count("\n") == 1 and "/tmp/venv" in out.stdout and "install it elsewhere" in out.stdout
+
+
+def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them():
+    """`exchange` runs the referee's `meanwhile` work after sending and before reading: an
+    answer that waited on that work is timed without it, so it draws nothing from the bank."""
+    from referee.match.loop import brief_for
+    from referee.sandbox.process import ProcessBot, exchange
+    from robots.api import Command, Observation
+
+    bot = ProcessBot(resolve("ref:dead-reckoning"), FAST, slot=0)
+    try:
+        assert bot.setup(brief_for(race(), 0)) is None
+        order = []
+
+        def meanwhile():
+            order.append("meanwhile")
+            time.sleep(3 * FAST.step_time)  # the referee busy for longer than a step's allowance
+
+        (answer,) = exchange([bot], [Observation(tick=0, time=0.0, events=())], meanwhile)
+        assert order == ["meanwhile"] and isinstance(answer, Command)
+        assert bot.bank == FAST.overage_bank and bot.skips == 0
+    finally:
+        bot.close()

@@ -233,3 +233,28 @@ def test_loading_problems_are_load_faults_of_their_slot(tmp_path):
             result = run_match(level(), [resolve(spec)], isolate=isolate)
             (fault,) = result["robots"][0]["faults"]
             assert fault["kind"] == "load" and words in fault["message"], (isolate, fault)
+
+
+def test_the_replay_written_while_controllers_compute_is_the_replay_written_at_once(tmp_path):
+    """`run()` writes a period's frames and events while the controllers compute; a step-wise
+    driver (as the RL environment) writes each at once. The bytes are the same."""
+    from helpers import variant
+
+    from referee.match.loop import Match
+
+    lv = variant("asabe-race", time_limit=8)
+    teams = [resolve(s) for s in ("ref:bac", "ref:dead-reckoning", "ref:best", "ref:starter")]
+    run_match(lv, teams, seed=5, replay=tmp_path / "run.replay", isolate=False)
+    m = Match(lv, teams, seed=5, replay=tmp_path / "stepwise.replay", isolate=False)
+    try:
+        m.begin()
+        while not m.ended:
+            for slot, obs in enumerate(m.observe()):
+                if obs is not None:
+                    m.answer(slot, m.bots[slot].step(obs))
+            assert m.writer is not None and not m.unwritten  # nothing put off in this driver
+            m.advance()
+        m.end()
+    finally:
+        m.close()
+    assert (tmp_path / "run.replay").read_bytes() == (tmp_path / "stepwise.replay").read_bytes()

@@ -12,6 +12,7 @@ finished its task or been stopped by a fault.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 from collections.abc import Callable
@@ -135,6 +136,9 @@ class Match:
         top = max((r.model.max_wheel_speed for r in level.robots), default=0.0)
         self.reach = (2 * top + 0.5) * level.control_period
         self.writer = recorder  # anything with ReplayWriter's frame(s) / events / record / close
+        # replay writing put off until controllers compute (run() turns it on; a step-wise
+        # driver that shows the replay as it grows leaves it None: everything is written at once)
+        self.unwritten: list[Callable[[], None]] | None = None
         if replay is not None:
             self.writer = ReplayWriter(
                 replay,
@@ -168,7 +172,7 @@ class Match:
         for slot, detections in enumerate(self.sensing.flush()):
             self.inbox[slot].extend(to_event(d) for d in detections)
             if self.writer and detections:
-                self.writer.events(slot, detections)
+                self._write(functools.partial(self.writer.events, slot, detections))
         out: list[Observation | None] = []
         for slot in range(len(self.bots)):
             if self.stopped[slot]:
@@ -181,6 +185,7 @@ class Match:
 
     def answer(self, slot: int, out: Command | Fault) -> None:
         """The second half of a control tick for one robot: take its controller's answer."""
+        self.write_unwritten()
         time, truth = self.world.time, self.world.pose(slot)
         if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
             self._fault(slot, out)
@@ -208,9 +213,24 @@ class Match:
             self.dropped[slot][problem] = (first, count + 1)
         return kept
 
+    def _write(self, record: Callable[[], None]) -> None:
+        """Write to the replay now, or once controllers are computing (see `unwritten`)."""
+        if self.unwritten is None:
+            record()
+        else:
+            self.unwritten.append(record)
+
+    def write_unwritten(self) -> None:
+        """Write, in order, what was put off; the replay's bytes are the same as written at once."""
+        if self.unwritten:
+            for record in self.unwritten:
+                record()
+            self.unwritten.clear()
+
     def _control_tick(self) -> None:
-        # every controller gets its observation before any answer is awaited: they compute at once
-        for slot, out in enumerate(exchange(self.bots, self.observe())):
+        # every controller gets its observation before any answer is awaited: they compute at
+        # once, and meanwhile the referee writes the replay of the period just stepped
+        for slot, out in enumerate(exchange(self.bots, self.observe(), meanwhile=self.write_unwritten)):
             if out is not None:
                 self.answer(slot, out)
 
@@ -218,6 +238,7 @@ class Match:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
             self.begin()
+            self.unwritten = []
             while not self.ended:
                 self._control_tick()
                 self.advance()
@@ -319,13 +340,18 @@ class Match:
         self.rules.after_steps(world, table, speeds)
         if self.writer:
             start = -first % every  # the first step of this run that is recorded
-            frames = [((first + i) / level.physics_rate, poses(states[i])) for i in range(start, len(states), every)]
-            if frames:
-                self.writer.frames(frames)
+            if start < len(states):
+                self._write(functools.partial(self._frames, first + start, states[start::every]))
         return len(states)
+
+    def _frames(self, tick: int, recorded: list[tuple[float, ...]]) -> None:
+        """The replay's frames of `recorded` states, one every `steps_per_record` from `tick`."""
+        rate, every = self.level.physics_rate, self.level.steps_per_record
+        self.writer.frames([((tick + every * i) / rate, poses(state)) for i, state in enumerate(recorded)])
 
     def end(self) -> MatchResult:
         """Finish the rules, write the replay's last records, and return the result."""
+        self.write_unwritten()
         world = self.world
         self.rules.finish(world)
         result = self._result()

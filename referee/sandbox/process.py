@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
@@ -496,10 +497,14 @@ class ProcessBot:
             self.log_file.close()
 
 
-def exchange(bots: list[Any], observations: list[Observation | None]) -> list[Command | Fault | None]:
+def exchange(
+    bots: list[Any], observations: list[Observation | None], meanwhile: Callable[[], None] | None = None
+) -> list[Command | Fault | None]:
     """Every bot's answer to its observation (None where it has none), as `step` gives it. All
     observations go out before any answer is awaited, so controller processes compute at the
-    same time; each answer is timed from its own sending to its own arrival."""
+    same time, while this process does `meanwhile` (work of its own that needs no answer).
+    Each answer is timed from its own sending to its own arrival, less the time `meanwhile`
+    kept the referee from reading it."""
     out: list[Command | Fault | None] = [None] * len(bots)
     waiting: dict[int, ProcessBot] = {}
     for slot, (bot, obs) in enumerate(zip(bots, observations)):
@@ -511,25 +516,31 @@ def exchange(bots: list[Any], observations: list[Observation | None]) -> list[Co
             out[slot] = fault
         else:
             waiting[slot] = bot
+    busy = 0.0
+    if meanwhile is not None:
+        begun = time.monotonic()
+        meanwhile()
+        busy = time.monotonic() - begun
     replies: dict[int, tuple[dict | str, float]] = {}
     while waiting:
         now = time.monotonic()
         for slot, bot in list(waiting.items()):
             got = bot._frame()
-            if got is None and now - bot.sent >= bot.limits.step_deadline:
+            took = max(0.0, now - bot.sent - busy)
+            if got is None and took >= bot.limits.step_deadline:
                 got = "timeout"
             if got is not None:
-                replies[slot] = (got, now - bot.sent)
+                replies[slot] = (got, took)
                 del waiting[slot]
         if not waiting:
             break
-        left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+        left = min(bot.sent + busy + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
         readers = {bot._pipes()[1].fileno(): slot for slot, bot in waiting.items()}
         ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
         for fd in ready:
             slot = readers[fd]
             if not waiting[slot]._read():
-                replies[slot] = ("crash", time.monotonic() - waiting[slot].sent)
+                replies[slot] = ("crash", max(0.0, time.monotonic() - waiting[slot].sent - busy))
                 del waiting[slot]
     for slot in sorted(replies):
         obs = observations[slot]
