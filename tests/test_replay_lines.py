@@ -2,11 +2,14 @@
 Every line must be what JSON's own encoder (sorted keys, compact) writes for the same record:
 checked here against `json.dumps` on values chosen to be awkward."""
 
+import errno
 import gzip
+import io
 import json
 import math
 import random
 
+import pytest
 from helpers import MINI_LEVEL
 from hypothesis import given
 from hypothesis import strategies as st
@@ -139,3 +142,23 @@ def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
     w.close({"done": True})
     lines = gzip.open(path).read().decode().splitlines()
     assert lines[1:-1] == expected
+
+
+def test_a_write_that_fails_in_the_compressors_thread_is_raised_in_the_match_and_nothing_is_left(tmp_path):
+    """The replay is compressed in a thread of its own; a full disk there is the match's error,
+    and a discarded replay leaves no thread and no partial file behind."""
+
+    class FullDisk(io.StringIO):
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
+    w = ReplayWriter(tmp_path / "r.replay", level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    w.file = FullDisk()
+    with pytest.raises(OSError, match="No space left"):
+        for k in range(5000):  # a few chunks of records: the first one fails in the thread
+            w.frame(k / 10, [(1.0, 2.0, 0.5)])
+        w.close({})
+    w.discard()
+    assert not w._compressor.is_alive()
+    assert list(tmp_path.iterdir()) == []

@@ -20,8 +20,10 @@ import io
 import json
 import math
 import os
+import queue
 import re
 import tempfile
+import threading
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -36,6 +38,7 @@ from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
 BEHAVIOUR = 8  # bump when a change alters simulation results (the golden-replay test says so)
+_QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
 MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
 
 _Text = Annotated[str, msgspec.Meta(max_length=4096)]
@@ -218,6 +221,12 @@ class ReplayWriter:
         self.raw = raw
         self.file: IO[str] = io.TextIOWrapper(self.gz, encoding="utf-8", newline="\n")
         self._lines: list[str] = []  # records not yet handed to the compressor
+        # the compressor's own thread: zlib lets go of the GIL, so it compresses while the
+        # match runs on (the same chunks in the same order: the same bytes)
+        self._chunks: queue.Queue[str | None] = queue.Queue(maxsize=_QUEUED)
+        self._failure: BaseException | None = None
+        self._compressor = threading.Thread(target=self._compress, name="replay-compressor", daemon=True)
+        self._compressor.start()
         self._write(
             {
                 "format": FORMAT,
@@ -248,8 +257,25 @@ class ReplayWriter:
             self._flush()
 
     def _flush(self) -> None:
-        self.file.write("".join(self._lines))
+        """Hand the records so far to the compressor's thread (its failure, if any, is raised here)."""
+        if self._failure is not None:
+            raise self._failure
+        self._chunks.put("".join(self._lines))
         self._lines.clear()
+
+    def _compress(self) -> None:
+        while (chunk := self._chunks.get()) is not None:
+            if self._failure is None:
+                try:
+                    self.file.write(chunk)
+                except BaseException as e:  # a full disk: raised in the match's thread, at its next flush
+                    self._failure = e
+
+    def _finish(self) -> None:
+        """Let the compressor's thread write what it was given, and end it."""
+        if self._compressor.is_alive():
+            self._chunks.put(None)
+            self._compressor.join()
 
     def frame(self, time: float, poses: list[tuple[float, float, float]]) -> None:
         self.frames([(time, poses)])
@@ -315,7 +341,9 @@ class ReplayWriter:
 
     def discard(self) -> None:
         """Drop the unfinished replay (the match did not end): no `.part` file is left behind."""
+        self._failure = self._failure or ReplayError("discarded")  # nothing more is compressed
         try:
+            self._finish()
             self.file.close()
             self.raw.close()
         except (OSError, ValueError):
@@ -325,6 +353,9 @@ class ReplayWriter:
     def close(self, result: dict[str, Any]) -> None:
         self._write({"k": "result", "result": result})
         self._flush()
+        self._finish()
+        if self._failure is not None:
+            raise self._failure
         self.file.close()  # closes the gzip stream and the file beneath
         self.raw.close()
         os.replace(self.partial, self.path)  # still 0600 (mkstemp): an organizer file
