@@ -28,3 +28,35 @@ def test_a_rank_deficient_system_reads_as_np_linalg_reads_it():
         dense.inverse(np.zeros((3, 3)))
     zero = np.zeros((3, 3))
     assert dense.condition(zero) == np.linalg.cond(zero) == np.inf  # 0/0: infinite, not NaN
+
+
+def _outcome(solve, columns, b):
+    """What a solve gives: its numbers' bytes, or the kind of error it raised."""
+    try:
+        return np.array(solve(columns, b)).tobytes()
+    except np.linalg.LinAlgError:
+        return "LinAlgError"
+
+
+@pytest.mark.parametrize("direct", [True, False], ids=["LAPACK through ctypes", "through NumPy"])
+def test_a_newton_steps_solver_is_np_linalg_lstsq_bit_for_bit(direct):
+    g = np.random.default_rng(23)
+    for m in range(3, 9):
+        solve = dense.lstsq_solver(m, 3) if direct else dense._gufunc_solver(m, 3)
+        if direct:  # NumPy's wheels: the routine itself is called (this test's point)
+            assert isinstance(solve.__self__, dense._Dgelsd)
+        for k in range(400):
+            a = g.normal(size=(m, 3)) * g.choice([1e-6, 1e-3, 1.0, 1e3, 1e6], size=3)
+            a[:, 2] = -1.0
+            if k % 50 == 1:
+                a[:, 1] = 2 * a[:, 0]  # rank deficient: x and y columns parallel
+            if k % 50 == 2:
+                a[g.integers(m), g.integers(2)] = np.nan  # (an infinity makes LAPACK itself loop forever)
+            b = g.normal(size=m) * g.choice([1e-9, 1.0, 1e3])
+            try:
+                expected = np.linalg.lstsq(a, b, rcond=None)[0].tobytes()
+            except np.linalg.LinAlgError:
+                expected = "LinAlgError"
+            assert _outcome(solve, a.T.ravel().tolist(), b.tolist()) == expected
+            # again, with the same solver: its kept workspace holds nothing of the last system
+            assert _outcome(solve, a.T.ravel().tolist(), b.tolist()) == expected

@@ -170,3 +170,44 @@ def test_prediction_association_gates():
     assert by_prediction(z, beacons, pose, gate=0.2).ids == ("A", "B", "C")
     wild = by_prediction([z[0], z[1] + 1.0, z[2]], beacons, pose, gate=0.2)
     assert wild.ids == ("A", None, "C") and wild.ambiguous
+
+
+def _newton_through_np_linalg(beacons, bearings, guess, tolerance=1e-12, iterations=50):
+    """Simi's Newton-Raphson as first written, every step through np.linalg: the reference the
+    toolkit's (its least-squares step solved by LAPACK directly) must equal bit for bit."""
+    x, y, h = guess
+    for _ in range(iterations):
+        f, jac = [], []
+        for (bx, by), b in zip(beacons, bearings):
+            dx, dy = bx - x, by - y
+            d2 = dx * dx + dy * dy
+            if d2 < 1e-18:
+                return None
+            f.append(math.remainder(math.atan2(dy, dx) - h - b, 2 * math.pi))
+            jac.append((dy / d2, -dx / d2, -1.0))
+        j = np.array(jac)
+        step = np.linalg.lstsq(j, -np.array(f), rcond=None)[0]
+        grow = max(abs(step[0]), abs(step[1])) / S.MAX_STEP
+        if grow > 1:
+            step = step / grow
+        x, y, h = x + step[0], y + step[1], h + step[2]
+        if abs(step[0]) + abs(step[1]) + abs(step[2]) < tolerance:
+            cond = np.linalg.cond(j)
+            if not math.isfinite(cond) or cond > 1e10:
+                return None
+            return (float(x), float(y), math.remainder(float(h), 2 * math.pi), float(1.0 / cond))
+    return None
+
+
+def test_newton_gives_the_bits_of_its_np_linalg_form():
+    g = np.random.default_rng(29)
+    for _ in range(1500):
+        m = int(g.integers(3, 8))
+        beacons = [tuple(p) for p in g.uniform(-2, 5, size=(m, 2))]
+        x, y, h = g.uniform(0, 3), g.uniform(0, 2), g.uniform(-4, 4)
+        bearings = [math.atan2(by - y, bx - x) - h + g.normal(0, 1e-3) for bx, by in beacons]
+        guess = (x + g.normal(0, 0.3), y + g.normal(0, 0.3), h + g.normal(0, 0.3))
+        fix = S.newton(beacons, bearings, guess)
+        expected = _newton_through_np_linalg(beacons, bearings, guess)
+        bits = np.array(fix[:4]).tobytes() if fix.ok else None
+        assert bits == (None if expected is None else np.array(expected).tobytes())

@@ -228,26 +228,29 @@ def newton(
 ) -> Fix:
     """Simi's method: solve atan2(yi - y, xi - x) - heading - bearing_i = 0 for (x, y, heading)
     by Newton-Raphson from `guess` (his was (57, -57.5, 0.1) in)."""
-    if len(beacons) < 3:
+    m = len(beacons)
+    if m < 3:
         return failed("fewer than three beacons")
+    solve = dense.lstsq_solver(m, 3)
+    jh = [-1.0] * m  # the Jacobian's heading column
     x, y, h = guess
     for _ in range(iterations):
-        f, jac = [], []
+        minus_f, jx, jy = [], [], []  # the residuals, negated; the Jacobian's x and y columns
         for (bx, by), b in zip(beacons, bearings):
             dx, dy = bx - x, by - y
             d2 = dx * dx + dy * dy
             if d2 < 1e-18:
                 return failed("robot at a beacon")
-            f.append(math.remainder(math.atan2(dy, dx) - h - b, TWO_PI))
-            jac.append((dy / d2, -dx / d2, -1.0))
-        j = np.array(jac)
-        step = dense.lstsq(j, -np.array(f))
-        grow = max(abs(step[0]), abs(step[1])) / MAX_STEP
+            minus_f.append(-math.remainder(math.atan2(dy, dx) - h - b, TWO_PI))
+            jx.append(dy / d2)
+            jy.append(-dx / d2)
+        sx, sy, sh = solve(jx + jy + jh, minus_f)
+        grow = max(abs(sx), abs(sy)) / MAX_STEP
         if grow > 1:  # a trust region: far from the answer, never jump across the field
-            step = step / grow
-        x, y, h = x + step[0], y + step[1], h + step[2]
-        if abs(step[0]) + abs(step[1]) + abs(step[2]) < tolerance:
-            cond = dense.condition(j)
+            sx, sy, sh = sx / grow, sy / grow, sh / grow
+        x, y, h = x + sx, y + sy, h + sh
+        if abs(sx) + abs(sy) + abs(sh) < tolerance:
+            cond = dense.condition(np.array([jx, jy, jh]).T)
             if not math.isfinite(cond) or cond > 1e10:
                 return failed("robot on the circle through the beacons")
             return Fix(float(x), float(y), math.remainder(float(h), TWO_PI), float(1.0 / cond))
