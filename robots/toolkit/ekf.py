@@ -18,6 +18,8 @@ import numpy as np
 from robots.toolkit.angles import wrap
 
 TWO_PI = 2 * math.pi
+_IDENTITY = np.eye(5)
+_IDENTITY.flags.writeable = False
 
 
 class BearingEKF:
@@ -56,6 +58,7 @@ class BearingEKF:
         self.P = np.diag([var_xy, var_xy, var_heading, var_phase, var_rate])
         self.P[2, 3] = self.P[3, 2] = cov_hp
         self.q = (q_xy, q_heading, q_drift)
+        self._F, self._Q = np.eye(5), np.zeros((5, 5))  # predict's Jacobian and noise, filled in each time
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -65,7 +68,7 @@ class BearingEKF:
         """Move for `dt` s at forward speed v and turn rate w (the commanded wheels)."""
         if dt <= 0:
             return
-        x, y, h, phase, rate = self.s
+        x, y, h, phase, rate = self.s.tolist()
         mid = h + w * dt / 2
         a = math.exp(-dt / self.wobble_time)
         self.s = np.array(
@@ -77,22 +80,18 @@ class BearingEKF:
                 self.nominal + (rate - self.nominal) * a,
             ]
         )
-        F = np.eye(5)
+        F = self._F  # the identity but for the four entries set here (kept: no new array per event)
         F[0, 2] = -v * math.sin(mid) * dt
         F[1, 2] = v * math.cos(mid) * dt
         F[3, 4] = dt
         F[4, 4] = a
         q_xy, q_h, q_d = self.q
         moving = abs(v) + abs(w) * 0.05
-        Q = np.diag(
-            [
-                q_xy * moving * dt + 1e-12,
-                q_xy * moving * dt + 1e-12,
-                (q_h * abs(w) + q_d * abs(v)) * dt + 1e-12,
-                1e-12,
-                self.wobble_var * (1 - a * a),
-            ]
-        )
+        Q = self._Q  # diagonal: only its diagonal is set
+        Q[0, 0] = Q[1, 1] = q_xy * moving * dt + 1e-12
+        Q[2, 2] = (q_h * abs(w) + q_d * abs(v)) * dt + 1e-12
+        Q[3, 3] = 1e-12
+        Q[4, 4] = self.wobble_var * (1 - a * a)
         self.P = F @ self.P @ F.T + Q
 
     def _update(self, innovation: float, H: np.ndarray, r: float, gate: float) -> bool:
@@ -101,8 +100,9 @@ class BearingEKF:
             return False
         K = self.P @ H / S
         self.s = self.s + K * innovation
-        I_KH = np.eye(5) - np.outer(K, H)
-        self.P = I_KH @ self.P @ I_KH.T + np.outer(K, K) * r  # Joseph form: stays symmetric
+        column = K[:, None]
+        I_KH = _IDENTITY - column * H  # (the products of np.outer)
+        self.P = I_KH @ self.P @ I_KH.T + column * K * r  # Joseph form: stays symmetric
         return True
 
     def hit(self, bx: float, by: float, var: float, gate: float = 3.0) -> bool:
@@ -121,7 +121,7 @@ class BearingEKF:
     def _pointing(self, bx: float, by: float, offset: float, d_phase: float, var: float, gate: float) -> bool:
         """heading + offset = bearing to (bx, by), where the offset is the laser phase state
         (d_phase 1) or a measured angle (d_phase 0)."""
-        x, y, h = self.s[0], self.s[1], self.s[2]
+        x, y, h = self.s[:3].tolist()
         dx, dy = bx - x, by - y
         d2 = dx * dx + dy * dy
         if d2 < 1e-8:
