@@ -12,7 +12,11 @@ Figures (medians of `--repeat` runs, simulated seconds per wall second unless sa
 - grading: the machine's CPU (referee, workers, controllers) for grading `ref:bac` on asabe,
   per simulated second, beside bare stepping's CPU per simulated second (target: no more);
   and the same for `ref:dead-reckoning`, whose own computing is next to nothing: the
-  platform's share (referee, sandbox, exchange) of a grading.
+  platform's share (referee, sandbox, exchange) of a grading;
+- grading from the command line (`laserarena grade asabe --team ref:bac --workers 1`), as a
+  grader runs it: the machine's CPU per simulated second with 4 seeds, and what a run costs
+  whatever its matches (the interpreter, imports, loading the compiled kernels, the sandbox's
+  template), from runs with 1 and 4 seeds.
 CPU figures come from the machine's own count (/proc/stat): run on an otherwise idle machine.
 """
 
@@ -22,7 +26,9 @@ import argparse
 import json
 import os
 import resource
+import sqlite3
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -121,6 +127,22 @@ def grading(matches: int, spec: str = "ref:bac") -> dict:
     return {"matches": matches, "cpu_per_s": used / simulated, "simulated_s": simulated}
 
 
+def command_line_grading(seeds: int) -> tuple[float, float]:
+    """Machine CPU (s) and simulated s of `laserarena grade asabe --team ref:bac --workers 1
+    --seeds N`, a process of its own, as a grader starts it."""
+    with tempfile.TemporaryDirectory() as d:
+        journal = Path(d) / "grade.sqlite"
+        command = [sys.executable, "-m", "referee", "grade", str(levels.path("asabe")), "--team", "ref:bac"]
+        command += ["--seeds", str(seeds), "--workers", "1", "--db", str(journal), "--out", str(Path(d) / "board.csv")]
+        c0 = machine_cpu()
+        subprocess.run(command, check=True, capture_output=True, timeout=600, cwd=d)
+        used = machine_cpu() - c0
+        simulated = sum(
+            row[0] for row in sqlite3.connect(journal).execute("SELECT json_extract(result, '$.end_time') FROM matches")
+        )
+    return used, simulated
+
+
 def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
     """Every speed figure, in one run."""
     w = world(seconds, repeat)
@@ -136,6 +158,14 @@ def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
         gr["bare_cpu_per_s"] = 1 / w["bare_x"]  # one core, busy stepping
         gr["ratio"] = gr["cpu_per_s"] / gr["bare_cpu_per_s"]
         out["grading"][spec] = gr
+    (one, one_s), (four, four_s) = command_line_grading(1), command_line_grading(4)
+    per_simulated_s = (four - one) / (four_s - one_s)  # what the three more matches cost
+    out["command_line_grading"] = {
+        "cpu_per_s": four / four_s,
+        "ratio": four / four_s * w["bare_x"],
+        "fixed_cpu_s": one - per_simulated_s * one_s,
+        "match_cpu_per_s": per_simulated_s,
+    }
     return out
 
 
@@ -169,6 +199,15 @@ def table(f: dict) -> list[tuple[str, str, str]]:
                 + (" (target <= 1x)" if spec == "ref:bac" else " (the platform's own share)"),
             )
         )
+    c = f["command_line_grading"]
+    rows.append(
+        (
+            "laserarena grade asabe, 4 seeds",
+            f"{1000 * c['cpu_per_s']:.1f} ms CPU per simulated s",
+            f"{c['ratio']:.1f}x bare; each run {c['fixed_cpu_s']:.2f} s whatever its matches, "
+            f"then {1000 * c['match_cpu_per_s']:.1f} ms per simulated s",
+        )
+    )
     return rows
 
 

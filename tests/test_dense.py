@@ -60,3 +60,27 @@ def test_a_newton_steps_solver_is_np_linalg_lstsq_bit_for_bit(direct):
             assert _outcome(solve, a.T.ravel().tolist(), b.tolist()) == expected
             # again, with the same solver: its kept workspace holds nothing of the last system
             assert _outcome(solve, a.T.ravel().tolist(), b.tolist()) == expected
+
+
+def test_without_numpys_own_routine_the_solver_goes_through_numpy(monkeypatch):
+    """A NumPy built against another LAPACK (the routine not found), or a routine that
+    disagrees with NumPy on the probe: the solver is NumPy's gufunc, with NumPy's bits."""
+    g = np.random.default_rng(31)
+    a, b = g.normal(size=(5, 3)), g.normal(size=5)
+    expected = np.linalg.lstsq(a, b, rcond=None)[0].tobytes()
+    solve_directly = dense._Dgelsd.solve
+    cases = [
+        ("_DGELSD", "no_such_routine_"),
+        (
+            "_Dgelsd",
+            type("Off", (dense._Dgelsd,), {"solve": lambda s, c, r: tuple(v + 1e-9 for v in solve_directly(s, c, r))}),
+        ),
+    ]
+    for name, value in cases:
+        with monkeypatch.context() as patched:
+            patched.setattr(dense, name, value)
+            dense.lstsq_solver.cache_clear()
+            solve = dense.lstsq_solver(5, 3)
+            assert not isinstance(getattr(solve, "__self__", None), dense._Dgelsd)
+            assert np.array(solve(a.T.ravel().tolist(), b.tolist())).tobytes() == expected
+    dense.lstsq_solver.cache_clear()
