@@ -87,6 +87,8 @@ def world(seconds: float, repeat: int) -> dict:
         sensed, events = sensing.run(seconds, True)
         return {"bare_x": seconds / bare, "sensing_x": seconds / sensed, "sensing_overhead": sensed / bare - 1}
 
+    sensing.run(seconds / 6, False)  # a warm-up of each, untimed: a process's first run is slower by
+    sensing.run(seconds / 6, True)  # a few percent (caches, allocations), which a single run would count
     return median_of(repeat, once)
 
 
