@@ -79,8 +79,20 @@ def test_without_numpys_own_routine_the_solver_goes_through_numpy(monkeypatch):
     for name, value in cases:
         with monkeypatch.context() as patched:
             patched.setattr(dense, name, value)
-            dense.lstsq_solver.cache_clear()
+            dense._per_thread.__dict__.clear()
             solve = dense.lstsq_solver(5, 3)
             assert not isinstance(getattr(solve, "__self__", None), dense._Dgelsd)
             assert np.array(solve(a.T.ravel().tolist(), b.tolist())).tobytes() == expected
-    dense.lstsq_solver.cache_clear()
+    dense._per_thread.__dict__.clear()
+
+
+def test_each_thread_has_solvers_of_its_own():
+    """A solver keeps buffers: two threads solving at once must not share one."""
+    import threading
+
+    theirs = []
+    worker = threading.Thread(target=lambda: theirs.append(dense.lstsq_solver(4, 3)))
+    worker.start()
+    worker.join(timeout=60)
+    assert theirs and theirs[0] is not dense.lstsq_solver(4, 3)
+    assert dense.lstsq_solver(4, 3) is dense.lstsq_solver(4, 3)

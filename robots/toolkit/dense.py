@@ -13,9 +13,9 @@ step, goes further: LAPACK's routine itself, through ctypes, with buffers made o
 from __future__ import annotations
 
 import ctypes
-import functools
 import struct
 import sys
+import threading
 from collections.abc import Callable
 
 import numpy as np
@@ -30,6 +30,7 @@ except ImportError:  # a NumPy without the module: the public functions, same ro
 _EPS = float(np.finfo(np.float64).eps)
 # LAPACK's least-squares routine as NumPy's own wheels link it (scipy-openblas, 64-bit integers)
 _DGELSD = "scipy_dgelsd_64_"
+_per_thread = threading.local()  # each thread's solvers (`lstsq_solver`)
 
 
 def _raise(kind: str, flag: int) -> None:
@@ -124,13 +125,21 @@ def _dgelsd() -> Callable[..., None] | None:
     return routine
 
 
-@functools.cache
 def lstsq_solver(m: int, n: int) -> Callable[[list[float], list[float]], tuple[float, ...]]:
     """A solver of m x n least-squares systems a x = b, for a Newton iteration that solves one
     at every step: `solve(columns, b)` takes a's columns one after the other as a flat list
     (a[:, 0], a[:, 1], ...) and b, and gives x as `np.linalg.lstsq(a, b, rcond=None)[0]` does,
     bit for bit. NumPy's own LAPACK routine is called directly where it can be found and gives
-    NumPy's answers on a probe; otherwise through NumPy."""
+    NumPy's answers on a probe; otherwise through NumPy. Each thread has solvers of its own
+    (they keep buffers)."""
+    solvers = _per_thread.__dict__.setdefault("solvers", {})
+    solve = solvers.get((m, n))
+    if solve is None:
+        solve = solvers[(m, n)] = _new_solver(m, n)
+    return solve
+
+
+def _new_solver(m: int, n: int) -> Callable[[list[float], list[float]], tuple[float, ...]]:
     routine = _dgelsd()
     if routine is None:
         return _gufunc_solver(m, n)
