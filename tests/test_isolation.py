@@ -351,24 +351,41 @@ def test_a_python_under_tmp_gets_no_sandbox_and_says_why_in_one_line():
     assert out.stdout.count("\n") == 1 and "/tmp/venv" in out.stdout and "install it elsewhere" in out.stdout
 
 
-def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them():
+def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(tmp_path):
     """`exchange` runs the referee's `meanwhile` work after sending and before reading: an
-    answer that waited on that work is timed without it, so it draws nothing from the bank."""
+    answer that waited on that work is timed to when the work began, so it draws nothing from
+    the bank; an answer that came after it is timed in full."""
     from referee.match.loop import brief_for
     from referee.sandbox.process import ProcessBot, exchange
     from robots.api import Command, Observation
 
-    bot = ProcessBot(resolve("ref:dead-reckoning"), FAST, slot=0)
+    slow = team_file(
+        tmp_path,
+        """
+        import time
+        class Slow(Controller):
+            def step(self, obs):
+                time.sleep(0.12 if obs.tick == 1 else 0.0)  # over step_time 0.05
+                return Command(0.0, 0.0)
+    """,
+    )
+    bot = ProcessBot(resolve(slow), FAST, slot=0)
     try:
         assert bot.setup(brief_for(race(), 0)) is None
         order = []
 
-        def meanwhile():
-            order.append("meanwhile")
-            time.sleep(3 * FAST.step_time)  # the referee busy for longer than a step's allowance
+        def busy(seconds):
+            def meanwhile():
+                order.append(seconds)
+                time.sleep(seconds)
 
-        (answer,) = exchange([bot], [Observation(tick=0, time=0.0, events=())], meanwhile)
-        assert order == ["meanwhile"] and isinstance(answer, Command)
+            return meanwhile
+
+        (answer,) = exchange([bot], [Observation(tick=0, time=0.0, events=())], busy(3 * FAST.step_time))
+        assert order == [3 * FAST.step_time] and isinstance(answer, Command)
         assert bot.bank == FAST.overage_bank and bot.skips == 0
+        (answer,) = exchange([bot], [Observation(tick=1, time=0.2, events=())], busy(0.02))
+        assert isinstance(answer, Command)
+        assert FAST.overage_bank - bot.bank >= 0.12 - FAST.step_time  # its own slowness, all of it
     finally:
         bot.close()

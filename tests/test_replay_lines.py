@@ -160,5 +160,5 @@ def test_a_write_that_fails_in_the_compressors_thread_is_raised_in_the_match_and
             w.frame(k / 10, [(1.0, 2.0, 0.5)])
         w.close({})
     w.discard()
-    assert not w._compressor.is_alive()
+    assert w._compressor is not None and not w._compressor.is_alive()
     assert list(tmp_path.iterdir()) == []

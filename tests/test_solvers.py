@@ -211,3 +211,9 @@ def test_newton_gives_the_bits_of_its_np_linalg_form():
         expected = _newton_through_np_linalg(beacons, bearings, guess)
         bits = np.array(fix[:4]).tobytes() if fix.ok else None
         assert bits == (None if expected is None else np.array(expected).tobytes())
+
+
+def test_newton_wants_one_bearing_per_beacon():
+    beacons = [(0.0, 0.0), (3.0, 0.0), (3.0, 2.0), (0.0, 2.0)]
+    with pytest.raises(ValueError, match="4 beacons but 3 bearings"):
+        S.newton(beacons, [0.1, 0.2, 0.3], (1.0, 1.0, 0.0))

@@ -225,8 +225,7 @@ class ReplayWriter:
         # match runs on (the same chunks in the same order: the same bytes)
         self._chunks: queue.Queue[str | None] = queue.Queue(maxsize=_QUEUED)
         self._failure: BaseException | None = None
-        self._compressor = threading.Thread(target=self._compress, name="replay-compressor", daemon=True)
-        self._compressor.start()
+        self._compressor: threading.Thread | None = None  # started with the first chunk
         self._write(
             {
                 "format": FORMAT,
@@ -260,6 +259,9 @@ class ReplayWriter:
         """Hand the records so far to the compressor's thread (its failure, if any, is raised here)."""
         if self._failure is not None:
             raise self._failure
+        if self._compressor is None:
+            self._compressor = threading.Thread(target=self._compress, name="replay-compressor", daemon=True)
+            self._compressor.start()
         self._chunks.put("".join(self._lines))
         self._lines.clear()
 
@@ -273,7 +275,7 @@ class ReplayWriter:
 
     def _finish(self) -> None:
         """Let the compressor's thread write what it was given, and end it."""
-        if self._compressor.is_alive():
+        if self._compressor is not None and self._compressor.is_alive():
             self._chunks.put(None)
             self._compressor.join()
 
@@ -348,7 +350,8 @@ class ReplayWriter:
             self.raw.close()
         except (OSError, ValueError):
             pass
-        Path(self.partial).unlink(missing_ok=True)
+        finally:  # even if a second interrupt cuts the wait for the compressor short
+            Path(self.partial).unlink(missing_ok=True)
 
     def close(self, result: dict[str, Any]) -> None:
         self._write({"k": "result", "result": result})

@@ -503,8 +503,8 @@ def exchange(
     """Every bot's answer to its observation (None where it has none), as `step` gives it. All
     observations go out before any answer is awaited, so controller processes compute at the
     same time, while this process does `meanwhile` (work of its own that needs no answer).
-    Each answer is timed from its own sending to its own arrival, less the time `meanwhile`
-    kept the referee from reading it."""
+    Each answer is timed from its own sending to its own arrival; one that arrived while the
+    referee was busy with `meanwhile`, to when that work began."""
     out: list[Command | Fault | None] = [None] * len(bots)
     waiting: dict[int, ProcessBot] = {}
     for slot, (bot, obs) in enumerate(zip(bots, observations)):
@@ -516,31 +516,38 @@ def exchange(
             out[slot] = fault
         else:
             waiting[slot] = bot
-    busy = 0.0
-    if meanwhile is not None:
-        begun = time.monotonic()
-        meanwhile()
-        busy = time.monotonic() - begun
     replies: dict[int, tuple[dict | str, float]] = {}
+    if meanwhile is not None and waiting:
+        began = time.monotonic()
+        meanwhile()
+        # an answer that came in while the referee was busy is timed to when the referee began:
+        # the referee, not the controller, kept it waiting; later answers are timed as always
+        readers = {bot._pipes()[1].fileno(): slot for slot, bot in waiting.items()}
+        for fd in select.select(list(readers), [], [], 0)[0]:
+            slot = readers[fd]
+            bot = waiting[slot]
+            got = bot._frame() if bot._read() else "crash"
+            if got is not None:
+                replies[slot] = (got, max(0.0, began - bot.sent))
+                del waiting[slot]
     while waiting:
         now = time.monotonic()
         for slot, bot in list(waiting.items()):
             got = bot._frame()
-            took = max(0.0, now - bot.sent - busy)
-            if got is None and took >= bot.limits.step_deadline:
+            if got is None and now - bot.sent >= bot.limits.step_deadline:
                 got = "timeout"
             if got is not None:
-                replies[slot] = (got, took)
+                replies[slot] = (got, now - bot.sent)
                 del waiting[slot]
         if not waiting:
             break
-        left = min(bot.sent + busy + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+        left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
         readers = {bot._pipes()[1].fileno(): slot for slot, bot in waiting.items()}
         ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
         for fd in ready:
             slot = readers[fd]
             if not waiting[slot]._read():
-                replies[slot] = ("crash", max(0.0, time.monotonic() - waiting[slot].sent - busy))
+                replies[slot] = ("crash", time.monotonic() - waiting[slot].sent)
                 del waiting[slot]
     for slot in sorted(replies):
         obs = observations[slot]

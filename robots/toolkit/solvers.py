@@ -229,6 +229,8 @@ def newton(
     """Simi's method: solve atan2(yi - y, xi - x) - heading - bearing_i = 0 for (x, y, heading)
     by Newton-Raphson from `guess` (his was (57, -57.5, 0.1) in)."""
     m = len(beacons)
+    if len(bearings) != m:
+        raise ValueError(f"{m} beacons but {len(bearings)} bearings: one bearing per beacon")
     if m < 3:
         return failed("fewer than three beacons")
     solve = dense.lstsq_solver(m, 3)
