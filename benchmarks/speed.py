@@ -1,7 +1,8 @@
 """How fast a four-robot match runs beside the physics' own cost, measured side by side in one run.
 
 Run: python benchmarks/speed.py [--repeat 3] [--json]
-Figures (medians of `--repeat` runs, simulated seconds per wall second unless said):
+Figures (medians of `--repeat` runs, at least 5 for the cheap world figures, simulated seconds
+per wall second unless said):
 - bare: the asabe-race world (4 robots driving circles) stepped with nothing else;
 - sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
 - full matches of asabe-race, isolated (each controller in its sandboxed process) and in this
@@ -147,7 +148,7 @@ def command_line_grading(seeds: int) -> tuple[float, float]:
 
 def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
     """Every speed figure, in one run."""
-    w = world(seconds, repeat)
+    w = world(seconds, max(repeat, 5))  # cheap (a second a run) and noisy: never fewer than 5
     out: dict = {"world": w, "matches": {}}
     for spec in ("ref:bac", "ref:dead-reckoning"):
         for isolate in (True, False):
