@@ -33,10 +33,15 @@ def rounded(values):
     return [round(v, DECIMALS) for v in values]
 
 
-def test_hot_records_are_what_json_writes(tmp_path):
+def writer(path):
+    """A replay writer of a mini level's match, to `path`."""
     level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
+    return ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+
+
+def test_hot_records_are_what_json_writes(tmp_path):
     path = tmp_path / "r.replay"
-    w = ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    w = writer(path)
     rng = random.Random(7)
     expected = []
     for k in range(3000):
@@ -104,9 +109,8 @@ def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
     """Frames and one robot's detections, written a control period at a time."""
     from arena.detectors import Detection
 
-    level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
     path = tmp_path / "r.replay"
-    w = ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    w = writer(path)
     rng = random.Random(11)
     expected = []
     for k in range(400):
@@ -152,8 +156,7 @@ def test_a_write_that_fails_in_the_compressors_thread_is_raised_in_the_match_and
         def write(self, text):
             raise OSError(errno.ENOSPC, "No space left on device")
 
-    level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
-    w = ReplayWriter(tmp_path / "r.replay", level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    w = writer(tmp_path / "r.replay")
     w.file = FullDisk()
     with pytest.raises(OSError, match="No space left"):
         for k in range(5000):  # a few chunks of records: the first one fails in the thread
