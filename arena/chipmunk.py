@@ -8,12 +8,15 @@ are not as expected (another major version), `lib` is None and the public API is
 
 from __future__ import annotations
 
+import functools
+
+import numpy as np
 import pymunk
 
 try:
-    from pymunk._chipmunk import lib  # type: ignore[import-not-found]
+    from pymunk._chipmunk import ffi, lib  # type: ignore[import-not-found]
 except ImportError:  # pragma: no cover - a pymunk without the cffi module
-    lib = None
+    ffi = lib = None
 
 
 def step(space: pymunk.Space, dt: float) -> None:
@@ -44,3 +47,36 @@ def set_angular_velocity(body: pymunk.Body, w: float) -> None:
         body.angular_velocity = w
     else:
         lib.cpBodySetAngularVelocity(body._body, w)
+
+
+def address(obj: pymunk.Body | pymunk.Space) -> int:
+    """The memory address of a body's or a space's chipmunk struct."""
+    return int(ffi.cast("uintptr_t", obj._body if isinstance(obj, pymunk.Body) else obj._space))
+
+
+@functools.cache
+def step_function() -> int:
+    """The address of chipmunk's `cpSpaceStep(space, dt)` in pymunk's library."""
+    return int(ffi.cast("uintptr_t", ffi.addressof(lib, "cpSpaceStep")))
+
+
+# Where chipmunk 7 keeps a body's position, velocity, angle and turn rate, in doubles from
+# the struct's start (cpBody: two function pointers, m, m_inv, i, i_inv, cog, p, v, f, a, w).
+LAYOUT = (8, 10, 14, 15)
+
+
+@functools.cache
+def body_layout() -> tuple[int, int, int, int] | None:
+    """`LAYOUT`, if a body's memory holds what chipmunk's getters give at those places: a
+    probe body is given distinct values through pymunk, then read back both ways. None where
+    it does not (another chipmunk), or without the compiled module."""
+    if lib is None:
+        return None
+    body = pymunk.Body(2.0, 3.0)
+    body.position, body.velocity = (0.125, -7.5), (11.25, -2.0625)
+    body.angle, body.angular_velocity = 0.3, 0.875
+    words = np.frombuffer(ffi.buffer(ffi.cast("double *", body._body), 8 * 16), np.float64)
+    p, v, a, w = LAYOUT
+    seen = (words[p], words[p + 1], words[v], words[v + 1], words[a], words[w])
+    wanted = (*body.position, *body.velocity, body.angle, body.angular_velocity)
+    return LAYOUT if seen == wanted else None

@@ -128,14 +128,37 @@ class DiffDrive:
             slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
             self.turn_factor = 1.0 - slip * turn_share(left, right)
 
-    def update(self, heading: float, tick: int) -> None:
-        """Take the commands due at `tick`, ramp the wheels one physics step and set the control
-        body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
-        are not set again)."""
+    def take_due(self, tick: int) -> int | None:
+        """Take the commands due at `tick`; return the tick the next one comes due (None: no
+        command waits)."""
         queue = self._queue
         while queue and queue[0][0] <= tick:
             _, left, right = queue.popleft()
             self._take(left, right)
+        return queue[0][0] if queue else None
+
+    def numbers(self) -> tuple[float, ...]:
+        """The drive's state and constants, in the order of a row of `arena.stepping`'s table."""
+        return (
+            *self.wheels,
+            *self.target,
+            self.accel,
+            self.dt,
+            self.track,
+            self.turn_factor,
+            self._rate,
+            *self._motion,
+        )
+
+    def set_numbers(self, row: list[float]) -> None:
+        """Take back the state a compiled run left in the drive's row (`numbers`' order)."""
+        self.wheels, self._rate, self._motion = (row[0], row[1]), row[8], (row[9], row[10])
+
+    def update(self, heading: float, tick: int) -> None:
+        """Take the commands due at `tick`, ramp the wheels one physics step and set the control
+        body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
+        are not set again)."""
+        self.take_due(tick)
         if self.wheels != self.target:
             dv = self.accel * self.dt
             self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))

@@ -91,7 +91,7 @@ class Sensing:
         self.body_rate = np.zeros(self.n)  # the body's yaw rate in the last step (rad/s)
         self.phi = np.zeros(self.n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self.scans: dict[tuple[int, int], np.ndarray] = {}  # (robot, turn) -> light samples
-        self._rows: list[tuple] = []
+        self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
         self._last = world.state
@@ -103,24 +103,28 @@ class Sensing:
         """Store the robots' poses after a physics step."""
         self._rows.append(self.world.state)
 
-    def record_many(self, states: list[tuple[float, ...]]) -> None:
-        """Store the world's states after several physics steps (`World.run`)."""
-        self._rows.extend(states)
+    def record_many(self, states: np.ndarray) -> None:
+        """Store the world's states after several physics steps (`World.run`: a row each)."""
+        self._rows.append(states)
 
     def flush(self) -> list[list[det.Detection]]:
         """Detections per robot for the steps recorded since the last flush, in event order
         (`event_order`). Each source of events (hits, false returns, index clicks, scans)
         yields its own events in that order; only a robot that got events from two sources,
         or hits at one time, needs a sort."""
-        steps = len(self._rows)
-        if not steps:
+        rows = self._rows
+        if not rows:
             return [[] for _ in range(self.n)]
-        flat = np.fromiter(chain(self._last, chain.from_iterable(self._rows)), float, (steps + 1) * 3 * self.n)
-        poses = flat.reshape(steps + 1, self.n, 3)
+        if all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
+            flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
+        else:  # runs of states (`record_many`), or both
+            flat = np.vstack([self._last, *rows])
+        poses = flat.reshape(-1, self.n, 3)
+        steps = len(poses) - 1
         t = self._last_t + self._ramp(steps)
         t[-1] = self.world.time  # exact at the end, so batches join without drift
         traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(poses[:, :, 2]))
-        self._last, self._last_t, self._rows = self._rows[-1], self.world.time, []
+        self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
         self.phi = traj.phi[-1].copy()
 
         sources = [self._light(traj) if self.kind == "light" else self._hits(traj)]

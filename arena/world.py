@@ -7,12 +7,12 @@ slot order, then `space.step(dt)`, then the clock.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import pymunk
 
-from arena import chipmunk
+from arena import chipmunk, stepping
 from arena.angles import wrap
 from arena.drive import DiffDrive
 from arena.level import Level, Pose
@@ -28,6 +28,15 @@ TYPE_OF_CATEGORY = {CAT_WALL: 2, CAT_OBSTACLE: 3, CAT_BEACON: 4, CAT_ROBOT: 1}
 
 
 @dataclass(frozen=True)
+class Watch:
+    """Where a run of steps may stop early (`World.run`): after a step at which a robot of
+    `points` (slot, x, y) stands within sqrt(`near`) metres of its point."""
+
+    points: tuple[tuple[int, float, float], ...]
+    near: float
+
+
+@dataclass(frozen=True)
 class Contact:
     """A robot touching something, from first touch to separation: when it began, what it
     touched ("robot" and the other slot, "wall", "obstacle", "beacon"), where, and the
@@ -39,6 +48,11 @@ class Contact:
     other_robot: int | None
     point: tuple[float, float]
     impulse: float
+
+
+def _within(dx: float, dy: float, near: float) -> bool:
+    """An offset no longer than sqrt(`near`), as `arena.stepping` computes it."""
+    return dx * dx + dy * dy <= near
 
 
 class World:
@@ -89,6 +103,9 @@ class World:
             shape.collision_type = 1
             shape.slot = r.slot
         self.state = self._read_state()
+        self._addresses: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # for compiled runs
+        self._clock = np.zeros(1, np.int64)  # the tick of the step a compiled run is taking
+        self._compiled = False  # a compiled run is under way (the contact callbacks read `_clock`)
         self.contacts: list[Contact] = []  # finished contacts, in order of their end
         self.contact_ends: list[int] = []  # the tick after which each finished contact was known
         self._touching: dict[tuple[int, int], list] = {}
@@ -108,13 +125,17 @@ class World:
         reduced = ma if mb == math.inf else ma * mb / (ma + mb)
         closing = (a.body.velocity - b.body.velocity).dot(cps.normal)
         impulse = reduced * abs(closing) * (1 + arbiter.restitution)
-        self._touching[(id(a), id(b))] = [self.tick + 1, a, b, point, impulse]
+        self._touching[(id(a), id(b))] = [self._ticking() + 1, a, b, point, impulse]
 
     def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         a, b = arbiter.shapes
         entry = self._touching.pop((id(a), id(b)), None)
         if entry is not None:
-            self._finish(entry, self.tick + 1)  # during the step that ends at tick + 1
+            self._finish(entry, self._ticking() + 1)  # during the step that ends at tick + 1
+
+    def _ticking(self) -> int:
+        """The tick at which the step under way began."""
+        return int(self._clock[0]) if self._compiled else self.tick
 
     def _finish(self, entry: list, known: int) -> None:
         tick, a, b, point, impulse = entry
@@ -182,21 +203,89 @@ class World:
         self.state = self._read_state()
 
     def run(
-        self, steps: int, speeds: bool = False, until: Callable[[tuple[float, ...]], bool] | None = None
-    ) -> tuple[list[tuple[float, ...]], list[tuple[float, ...]]]:
-        """Advance `steps` physics steps, or fewer: stop after a step whose state `until` holds
-        true of. Return the `state` after each step, in order, and (if `speeds`) every robot's
-        speed (m/s) then: what a control period's checks read, all at once (referee.match.loop)."""
+        self, steps: int, speeds: bool = False, watch: Watch | None = None
+    ) -> tuple[np.ndarray, list[tuple[float, ...]] | None]:
+        """Advance `steps` physics steps, or fewer: stop after a step at which a robot of
+        `watch` stands near its point. Return the `state` after each step, a row each, and (if
+        `speeds`) every robot's speed (m/s) then: what a control period's checks read, all at
+        once (referee.match.loop). The steps run compiled (`arena.stepping`) where this
+        process's chipmunk allows, with the numbers `step` gives."""
+        layout = chipmunk.body_layout()
+        space = self.space
+        if layout is None or space._bodies_to_check or space._add_later:
+            return self._run_stepwise(steps, speeds, watch)
+        n = len(self.bodies)
+        if self._addresses is None:
+            self._addresses = (
+                np.array([chipmunk.address(b) for b in self.bodies], np.int64),
+                np.array([chipmunk.address(d.control) for d in self.drives], np.int64),
+                np.array(layout, np.int64),
+            )
+        bodies, controls, places = self._addresses
+        states = np.empty((steps, 3 * n))
+        velocities = np.empty((steps if speeds else 0, 2 * n))
+        points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
+        near = watch.near if watch else 0.0
+        done = 0
+        space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
+        self._clock[0], self._compiled = self.tick, True
+        try:
+            while done < steps:
+                dues = [t for t in (drive.take_due(self.tick) for drive in self.drives) if t is not None]
+                count = min(steps - done, min(dues) - self.tick) if dues else steps - done
+                table = np.array([drive.numbers() for drive in self.drives])
+                ran = stepping.run_steps(
+                    chipmunk.step_function(),
+                    chipmunk.address(space),
+                    self.dt,
+                    bodies,
+                    controls,
+                    table,
+                    places,
+                    self.tick,
+                    self._clock,
+                    points,
+                    near,
+                    states[done : done + count],
+                    velocities[done : done + count],
+                )
+                for drive, row in zip(self.drives, table.tolist()):
+                    drive.set_numbers(row)
+                self.tick += ran
+                done += ran
+                if ran < count:
+                    break
+        finally:
+            self._compiled = False
+            space._locked = False
+            space._removed_shapes.clear()
+        states = states[:done]
+        self.state = tuple(states[-1].tolist())
+        moving = None
+        if speeds:
+            moving = [
+                tuple(math.sqrt(x**2 + y**2) for x, y in zip(row[0::2], row[1::2]))  # as pymunk's Vec2d.length
+                for row in velocities[:done].tolist()
+            ]
+        return states, moving
+
+    def _run_stepwise(
+        self, steps: int, speeds: bool, watch: Watch | None
+    ) -> tuple[np.ndarray, list[tuple[float, ...]] | None]:
+        """`run`, a `step` at a time in Python."""
         states: list[tuple[float, ...]] = []
         moving: list[tuple[float, ...]] = []
+        points = [(3 * slot, x, y) for slot, x, y in watch.points] if watch else []
+        near = watch.near if watch else 0.0
         for _ in range(steps):
             self.step()
-            states.append(self.state)
+            state = self.state
+            states.append(state)
             if speeds:
                 moving.append(tuple(body.velocity.length for body in self.bodies))
-            if until is not None and until(self.state):
+            if any(_within(state[i] - x, state[i + 1] - y, near) for i, x, y in points):
                 break
-        return states, moving
+        return np.array(states, float).reshape(-1, 3 * len(self.bodies)), moving if speeds else None
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""

@@ -5,7 +5,8 @@ Areas: physics (pymunk, the world and its drives), sensing (lasers, crossings, d
 referee checks (task progress, rules, scoring), replay (formatting and compression),
 exchange (talking to controller processes, waiting included), controllers (their own code,
 when they run in this process), numpy's own functions (called from any area), other. Isolated, the controllers' own CPU is in their
-processes and shows here only as waiting in the exchange.
+processes and shows here only as waiting in the exchange. A first match, not profiled, loads
+what a process loads once (the compiled kernels, imports).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 
 AREAS = [
-    ("physics", ("pymunk", "_chipmunk", "arena/world.py", "arena/drive.py", "arena/chipmunk.py")),
+    ("physics", ("pymunk", "_chipmunk", "arena/world.py", "arena/drive.py", "arena/chipmunk.py", "arena/stepping.py")),
     ("sensing", ("arena/sensing.py", "arena/laser.py", "arena/detectors.py", "arena/angles.py")),
     ("referee checks", ("referee/match/tasks.py", "referee/match/rules.py", "referee/match/estimates.py")),
     ("replay", ("referee/records/replay.py", "gzip", "zlib", "json/", "TextIOWrapper")),
@@ -50,6 +51,9 @@ def main() -> None:
     teams = [resolve(args.team or level.default_controller)] * len(level.robots)
     profile = cProfile.Profile()
     with tempfile.TemporaryDirectory() as d:
+        # a first match, unprofiled: loading the compiled kernels and the first imports are a
+        # process's cost, not a match's (a grading worker pays them once)
+        run_match(level, teams, replay=Path(d) / "warm.replay", isolate=args.isolate)
         profile.enable()
         result = run_match(level, teams, replay=Path(d) / "m.replay", isolate=args.isolate)
         profile.disable()

@@ -37,6 +37,20 @@ def run(seconds: float, sensing_on: bool) -> tuple[float, int]:
     return time.perf_counter() - start, events
 
 
+def run_periods(seconds: float) -> float:
+    """Wall time to simulate `seconds` of the same world with nothing else, a control period
+    at a time through `World.run` (compiled, as a match steps it)."""
+    level = load_level(levels.path("asabe-race"))
+    world = World(level)
+    for slot in range(len(level.robots)):
+        world.command(slot, 0.08, 0.12)
+    steps, spc = round(seconds * level.physics_rate), level.steps_per_control
+    start = time.perf_counter()
+    for _ in range(steps // spc):
+        world.run(spc)
+    return time.perf_counter() - start
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per run")

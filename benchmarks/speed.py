@@ -3,7 +3,9 @@
 Run: python benchmarks/speed.py [--repeat 3] [--json]
 Figures (medians of `--repeat` runs, at least 5 for the cheap world figures, simulated seconds
 per wall second unless said):
-- bare: the asabe-race world (4 robots driving circles) stepped with nothing else;
+- bare: the asabe-race world (4 robots driving circles) stepped with nothing else, a
+  `World.step` at a time (pymunk's stepping, the reference of every ratio); and the same
+  world stepped a control period at a time by the compiled loop a match uses (`World.run`);
 - sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
 - full matches of asabe-race, isolated (each controller in its sandboxed process) and in this
   process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
@@ -86,10 +88,17 @@ def world(seconds: float, repeat: int) -> dict:
     def once() -> dict:
         bare, _ = sensing.run(seconds, False)
         sensed, events = sensing.run(seconds, True)
-        return {"bare_x": seconds / bare, "sensing_x": seconds / sensed, "sensing_overhead": sensed / bare - 1}
+        periods = sensing.run_periods(seconds)
+        return {
+            "bare_x": seconds / bare,
+            "sensing_x": seconds / sensed,
+            "sensing_overhead": sensed / bare - 1,
+            "compiled_x": seconds / periods,
+        }
 
     sensing.run(seconds / 6, False)  # a warm-up of each, untimed: a process's first run is slower by
     sensing.run(seconds / 6, True)  # a few percent (caches, allocations), which a single run would count
+    sensing.run_periods(seconds / 6)  # (and loads the compiled loop)
     return median_of(repeat, once)
 
 
@@ -177,6 +186,11 @@ def table(f: dict) -> list[tuple[str, str, str]]:
     w = f["world"]
     rows = [
         ("asabe-race bare stepping", f"{w['bare_x']:.0f}x real time", ""),
+        (
+            "  compiled, a control period at a time",
+            f"{w['compiled_x']:.0f}x real time",
+            "World.run, as a match steps it",
+        ),
         (
             "  with sensing",
             f"{w['sensing_x']:.0f}x real time",

@@ -18,14 +18,12 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-
 from arena.angles import wrap
 from arena.detectors import Detection
 from arena.level import ControllerLimits, Level
 from arena.rng import RandomTree
 from arena.sensing import Sensing
-from arena.world import World
+from arena.world import Watch, World
 from referee.match.estimates import EstimateStats
 from referee.match.rules import Rules
 from referee.match.scoring import score
@@ -50,6 +48,9 @@ NO_LIMITS = ControllerLimits(
     memory=0,
     log_bytes=0,
 )
+
+
+EVERY_STEP = Watch((), 0.0)  # no robot still driving: the match ends at the next step
 
 
 def brief_for(level: Level, slot: int) -> Brief:
@@ -287,9 +288,9 @@ class Match:
         checks would give them. A run stops early only after a step at which the match may
         have ended: a robot still driving stood within its final target's radius."""
         left = min(self.level.steps_per_control, self.total_steps - self.world.tick)
-        until = self._finish_line()
+        watch = self._finish_line()
         while left:
-            left -= self._steps(left, until)
+            left -= self._steps(1 if watch is EVERY_STEP else left, watch)
             if self._over():
                 self.end_reason = (
                     "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) else "all_stopped"
@@ -298,51 +299,42 @@ class Match:
                 return
         self.ended = self.world.tick >= self.total_steps
 
-    def _finish_line(self) -> Callable[[tuple[float, ...]], bool] | None:
-        """What, in a world state, says the match may have ended at that step (None: it cannot
+    def _finish_line(self) -> Watch | None:
+        """Where, in a world state, the match may have ended at that step (None: it cannot
         end within this control period). Only a robot still driving that finishes its task can
         end it, at a step where it stands within its final target's radius; robots out of reach
         of their final target this period (see `reach`) are not watched. With no robot still
-        driving, any step ends it."""
+        driving, any step ends it (`EVERY_STEP`)."""
         tracker, radius = self.tracker, self.level.task.radius
         going = [s for s in range(len(self.teams)) if not (self.stopped[s] or tracker.done(s))]
         if not going:
-            return lambda state: True
+            return EVERY_STEP
         state = self.world.state
         watched = []
         for slot in going:
             targets = tracker.targets(slot)
             if targets and math.dist(state[3 * slot : 3 * slot + 2], targets[-1]) <= radius + self.reach:
-                watched.append((3 * slot, *targets[-1]))
+                watched.append((slot, *targets[-1]))
         if not watched:
             return None
-        near = (radius * (1 + 1e-9) + 1e-12) ** 2  # a hair wide: stopping a run early is always safe
+        # a hair wide: stopping a run early is always safe
+        return Watch(tuple(watched), (radius * (1 + 1e-9) + 1e-12) ** 2)
 
-        def may_have_ended(state: tuple[float, ...]) -> bool:
-            for i, gx, gy in watched:
-                dx, dy = state[i] - gx, state[i + 1] - gy
-                if dx * dx + dy * dy <= near:
-                    return True
-            return False
-
-        return may_have_ended
-
-    def _steps(self, count: int, until: Callable[[tuple[float, ...]], bool] | None) -> int:
-        """Up to `count` physics steps (fewer if `until` says so of a step's state), then the
-        checks after each of them; returns how many steps ran."""
+    def _steps(self, count: int, watch: Watch | None) -> int:
+        """Up to `count` physics steps (fewer if a robot of `watch` reaches its point), then
+        the checks after each of them; returns how many steps ran."""
         world, level = self.world, self.level
         first = world.tick + 1
-        states, speeds = world.run(count, speeds=bool(level.rules.speed_limit), until=until)
-        self.sensing.record_many(states)
+        table, speeds = world.run(count, speeds=bool(level.rules.speed_limit), watch=watch)
+        self.sensing.record_many(table)
         every = level.steps_per_record
-        table = np.asarray(states)  # one row per step, for the checks that look at all at once
         self.tracker.advance(table, first, level.physics_rate, every)
         self.rules.after_steps(world, table, speeds)
         if self.writer:
             start = -first % every  # the first step of this run that is recorded
-            if start < len(states):
-                self._write(functools.partial(self._frames, first + start, states[start::every]))
-        return len(states)
+            if start < len(table):
+                self._write(functools.partial(self._frames, first + start, table[start::every].tolist()))
+        return len(table)
 
     def _frames(self, tick: int, recorded: list[tuple[float, ...]]) -> None:
         """The replay's frames of `recorded` states, one every `steps_per_record` from `tick`."""

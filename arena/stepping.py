@@ -1,0 +1,146 @@
+"""A run of physics steps in one compiled loop: every drive's update, chipmunk's step and the
+read of every robot's pose, step after step, with no Python between them.
+
+Between two control ticks nothing a controller says changes, and a step's Python glue (the
+drives' arithmetic, pymunk's wrappers, reading the poses) costs more than chipmunk's own work
+for a small world. This loop does the same arithmetic as `DiffDrive.update` and
+`World.step`, in their order, on the same numbers (decision 0029):
+- it calls chipmunk's `cpSpaceStep` at its address in pymunk's own compiled library, so the
+  collision callbacks run as they do under `Space.step`;
+- it reads a body's position, velocity and angle, and writes a kinematic control body's
+  velocity and turn rate, in the body's own memory, at the places `chipmunk.body_layout`
+  has checked in this process (what chipmunk's getters and setters do: a setter's only other
+  work is to wake a sleeping dynamic body, and control bodies are kinematic);
+- `cos` and `sin` are the C library's, as `math`'s are; no fast-math, no fused multiply-add.
+Commands that come due and their random draws stay in Python: `World.run` stops the loop
+at each such tick. `tests/test_stepping.py` compares with `World.step`, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from llvmlite import ir
+from numba import carray, types
+from numba.extending import intrinsic
+
+from arena.kernels import compiled
+
+# a drive's numbers in its row of the `drives` table
+WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)
+DRIVE_FIELDS = 11
+WORDS = 16  # doubles of a cpBody read or written (the layout's places are below 16)
+
+
+def _doubles_at(typingctx, address):
+    """The doubles at memory `address` (an integer), as a pointer: `_doubles(address)`."""
+    if not isinstance(address, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.inttoptr(args[0], ir.DoubleType().as_pointer())
+
+    return types.CPointer(types.float64)(address), codegen
+
+
+_doubles: Any = intrinsic(_doubles_at)
+
+
+def _call_at(typingctx, function, space, dt):
+    """Call `void function(void *space, double dt)` (chipmunk's cpSpaceStep) at its address:
+    `_call_step(function, space, dt)`."""
+    if not (isinstance(function, types.Integer) and isinstance(space, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        address, space_address, step = args
+        pointer = ir.IntType(8).as_pointer()
+        kind = ir.FunctionType(ir.VoidType(), [pointer, ir.DoubleType()])
+        builder.call(builder.inttoptr(address, kind.as_pointer()), [builder.inttoptr(space_address, pointer), step])
+        return context.get_dummy_value()
+
+    return types.void(function, space, types.float64), codegen
+
+
+_call_step: Any = intrinsic(_call_at)
+
+
+@compiled(inline="always")
+def _ramp(current: float, target: float, max_change: float) -> float:
+    """`arena.drive.ramp`, with Python's `min` and `max` (the first argument unless the
+    second is smaller, or larger)."""
+    change = target - current
+    if change < max_change:
+        low = change
+    else:
+        low = max_change
+    if low > -max_change:
+        return current + low
+    return current + -max_change
+
+
+@compiled()
+def run_steps(
+    step_function: int,
+    space: int,
+    dt: float,
+    bodies: np.ndarray,
+    controls: np.ndarray,
+    drives: np.ndarray,
+    layout: np.ndarray,
+    tick: int,
+    clock: np.ndarray,
+    watch: np.ndarray,
+    near: float,
+    states: np.ndarray,
+    velocities: np.ndarray,
+) -> int:
+    """Up to `len(states)` physics steps from `tick`: each drive's update (its row of
+    `drives`, updated in place), chipmunk's step, then every robot's x, y and heading into
+    `states` (and velocity into `velocities`, if it has rows). `clock[0]` holds the tick of
+    the step under way, for the collision callbacks. Stops after a step where a robot of
+    `watch` (rows of state index, x, y) stands within sqrt(`near`) of its point; returns the
+    steps run."""
+    px, vx, a, w = layout[0], layout[1], layout[2], layout[3]
+    n = bodies.shape[0]
+    record_velocities = velocities.shape[0] > 0
+    for k in range(states.shape[0]):
+        for r in range(n):
+            body = carray(_doubles(bodies[r]), WORDS)
+            heading = body[a]
+            d = drives[r]
+            if d[WHEEL_L] != d[TARGET_L] or d[WHEEL_R] != d[TARGET_R]:
+                dv = d[ACCEL] * d[DT]
+                d[WHEEL_L] = _ramp(d[WHEEL_L], d[TARGET_L], dv)
+                d[WHEEL_R] = _ramp(d[WHEEL_R], d[TARGET_R], dv)
+            control = carray(_doubles(controls[r]), WORDS)
+            rate = (d[WHEEL_R] - d[WHEEL_L]) / d[TRACK] * d[TURN]
+            if rate != d[RATE]:
+                d[RATE] = rate
+                control[w] = rate
+            v = (d[WHEEL_L] + d[WHEEL_R]) / 2
+            h = heading if v != 0.0 else 0.0
+            if v != d[MOTION_V] or h != d[MOTION_H]:
+                d[MOTION_V] = v
+                d[MOTION_H] = h
+                control[vx] = v * math.cos(heading)
+                control[vx + 1] = v * math.sin(heading)
+        clock[0] = tick + k
+        _call_step(step_function, space, dt)
+        row = states[k]
+        for r in range(n):
+            body = carray(_doubles(bodies[r]), WORDS)
+            row[3 * r] = body[px]
+            row[3 * r + 1] = body[px + 1]
+            row[3 * r + 2] = body[a]
+            if record_velocities:
+                velocities[k, 2 * r] = body[vx]
+                velocities[k, 2 * r + 1] = body[vx + 1]
+        for i in range(watch.shape[0]):
+            dx = row[int(watch[i, 0])] - watch[i, 1]
+            dy = row[int(watch[i, 0]) + 1] - watch[i, 2]
+            if dx * dx + dy * dy <= near:
+                return k + 1
+    return states.shape[0]

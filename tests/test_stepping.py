@@ -1,0 +1,117 @@
+"""A run of physics steps in one compiled loop (`World.run`, arena.stepping) against the
+plain way, `World.step` a step at a time: the same states bit for bit, the same drive state,
+the same contacts at the same ticks, the same speeds as pymunk's own `Vec2d.length`, and a
+watched run that stops at the step an independent distance test names."""
+
+import math
+
+import numpy as np
+import pytest
+from helpers import variant
+
+from arena import chipmunk, drive, stepping
+from arena.rng import RandomTree
+from arena.world import Watch, World
+
+# Four robots packed close, told to drive into one another and the walls, then back out:
+# commands come due in the middle of runs (the link's latency), and contacts begin and end.
+LEVEL = variant(
+    "asabe-race",
+    robots__0__start=[0.30, 0.25, 0],
+    robots__1__start=[0.50, 0.25, 3.14159],
+    robots__2__start=[0.40, 0.45, -1.5],
+    robots__3__start=[0.15, 0.12, 3.9],
+)
+PLAN = [(0.3, 0.3), (0.25, -0.05), (-0.2, -0.3), (0.3, 0.1), (0.0, 0.0), (0.1, 0.1)]
+
+
+def commands(world: World, period: int) -> None:
+    for slot in range(4):
+        left, right = PLAN[(period + slot) % len(PLAN)]
+        world.command(slot, left, right)
+
+
+def stepwise(world: World, steps: int) -> tuple[np.ndarray, list]:
+    states, speeds = [], []
+    for _ in range(steps):
+        world.step()
+        states.append(world.state)
+        speeds.append(tuple(b.velocity.length for b in world.bodies))
+    return np.array(states), speeds
+
+
+def drives(world: World) -> list:
+    return [(d.wheels, d.target, d.turn_factor, d._rate, d._motion, list(d._queue)) for d in world.drives]
+
+
+def touching(world: World) -> list:
+    """The contacts going on: when each began, the robot, where, the impulse."""
+    return sorted((tick, a.slot, point, impulse) for tick, a, _, point, impulse in world._touching.values())
+
+
+def test_the_layout_is_checked_and_found_on_this_pymunk():
+    assert chipmunk.body_layout() == chipmunk.LAYOUT
+
+
+@pytest.mark.parametrize("errors", [True, False], ids=["drive errors", "ideal"])
+def test_a_compiled_run_gives_what_step_by_step_gives(errors):
+    plain, compiled = (World(LEVEL, RandomTree(7) if errors else None) for _ in range(2))
+    for period in range(40):
+        commands(plain, period)
+        commands(compiled, period)
+        want, want_speeds = stepwise(plain, LEVEL.steps_per_control)
+        got, got_speeds = compiled.run(LEVEL.steps_per_control, speeds=True)
+        assert got.tobytes() == want.tobytes(), f"period {period}"
+        assert got_speeds == want_speeds
+        assert compiled.state == plain.state and compiled.tick == plain.tick
+        assert drives(compiled) == drives(plain)
+    assert len(plain.contacts) >= 6  # robots met each other and the walls, and parted again
+    assert {c.other for c in plain.contacts} >= {"robot", "wall"}
+    assert compiled.contacts == plain.contacts and compiled.contact_ends == plain.contact_ends
+    assert touching(compiled) == touching(plain)
+
+
+def test_without_the_layout_the_run_steps_in_python(monkeypatch):
+    monkeypatch.setattr(chipmunk, "body_layout", lambda: None)
+    monkeypatch.setattr(stepping, "run_steps", None)  # not reached
+    plain, fallback = World(LEVEL, RandomTree(3)), World(LEVEL, RandomTree(3))
+    for period in range(10):
+        commands(plain, period)
+        commands(fallback, period)
+        want, want_speeds = stepwise(plain, LEVEL.steps_per_control)
+        got, got_speeds = fallback.run(LEVEL.steps_per_control, speeds=True)
+        assert got.tobytes() == want.tobytes() and got_speeds == want_speeds
+    assert fallback.contacts == plain.contacts
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_watched_run_stops_after_the_first_step_near_a_point(monkeypatch, compiled):
+    if not compiled:
+        monkeypatch.setattr(chipmunk, "body_layout", lambda: None)
+    world, probe = World(LEVEL, None), World(LEVEL, None)
+    world.command(0, 0.2, 0.2)  # robot 0 drives straight along +x from (0.30, 0.25)
+    probe.command(0, 0.2, 0.2)
+    path, _ = stepwise(probe, 400)
+    goal, radius = (0.45, 0.25), 0.01
+    first = next(i for i, s in enumerate(path) if math.dist(s[0:2], goal) <= radius)
+    assert 50 < first < 350
+    got, speeds = world.run(400, watch=Watch(((2, 9.0, 9.0), (0, *goal)), radius * radius))
+    assert len(got) == first + 1 and world.tick == first + 1 and speeds is None
+    assert got.tobytes() == path[: first + 1].tobytes()
+
+
+def test_ramp_is_pythons_min_and_max():
+    values = [-0.3, -0.1, -0.0, 0.0, 1e-17, 0.05, 0.1, 0.3, math.inf, -math.inf, math.nan]
+    for current in values:
+        for target in values:
+            for step in (0.0, 1e-3, 0.2, math.inf):
+                want, got = drive.ramp(current, target, step), stepping._ramp(current, target, step)
+                assert (
+                    math.isnan(want)
+                    and math.isnan(got)
+                    or (want, math.copysign(1, want))
+                    == (
+                        got,
+                        math.copysign(1, got),
+                    )
+                ), (current, target, step)
