@@ -260,7 +260,8 @@ class World:
             space._locked = False
             space._removed_shapes.clear()
         states = states[:done]
-        self.state = tuple(states[-1].tolist())
+        if done:
+            self.state = tuple(states[-1].tolist())
         moving = None
         if speeds:
             moving = [
