@@ -11,7 +11,8 @@ for a small world. This loop does the same arithmetic as `DiffDrive.update` and
   velocity and turn rate, in the body's own memory, at the places `chipmunk.body_layout`
   has checked in this process (what chipmunk's getters and setters do: a setter's only other
   work is to wake a sleeping dynamic body, and control bodies are kinematic);
-- `cos` and `sin` are the C library's, as `math`'s are; no fast-math, no fused multiply-add.
+- `cos` and `sin` are the C library's, as `math`'s are (LLVM may fetch both at once through
+  its `sincos`, which gives the same bits); no fast-math, no fused multiply-add.
 Commands that come due and their random draws stay in Python: `World.run` stops the loop
 at each such tick. `tests/test_stepping.py` compares with `World.step`, bit for bit.
 """
@@ -102,7 +103,7 @@ def run_steps(
     `states` (and velocity into `velocities`, if it has rows). `clock[0]` holds the tick of
     the step under way, for the collision callbacks. Stops after a step where a robot of
     `watch` (rows of state index, x, y) stands within sqrt(`near`) of its point; returns the
-    steps run."""
+    steps run, negative if it stopped so (a stop at the last step must still be told)."""
     px, vx, a, w = layout[0], layout[1], layout[2], layout[3]
     n = bodies.shape[0]
     record_velocities = velocities.shape[0] > 0
@@ -142,5 +143,5 @@ def run_steps(
             dx = row[int(watch[i, 0])] - watch[i, 1]
             dy = row[int(watch[i, 0]) + 1] - watch[i, 2]
             if dx * dx + dy * dy <= near:
-                return k + 1
+                return -(k + 1)
     return states.shape[0]

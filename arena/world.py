@@ -6,7 +6,9 @@ slot order, then `space.step(dt)`, then the clock.
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +55,22 @@ class Contact:
 def _within(dx: float, dy: float, near: float) -> bool:
     """An offset no longer than sqrt(`near`), as `arena.stepping` computes it."""
     return dx * dx + dy * dy <= near
+
+
+def _deferring(callback: Callable[..., None]) -> Callable[..., None]:
+    """A contact callback whose exception (a bug, or an interrupt that lands in it) is kept
+    and raised when chipmunk's step has returned (`_raise_deferred`): raised in the
+    callback, cffi would print it and go on."""
+
+    @functools.wraps(callback)
+    def deferring(self: World, *args: object) -> None:
+        try:
+            callback(self, *args)
+        except BaseException as e:  # kept, and raised after the step
+            if self._deferred is None:
+                self._deferred = e
+
+    return deferring
 
 
 class World:
@@ -106,12 +124,20 @@ class World:
         self._addresses: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # for compiled runs
         self._clock = np.zeros(1, np.int64)  # the tick of the step a compiled run is taking
         self._compiled = False  # a compiled run is under way (the contact callbacks read `_clock`)
+        self._deferred: BaseException | None = None  # raised in a contact callback, raised after the step
         self.contacts: list[Contact] = []  # finished contacts, in order of their end
         self.contact_ends: list[int] = []  # the tick after which each finished contact was known
         self._touching: dict[tuple[int, int], list] = {}
         for other_type in KIND_OF_TYPE:
             self.space.on_collision(1, other_type, begin=self._begin, separate=self._separate)
 
+    def _raise_deferred(self) -> None:
+        """Raise what a contact callback raised during the last step, if anything."""
+        if self._deferred is not None:
+            e, self._deferred = self._deferred, None
+            raise e
+
+    @_deferring
     def _begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         """First touch: the collision impulse is what it takes to stop the approach along the
         contact normal, reduced mass x closing speed x (1 + restitution). Measured once here,
@@ -127,6 +153,7 @@ class World:
         impulse = reduced * abs(closing) * (1 + arbiter.restitution)
         self._touching[(id(a), id(b))] = [self._ticking() + 1, a, b, point, impulse]
 
+    @_deferring
     def _separate(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: object) -> None:
         a, b = arbiter.shapes
         entry = self._touching.pop((id(a), id(b)), None)
@@ -201,6 +228,8 @@ class World:
         chipmunk.step(self.space, self.dt)
         self.tick += 1
         self.state = self._read_state()
+        if self._deferred is not None:
+            self._raise_deferred()
 
     def run(
         self, steps: int, speeds: bool = False, watch: Watch | None = None
@@ -226,42 +255,45 @@ class World:
         velocities = np.empty((steps if speeds else 0, 2 * n))
         points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
         near = watch.near if watch else 0.0
-        done = 0
+        done, stopped = 0, False
         space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
         self._clock[0], self._compiled = self.tick, True
         try:
-            while done < steps:
+            while done < steps and not stopped:
                 dues = [t for t in (drive.take_due(self.tick) for drive in self.drives) if t is not None]
                 count = min(steps - done, min(dues) - self.tick) if dues else steps - done
                 table = np.array([drive.numbers() for drive in self.drives])
-                ran = stepping.run_steps(
-                    chipmunk.step_function(),
-                    chipmunk.address(space),
-                    self.dt,
-                    bodies,
-                    controls,
-                    table,
-                    places,
-                    self.tick,
-                    self._clock,
-                    points,
-                    near,
-                    states[done : done + count],
-                    velocities[done : done + count],
-                )
-                for drive, row in zip(self.drives, table.tolist()):
-                    drive.set_numbers(row)
-                self.tick += ran
-                done += ran
-                if ran < count:
-                    break
+                ran = 0
+                try:
+                    ran = stepping.run_steps(
+                        chipmunk.step_function(),
+                        chipmunk.address(space),
+                        self.dt,
+                        bodies,
+                        controls,
+                        table,
+                        places,
+                        self.tick,
+                        self._clock,
+                        points,
+                        near,
+                        states[done : done + count],
+                        velocities[done : done + count],
+                    )
+                finally:  # what the steps did stays told, whatever is raised after them
+                    stopped, ran = ran < 0, abs(ran)
+                    for drive, row in zip(self.drives, table.tolist()):
+                        drive.set_numbers(row)
+                    self.tick += ran
+                    done += ran
+                self._raise_deferred()
         finally:
             self._compiled = False
             space._locked = False
             space._removed_shapes.clear()
+            if done:
+                self.state = tuple(states[done - 1].tolist())
         states = states[:done]
-        if done:
-            self.state = tuple(states[-1].tolist())
         moving = None
         if speeds:
             moving = [

@@ -18,9 +18,9 @@ from arena.world import Watch, World
 LEVEL = variant(
     "asabe-race",
     robots__0__start=[0.30, 0.25, 0],
-    robots__1__start=[0.50, 0.25, 3.14159],
-    robots__2__start=[0.40, 0.45, -1.5],
-    robots__3__start=[0.15, 0.12, 3.9],
+    robots__1__start=[0.50, 0.25, 180],  # degrees
+    robots__2__start=[0.40, 0.45, -90],
+    robots__3__start=[0.15, 0.12, 225],
 )
 PLAN = [(0.3, 0.3), (0.25, -0.05), (-0.2, -0.3), (0.3, 0.1), (0.0, 0.0), (0.1, 0.1)]
 
@@ -115,3 +115,48 @@ def test_ramp_is_pythons_min_and_max():
                         math.copysign(1, got),
                     )
                 ), (current, target, step)
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_run_stops_at_its_watch_on_the_step_before_a_command_comes_due(monkeypatch, compiled):
+    """The loop stops where a command comes due; a watched robot that arrives on that very
+    step must still stop the run there."""
+    if not compiled:
+        monkeypatch.setattr(chipmunk, "body_layout", lambda: None)
+    world, probe = World(LEVEL, RandomTree(5)), World(LEVEL, RandomTree(5))
+    for w in (world, probe):
+        w.command(0, 0.2, 0.2)
+        w.run(60)  # under way (the first run also settles the bodies pymunk added)
+        w.command(0, 0.25, 0.25)
+    due = probe.drives[0]._queue[-1][0]
+    assert due > probe.tick + 2  # the link's latency puts it a few steps ahead
+    while probe.tick < due:
+        probe.step()
+    goal = probe.state[0:2]  # where robot 0 stands after the step that ends at the due tick
+    got, _ = world.run(40, watch=Watch(((0, *goal),), 1e-18))
+    assert world.tick == due and len(got) == due - 60
+    assert world.state == probe.state
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_what_a_contact_callback_raises_comes_after_the_step(monkeypatch, compiled):
+    """An exception in a contact callback (an interrupt landing there) is raised once
+    chipmunk's step returns, not printed and lost; the world is left as the steps made it."""
+    if not compiled:
+        monkeypatch.setattr(chipmunk, "body_layout", lambda: None)
+    world = World(LEVEL, None)
+    world.run(2)
+
+    def interrupted(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(World, "_ticking", interrupted)  # called at a contact's first touch
+    for slot in range(4):
+        world.command(slot, 0.3, 0.3)
+    with pytest.raises(KeyboardInterrupt):
+        for _ in range(20):
+            world.run(LEVEL.steps_per_control)
+    assert 2 < world.tick < 2 + 20 * LEVEL.steps_per_control
+    poses = [(b.position.x, b.position.y, b.angle) for b in world.bodies]
+    assert world.state == tuple(v for p in poses for v in p)
+    assert not world.space._locked and not world._compiled
