@@ -158,7 +158,9 @@ class DiffDrive:
         """Take the commands due at `tick`, ramp the wheels one physics step and set the control
         body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
         are not set again)."""
-        self.take_due(tick)
+        queue = self._queue
+        if queue and queue[0][0] <= tick:  # checked here: this runs every step of every drive
+            self.take_due(tick)
         if self.wheels != self.target:
             dv = self.accel * self.dt
             self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
