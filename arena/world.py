@@ -239,11 +239,16 @@ class World:
         `speeds`) every robot's speed (m/s) then: what a control period's checks read, all at
         once (referee.match.loop). The steps run compiled (`arena.stepping`) where this
         process's chipmunk allows, with the numbers `step` gives."""
+        n = len(self.bodies)
+        if steps < 0:
+            raise ValueError(f"a run of {steps} steps")
+        for slot, _, _ in watch.points if watch else ():
+            if not 0 <= slot < n:
+                raise ValueError(f"a watch on robot {slot} of a world of {n}")
         layout = chipmunk.body_layout()
         space = self.space
         if layout is None or space._bodies_to_check or space._add_later:
             return self._run_stepwise(steps, speeds, watch)
-        n = len(self.bodies)
         if self._addresses is None:
             self._addresses = (
                 np.array([chipmunk.address(b) for b in self.bodies], np.int64),

@@ -160,3 +160,18 @@ def test_what_a_contact_callback_raises_comes_after_the_step(monkeypatch, compil
     poses = [(b.position.x, b.position.y, b.angle) for b in world.bodies]
     assert world.state == tuple(v for p in poses for v in p)
     assert not world.space._locked and not world._compiled
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_a_run_of_no_robot_or_negative_steps_is_refused(monkeypatch, compiled):
+    if not compiled:
+        monkeypatch.setattr(chipmunk, "body_layout", lambda: None)
+    world = World(LEVEL, None)
+    world.run(2)
+    with pytest.raises(ValueError):
+        world.run(10, watch=Watch(((4, 0.0, 0.0),), 1.0))  # four robots: slots 0 to 3
+    with pytest.raises(ValueError):
+        world.run(-1)
+    assert world.tick == 2
+    got, _ = world.run(0)
+    assert got.shape == (0, 12) and world.tick == 2
