@@ -31,7 +31,6 @@ from arena.kernels import compiled
 
 # a drive's numbers in its row of the `drives` table
 WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)
-DRIVE_FIELDS = 11
 WORDS = 16  # doubles of a cpBody read or written (the layout's places are below 16)
 
 

@@ -121,7 +121,7 @@ class World:
             shape.collision_type = 1
             shape.slot = r.slot
         self.state = self._read_state()
-        self._addresses: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # for compiled runs
+        self._addresses: tuple[int, int, np.ndarray, np.ndarray, np.ndarray] | None = None  # for compiled runs
         self._clock = np.zeros(1, np.int64)  # the tick of the step a compiled run is taking
         self._compiled = False  # a compiled run is under way (the contact callbacks read `_clock`)
         self._deferred: BaseException | None = None  # raised in a contact callback, raised after the step
@@ -249,13 +249,15 @@ class World:
         space = self.space
         if layout is None or space._bodies_to_check or space._add_later:
             return self._run_stepwise(steps, speeds, watch)
-        if self._addresses is None:
+        if self._addresses is None:  # fixed for the world's life: found once
             self._addresses = (
+                chipmunk.step_function(),
+                chipmunk.address(space),
                 np.array([chipmunk.address(b) for b in self.bodies], np.int64),
                 np.array([chipmunk.address(d.control) for d in self.drives], np.int64),
                 np.array(layout, np.int64),
             )
-        bodies, controls, places = self._addresses
+        function, space_address, bodies, controls, places = self._addresses
         states = np.empty((steps, 3 * n))
         velocities = np.empty((steps if speeds else 0, 2 * n))
         points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
@@ -271,8 +273,8 @@ class World:
                 ran = 0
                 try:
                     ran = stepping.run_steps(
-                        chipmunk.step_function(),
-                        chipmunk.address(space),
+                        function,
+                        space_address,
                         self.dt,
                         bodies,
                         controls,
