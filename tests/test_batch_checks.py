@@ -128,3 +128,27 @@ def test_goto(tmp_path, monkeypatch):
         parse_level(text.encode(), "goto.yaml"), [resolve("ref:dead-reckoning")], tmp_path, monkeypatch
     )
     assert result.robots[0].task.final_distance is not None
+
+
+def test_a_lap_that_passes_its_final_point_first(tmp_path, monkeypatch):
+    # back and forth: the final target is also the first, so each robot stands on it long
+    # before it can finish; runs must not stop there, and the results must not change
+    lap = [[0.60, 0.25], [0.90, 0.25], [0.60, 0.25], [0.90, 0.25], [0.60, 0.25]]
+    level = variant("asabe-race", time_limit=40, robots__0__path=lap, robots__0__start=[0.45, 0.25, 0])
+    teams = [resolve("ref:bac")] + [resolve("ref:idle")] * 3
+    result = same_both_ways(level, teams, tmp_path, monkeypatch)
+    assert result.robots[0].task.reached >= 3
+
+
+def test_a_robot_with_far_targets_left_is_not_watched():
+    level = variant(
+        "asabe-race", robots__0__path=[[0.30, 0.25], [1.53, 0.25], [0.30, 0.25]], robots__0__start=[0.30, 0.25, 0]
+    )
+    match = loop.Match(level, [resolve("ref:idle")] * 4, isolate=False)
+    tracker = match.tracker
+    tracker.update(0, 0.30, 0.25, 0.0)  # the first target, where the robot starts (also its last)
+    assert tracker.next[0] == 1
+    assert match._finish_line() is None or all(slot != 0 for slot, _, _ in match._finish_line().points)
+    tracker.update(0, 1.53, 0.25, 1.0)  # now only the last target is left: watched wherever it is in reach
+    match.world.state = (0.35, 0.25, 0.0, *match.world.state[3:])
+    assert any(slot == 0 for slot, _, _ in match._finish_line().points)

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -288,8 +287,8 @@ class Match:
         checks would give them. A run stops early only after a step at which the match may
         have ended: a robot still driving stood within its final target's radius."""
         left = min(self.level.steps_per_control, self.total_steps - self.world.tick)
-        watch = self._finish_line()
         while left:
+            watch = self._finish_line()  # again after a stop: a robot that finished is no longer watched
             left -= self._steps(1 if watch is EVERY_STEP else left, watch)
             if self._over():
                 self.end_reason = (
@@ -302,9 +301,9 @@ class Match:
     def _finish_line(self) -> Watch | None:
         """Where, in a world state, the match may have ended at that step (None: it cannot
         end within this control period). Only a robot still driving that finishes its task can
-        end it, at a step where it stands within its final target's radius; robots out of reach
-        of their final target this period (see `reach`) are not watched. With no robot still
-        driving, any step ends it (`EVERY_STEP`)."""
+        end it, at a step where it stands within its final target's radius. A robot that
+        cannot reach every target it has left this period (see `reach`) is not watched: a lap
+        that passes its final point before its last target does not stop the run at every step."""
         tracker, radius = self.tracker, self.level.task.radius
         going = [s for s in range(len(self.teams)) if not (self.stopped[s] or tracker.done(s))]
         if not going:
@@ -313,7 +312,7 @@ class Match:
         watched = []
         for slot in going:
             targets = tracker.targets(slot)
-            if targets and math.dist(state[3 * slot : 3 * slot + 2], targets[-1]) <= radius + self.reach:
+            if targets and tracker.still_to_travel(slot, state[3 * slot], state[3 * slot + 1]) <= self.reach:
                 watched.append((slot, *targets[-1]))
         if not watched:
             return None

@@ -92,6 +92,19 @@ class TaskTracker:
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None
 
+    def still_to_travel(self, slot: int, x: float, y: float) -> float:
+        """A lower bound on how far robot `slot`, now at (x, y), must still travel to finish:
+        it must come within the task radius of each target left, in order, so each leg is at
+        least its length less the radius at both ends (a little less: never more than the truth)."""
+        targets = self.targets(slot)[self.next[slot] :]
+        if not targets:
+            return 0.0
+        near = self.level.task.radius * (1 + 1e-9) + 1e-12
+        travel = max(0.0, math.dist((x, y), targets[0]) - near)
+        for a, b in zip(targets, targets[1:]):
+            travel += max(0.0, math.dist(a, b) - 2 * near)
+        return travel
+
     def progress(self, slot: int) -> float:
         """Task completion, 0..1: waypoints reached; or how much of the way to the goal."""
         targets = self.targets(slot)
