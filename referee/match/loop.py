@@ -76,7 +76,7 @@ def brief_for(level: Level, slot: int) -> Brief:
 
 def to_event(d: Detection) -> SensorEvent:
     """An arena detection as the team sees it (nothing about which laser caused it)."""
-    return SensorEvent(time=d.time, kind=d.kind, beacon=d.beacon, angle=d.angle, samples=d.samples)
+    return SensorEvent(d.time, d.kind, d.beacon, d.angle, d.samples)  # by position: half the cost of keywords
 
 
 def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
@@ -170,7 +170,7 @@ class Match:
         return each robot's Observation (None for a stopped robot, which is counted estimate-less)."""
         time, tick = self.world.time, self.world.tick // self.level.steps_per_control
         for slot, detections in enumerate(self.sensing.flush()):
-            self.inbox[slot].extend(to_event(d) for d in detections)
+            self.inbox[slot].extend(map(to_event, detections))
             if self.writer and detections:
                 self._write(functools.partial(self.writer.events, slot, detections))
         out: list[Observation | None] = []
