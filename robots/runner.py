@@ -1,4 +1,4 @@
-"""The controller process: `python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES]`.
+"""The controller process: `python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES] [--max-procs N]`.
 
 Started by the referee as a fresh interpreter. It sets its own resource limits before any
 team code loads, keeps the protocol on private copies of stdin and stdout, and sends
@@ -10,7 +10,6 @@ as a `fault` message (the traceback goes to the team's log) and the process ends
 
 from __future__ import annotations
 
-import argparse
 import os
 import signal
 import sys
@@ -99,28 +98,49 @@ def _limit(name: str, value: int, what: str) -> bool:
         return False
 
 
+OPTIONS = ("--memory", "--log-cap", "--max-procs")
+USAGE = "usage: python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES] [--max-procs N]"
+
+
+def options(argv: list[str]) -> tuple[str, dict[str, int]]:
+    """SPEC and the limits from the command line: `--memory` (address space, bytes), `--log-cap`
+    (bytes the team may write), `--max-procs` (processes and threads of this user at once, only
+    for a uid of its own); each 0 (none) when absent. Read by hand: building argparse's parser
+    was a sixth of the CPU of a controller forked from the template. SystemExit, with the usage, on bad input."""
+    spec, limits, args = None, dict.fromkeys(OPTIONS, 0), list(argv)
+    while args:
+        arg = args.pop(0)
+        name, equals, value = arg.partition("=")
+        if name in OPTIONS:
+            if not equals and not args:
+                raise SystemExit(f"{USAGE}\nrobots.runner: {name} needs a value")
+            value = value if equals else args.pop(0)
+            try:
+                limits[name] = int(value)
+            except ValueError:
+                raise SystemExit(f"{USAGE}\nrobots.runner: {name}: not a whole number: {value!r}") from None
+        elif spec is None and not arg.startswith("--"):
+            spec = arg
+        else:
+            raise SystemExit(f"{USAGE}\nrobots.runner: unexpected argument {arg!r}")
+    if spec is None:
+        raise SystemExit(f"{USAGE}\nrobots.runner: the controller's SPEC is missing")
+    return spec, limits
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="robots.runner")
-    ap.add_argument("spec")
-    ap.add_argument("--memory", type=int, default=0, help="address-space limit in bytes (0: none)")
-    ap.add_argument("--log-cap", type=int, default=0, help="bytes the team may write (0: no cap)")
-    ap.add_argument(
-        "--max-procs",
-        type=int,
-        default=0,
-        help="processes and threads of this user at once (0: no limit; only for a uid of its own)",
-    )
-    args = ap.parse_args(argv)
+    spec, limits = options(sys.argv[1:] if argv is None else argv)
+    memory, log_cap, max_procs = (limits[name] for name in OPTIONS)
     # whatever the referee's own limits allow: no core dump (the host's core_pattern may hand it
     # to a handler writing to the host's disk), no real-time priority (a busy loop would starve
     # the referee and the other controllers)
     _limit("RLIMIT_CORE", 0, "core dump")
     _limit("RLIMIT_RTPRIO", 0, "real-time priority")
-    if args.max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
-        _limit("RLIMIT_NPROC", args.max_procs, "process count")
-    if args.memory:
-        _limit("RLIMIT_AS", args.memory, "memory")
-    if args.log_cap and _limit("RLIMIT_FSIZE", args.log_cap, "output size"):
+    if max_procs:  # a fork bomb stops at the limit: fork() fails inside the sandbox
+        _limit("RLIMIT_NPROC", max_procs, "process count")
+    if memory:
+        _limit("RLIMIT_AS", memory, "memory")
+    if log_cap and _limit("RLIMIT_FSIZE", log_cap, "output size"):
         # writing past it raises SIGXFSZ: the referee reports an output flood. CPython ignores
         # it by default, and a PID namespace's init (this process, in a sandbox) ignores it at
         # its default action: end as if killed by it
@@ -128,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
     try:
-        cls = load_class(args.spec)
+        cls = load_class(spec)
     except LoadError as e:
         protocol.write(out, {"type": "fault", "kind": "load", "message": str(e)})
         return 1
