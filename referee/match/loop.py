@@ -253,8 +253,13 @@ class Match:
     def close(self) -> None:
         """End every controller (their processes, if isolated) and give back the CPU, if one was claimed."""
         try:
-            for bot in self.bots:
-                bot.close()
+            try:
+                for bot in self.bots:  # told all at once, they end side by side
+                    if isinstance(bot, ProcessBot):
+                        bot.ask_to_end()
+            finally:
+                for bot in self.bots:
+                    bot.close()
         finally:
             if self.cpu is not None:
                 affinity.release(self.cpu)

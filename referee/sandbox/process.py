@@ -99,6 +99,7 @@ class ProcessBot:
         self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
         self.in_sandbox = False
         self.cpus: list[int] | None = None  # the CPUs the controller may run on (None: the referee's)
+        self.told_to_end = False  # `stop` sent (`ask_to_end`)
         if sandboxed and forked:
             forkserver.start()  # a root referee's template imports while the match is being made
 
@@ -453,13 +454,20 @@ class ProcessBot:
             reply = "protocol"
         return self._fault(obs.tick, obs.time, reply, "step")
 
+    def ask_to_end(self) -> None:
+        """Tell the controller the match is over, without waiting for it (`close` waits): a
+        match that tells all its controllers first lets them end side by side."""
+        if self.proc is not None and not self.told_to_end and self.proc.poll() is None:
+            self.told_to_end = True
+            self._send({"type": "stop"}, 0.0)  # no wait: an input left full is no reason to stay
+
     def close(self) -> None:
         """End the process and everything it started: in a sandbox, its init is killed, which
         kills every process of its PID namespace; bwrap returns once they are all gone."""
         if self.proc is None:
             return
         if self.proc.poll() is None:
-            self._send({"type": "stop"}, 0.0)  # no wait: an input left full is no reason to stay
+            self.ask_to_end()
             try:
                 self.proc.wait(timeout=0.5)
             except subprocess.TimeoutExpired:
