@@ -181,8 +181,33 @@ class World:
 
     def end_contacts(self) -> None:
         """Close every contact still going on (at the end of a match)."""
-        for key in sorted(self._touching, key=lambda k: self._touching[k][0]):
-            self._finish(self._touching.pop(key), self.tick)
+        since = len(self.contacts)
+        for entry in self._touching.values():
+            self._finish(entry, self.tick)
+        self._touching.clear()
+        self._order_contacts(since)
+
+    def _order_contacts(self, since: int) -> None:
+        """Put the contacts that ended since the first `since` in a fixed order: by the tick
+        their end was known, then when they began, the robot, what it touched, where and how
+        hard. Chipmunk reports contacts ending in one step in the order of a hash of their
+        shapes' addresses, which differ from one process to the next."""
+        if len(self.contacts) - since < 2:
+            return
+        ended = sorted(
+            zip(self.contact_ends[since:], self.contacts[since:]),
+            key=lambda e: (
+                e[0],
+                e[1].tick,
+                e[1].robot,
+                e[1].other,
+                -1 if e[1].other_robot is None else e[1].other_robot,
+                e[1].point,
+                e[1].impulse,
+            ),
+        )
+        self.contact_ends[since:] = [known for known, _ in ended]
+        self.contacts[since:] = [contact for _, contact in ended]
 
     def _static(self, shape: pymunk.Shape, category: int) -> None:
         shape.collision_type = TYPE_OF_CATEGORY[category]
@@ -225,9 +250,11 @@ class World:
         x, y and unwrapped heading, flat, read once per step for the drives and the sensing."""
         for drive, heading in zip(self.drives, self.state[2::3]):
             drive.update(heading, self.tick)
+        since = len(self.contacts)
         chipmunk.step(self.space, self.dt)
         self.tick += 1
         self.state = self._read_state()
+        self._order_contacts(since)
         if self._deferred is not None:
             self._raise_deferred()
 
@@ -262,7 +289,7 @@ class World:
         velocities = np.empty((steps if speeds else 0, 2 * n))
         points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
         near = watch.near if watch else 0.0
-        done, stopped = 0, False
+        done, stopped, since = 0, False, len(self.contacts)
         space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
         self._clock[0], self._compiled = self.tick, True
         try:
@@ -298,6 +325,7 @@ class World:
             self._compiled = False
             space._locked = False
             space._removed_shapes.clear()
+            self._order_contacts(since)
             if done:
                 self.state = tuple(states[done - 1].tolist())
         states = states[:done]

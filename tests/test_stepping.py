@@ -175,3 +175,42 @@ def test_a_run_of_no_robot_or_negative_steps_is_refused(monkeypatch, compiled):
     assert world.tick == 2
     got, _ = world.run(0)
     assert got.shape == (0, 12) and world.tick == 2
+
+
+@pytest.mark.parametrize("compiled", [True, False], ids=["World.run", "World.step"])
+def test_contacts_ending_in_one_step_have_one_order(monkeypatch, compiled):
+    # a robot driven square into a corner touches both walls at once and leaves both at once;
+    # chipmunk reports such ends in an order that follows its shapes' addresses, which differ
+    # from one process to the next: reversing that order must change nothing
+    level = variant(
+        "asabe-race",
+        robots=[{"start": [0.15, 0.15, 225], "start_known": True, "path": [[1.0, 0.5]]}],
+        task={"kind": "waypoints", "radius": 0.05},
+    )
+
+    def contacts() -> list:
+        world = World(level, None)
+        for period in range(20):
+            v = 0.2 if period < 8 else -0.2
+            world.command(0, v, v)
+            if compiled:
+                world.run(level.steps_per_control)
+            else:
+                for _ in range(level.steps_per_control):
+                    world.step()
+        return list(zip(world.contact_ends, world.contacts))
+
+    as_reported = contacts()
+    finish = World._finish
+
+    def reported_backwards(self, entry, known):  # each new end goes before those of its step
+        finish(self, entry, known)
+        first = self.contact_ends.index(known)
+        self.contact_ends.insert(first, self.contact_ends.pop())
+        self.contacts.insert(first, self.contacts.pop())
+
+    monkeypatch.setattr(World, "_finish", reported_backwards)
+    assert contacts() == as_reported
+    ends = [known for known, _ in as_reported]
+    assert len(as_reported) == 2 and ends[0] == ends[1]  # the case holds: two ends in one step
+    assert as_reported[0][1].point < as_reported[1][1].point  # same start, same kind: by place
