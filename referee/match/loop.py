@@ -131,7 +131,7 @@ class Match:
         self.tracker = TaskTracker(level)
         self.estimates = [EstimateStats() for _ in teams]
         self.rules = Rules(level)
-        # how far any robot may get in one control period: twice the fastest top speed, and
+        # how far any robot may travel (path length) in one control period: twice the fastest top speed, and
         # 0.5 m/s for a push or a bounce on top (the match can only end near a final target)
         top = max((r.model.max_wheel_speed for r in level.robots), default=0.0)
         self.reach = (2 * top + 0.5) * level.control_period
