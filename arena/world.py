@@ -254,7 +254,8 @@ class World:
         chipmunk.step(self.space, self.dt)
         self.tick += 1
         self.state = self._read_state()
-        self._order_contacts(since)
+        if len(self.contacts) > since + 1:  # several ended in this step (checked here: bare stepping's cost)
+            self._order_contacts(since)
         if self._deferred is not None:
             self._raise_deferred()
 

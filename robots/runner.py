@@ -106,7 +106,8 @@ def options(argv: list[str]) -> tuple[str, dict[str, int]]:
     """SPEC and the limits from the command line: `--memory` (address space, bytes), `--log-cap`
     (bytes the team may write), `--max-procs` (processes and threads of this user at once, only
     for a uid of its own); each 0 (none) when absent. Read by hand: building argparse's parser
-    was a sixth of the CPU of a controller forked from the template. SystemExit, with the usage, on bad input."""
+    was a sixth of the CPU of a controller forked from the template. SystemExit, with the
+    usage, on bad input."""
     spec, limits, args = None, dict.fromkeys(OPTIONS, 0), list(argv)
     while args:
         arg = args.pop(0)

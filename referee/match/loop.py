@@ -255,8 +255,7 @@ class Match:
         try:
             try:
                 for bot in self.bots:  # told all at once, they end side by side
-                    if isinstance(bot, ProcessBot):
-                        bot.ask_to_end()
+                    bot.ask_to_end()
             finally:
                 for bot in self.bots:
                     bot.close()
@@ -309,7 +308,7 @@ class Match:
         end it, at a step where it stands within its final target's radius. A robot that
         cannot reach every target it has left this period (see `reach`) is not watched: a lap
         that passes its final point before its last target does not stop the run at every step."""
-        tracker, radius = self.tracker, self.level.task.radius
+        tracker = self.tracker
         going = [s for s in range(len(self.teams)) if not (self.stopped[s] or tracker.done(s))]
         if not going:
             return EVERY_STEP
@@ -321,8 +320,7 @@ class Match:
                 watched.append((slot, *targets[-1]))
         if not watched:
             return None
-        # a hair wide: stopping a run early is always safe
-        return Watch(tuple(watched), (radius * (1 + 1e-9) + 1e-12) ** 2)
+        return Watch(tuple(watched), tracker.near**2)  # a hair wide: stopping a run early is always safe
 
     def _steps(self, count: int, watch: Watch | None) -> int:
         """Up to `count` physics steps (fewer if a robot of `watch` reaches its point), then

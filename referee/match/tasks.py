@@ -35,6 +35,9 @@ class TaskTracker:
             for r in level.robots
         ]
         self.finished_count = 0
+        # a target's radius, a hair wide: where a check may look (numpy's distances may differ
+        # from math.dist by an ulp); what counts as reached is confirmed with math.dist
+        self.near = level.task.radius * (1 + 1e-9) + 1e-12
         self.deviation: list[list[float]] = [[] for _ in level.robots]
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
@@ -62,8 +65,7 @@ class TaskTracker:
         `first_tick + i`, time tick / `rate`), as calling it step by step would; and record
         its distance from the ideal path at the ticks that are multiples of `every` (the record
         rate), until it finishes."""
-        radius = self.level.task.radius
-        near = radius * (1 + 1e-9) + 1e-12  # numpy's distances may differ from math.dist by an ulp
+        radius, near = self.level.task.radius, self.near
         n, start = len(states), -first_tick % every  # states[start::every] are sampled
         for slot in range(len(self.next)):
             xs, ys = states[:, 3 * slot], states[:, 3 * slot + 1]
@@ -95,11 +97,10 @@ class TaskTracker:
     def still_to_travel(self, slot: int, x: float, y: float) -> float:
         """A lower bound on how far robot `slot`, now at (x, y), must still travel to finish:
         it must come within the task radius of each target left, in order, so each leg is at
-        least its length less the radius at both ends (a little less: never more than the truth)."""
-        targets = self.targets(slot)[self.next[slot] :]
+        least its length less the radius at both ends (`near`: never more than the truth)."""
+        targets, near = self.targets(slot)[self.next[slot] :], self.near
         if not targets:
             return 0.0
-        near = self.level.task.radius * (1 + 1e-9) + 1e-12
         travel = max(0.0, math.dist((x, y), targets[0]) - near)
         for a, b in zip(targets, targets[1:]):
             travel += max(0.0, math.dist(a, b) - 2 * near)

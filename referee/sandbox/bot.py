@@ -122,5 +122,8 @@ class InProcessBot:
         except ProtocolError as e:
             return Fault(obs.tick, obs.time, "bad_command", str(e))
 
+    def ask_to_end(self) -> None:
+        """Nothing to tell: the match's end reaches a controller in this process by `close`."""
+
     def close(self) -> None:
         """Nothing to end: the controller lived in this process."""
