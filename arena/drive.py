@@ -128,6 +128,18 @@ class DiffDrive:
             slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
             self.turn_factor = 1.0 - slip * turn_share(left, right)
 
+    def halt(self) -> None:
+        """Stop at once: wheels and targets at rest, commands on their way dropped, the control
+        body still and at the robot's pose (for a robot carried to a new pose)."""
+        self._queue.clear()
+        self.commanded = self.target = self.wheels = (0.0, 0.0)
+        self.turn_factor = 1.0
+        self._rate, self._motion = 0.0, (0.0, 0.0)
+        self.control.position = self.body.position
+        self.control.angle = self.body.angle
+        self.control.velocity = (0.0, 0.0)
+        self.control.angular_velocity = 0.0
+
     def take_due(self, tick: int) -> int | None:
         """Take the commands due at `tick`; return the tick the next one comes due (None: no
         command waits)."""

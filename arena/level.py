@@ -141,8 +141,28 @@ class RobotModel:
 
 
 @dataclass(frozen=True)
+class Placement:
+    """How a robot is set down, at the start of a match and of each trial (docs/levels.md):
+    within `position` m of the nominal point (uniformly over that disc), or anywhere in
+    `region` (xmin, ymin, xmax, ymax); turned up to `heading` rad either way from the nominal
+    heading (pi: any heading). All zero: exactly at the nominal pose."""
+
+    position: float = 0.0
+    heading: float = 0.0
+    region: tuple[float, float, float, float] | None = None
+
+    @property
+    def exact(self) -> bool:
+        return self.position == 0.0 and self.heading == 0.0 and self.region is None
+
+
+EXACT = Placement()
+
+
+@dataclass(frozen=True)
 class RobotSlot:
-    """One robot in the level: its slot number, model, start pose and laser."""
+    """One robot in the level: its slot number, model, nominal start pose, how it is really
+    set down there (`placement`), whether the rules announce that start, and its laser."""
 
     slot: int
     model: RobotModel
@@ -150,6 +170,22 @@ class RobotSlot:
     laser: Laser
     start_known: bool
     path: tuple[tuple[float, float], ...] = ()
+    placement: Placement = EXACT
+
+
+@dataclass(frozen=True)
+class Trials:
+    """A localize task's trials: the match is cut into `count` equal spans, and at the start of
+    each span after the first the referee moves the robot to a new secret pose, as the seeds'
+    experimenters carried theirs (docs/rules.md). Each trial's nominal pose is a point of
+    `positions` (in a shuffled order) or of `region` (uniformly), with one of `headings` (rad;
+    empty: any heading); the robot's placement then sets it down around it. The first trial
+    is the robot's start."""
+
+    count: int = 1
+    positions: tuple[tuple[float, float], ...] = ()
+    region: tuple[float, float, float, float] | None = None
+    headings: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -159,6 +195,7 @@ class Task:
     kind: str  # waypoints | goto | localize | race
     radius: float = 0.0
     goal: Pose | None = None
+    trials: Trials = Trials()
 
 
 @dataclass(frozen=True)
@@ -181,6 +218,10 @@ class Rules:
 
     speed_limit: float = 0.0  # m/s; 0 = none
     min_impulse: float = 0.02  # N s: lighter touches are not collisions
+    # the localization score's scales (docs/rules.md): an estimate this far off in position,
+    # or this far off in heading, earns half the points of a perfect one at that tick
+    position_scale: float = 0.01  # m
+    heading_scale: float = 0.05  # rad: Bac's dead band, "more than 0.05 radians"
     penalties: Mapping[str, float] = field(
         default_factory=lambda: MappingProxyType(
             {

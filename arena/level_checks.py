@@ -10,6 +10,7 @@ from __future__ import annotations
 import importlib.machinery
 import importlib.util
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -141,21 +142,34 @@ def _obstacle_apart(body: list[tuple[float, float]], ob: Obstacle) -> bool:
     return _separated(body, list(ob.points))
 
 
+def body_problem(
+    level: Level, model: RobotModel, pose: Pose, others: Sequence[list[tuple[float, float]]] = ()
+) -> str | None:
+    """What a robot's body at `pose` would overlap (an obstacle, a beacon, one of the bodies
+    `others`: 'robot k' for the k-th), or None if it stands clear. The field's border is the
+    loader's check."""
+    body = footprint(model, pose)
+    for k, ob in enumerate(level.obstacles):
+        if not _obstacle_apart(body, ob):
+            return f"obstacles[{k}]"
+    for b in level.beacons.items:
+        if not _circle_apart(body, (b.x, b.y), level.beacons.radius):
+            return f"beacon {b.id}"
+    for k, other in enumerate(others):
+        if not _separated(body, other):
+            return f"robot {k}"
+    return None
+
+
 def start_problem(level: Level) -> Problem | None:
     """A robot whose body, at its start pose, overlaps an obstacle, a beacon or another robot."""
-    bodies = {r.slot: footprint(r.model, r.start) for r in level.robots}
+    bodies = [footprint(r.model, r.start) for r in level.robots]
     for i, r in enumerate(level.robots):
-        key = f"robots[{i}].start"
-        body = bodies[r.slot]
-        for k, ob in enumerate(level.obstacles):
-            if not _obstacle_apart(body, ob):
-                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps obstacles[{k}]")
-        for b in level.beacons.items:
-            if not _circle_apart(body, (b.x, b.y), level.beacons.radius):
-                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps beacon {b.id}")
-        for other in level.robots[:i]:
-            if not _separated(body, bodies[other.slot]):
-                return Problem(key, f"the {r.model.name} footprint at this start pose overlaps robot slot {other.slot}")
+        what = body_problem(level, r.model, r.start, bodies[:i])
+        if what is not None:
+            if what.startswith("robot "):
+                what = f"robot slot {level.robots[int(what.split()[1])].slot}"
+            return Problem(f"robots[{i}].start", f"the {r.model.name} footprint at this start pose overlaps {what}")
     return None
 
 

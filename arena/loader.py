@@ -31,10 +31,12 @@ from arena.level import (
     Laser,
     Level,
     Obstacle,
+    Placement,
     Pose,
     RobotSlot,
     Rules,
     Task,
+    Trials,
 )
 from arena.robot_models import ROBOT_MODELS
 from arena.units import LENGTH_UNITS
@@ -292,6 +294,24 @@ def _pose(ctx: _Ctx, node: _Node, key: str) -> Pose:
     return Pose(x * ctx.scale, y * ctx.scale, math.radians(h))
 
 
+def _rectangle(ctx: _Ctx, node: _Node, key: str) -> tuple[float, float, float, float]:
+    """A rectangle [[xmin, ymin], [xmax, ymax]] as (xmin, ymin, xmax, ymax)."""
+    if not isinstance(node.value, list) or len(node.value) != 2:
+        raise ctx.fail(node.line, key, f"expected a rectangle [[xmin, ymin], [xmax, ymax]], got {_kind(node.value)}")
+    (x0, y0), (x1, y1) = (_point(ctx, corner, key) for corner in node.value)
+    if not (x0 < x1 and y0 < y1):
+        raise ctx.fail(node.line, key, "the first corner must lie below and left of the second")
+    return (x0, y0, x1, y1)
+
+
+def _half_turn(ctx: _Ctx, node: _Node, key: str) -> float:
+    """An angular spread in degrees, 0..180 (180: any heading), in radians."""
+    v = _nonnegative(ctx, node, key)
+    if v > 180:
+        raise ctx.fail(node.line, key, f"must be at most 180 degrees (any heading), got {v:g}")
+    return math.pi if v == 180 else math.radians(v)
+
+
 def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]:
     if not isinstance(node.value, list) or not node.value:
         raise ctx.fail(node.line, key, f"expected a list of points, got {_kind(node.value)}")
@@ -402,7 +422,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) if top.has("obstacles") else ()
     beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items", "crosstalk")), fld)
     default_laser = _laser(top.sub("laser", ("angular_velocity", "index", "beam_offset")))
-    task_map = top.sub("task", ("kind", "radius", "path", "goal"))
+    task_map = top.sub("task", ("kind", "radius", "path", "goal", "trials"))
     task, shared_path = _task(ctx, task_map, fld)
 
     robot_nodes = top.seq("robots")
@@ -448,12 +468,19 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         task=task,
         default_controller=default_controller,
         limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
-        rules=_rules(top.sub("rules", ("speed_limit", "min_impulse", "penalties"))) if top.has("rules") else Rules(),
+        rules=_rules(top.sub("rules", RULE_KEYS)) if top.has("rules") else Rules(),
         text=text,
     )
     problem = level_checks.level_problem(level, contest=base is not None)
     if problem:
         raise ctx.fail(problem.line or _line_of(located, problem.key), problem.key, problem.message)
+    control_ticks = math.ceil(level.time_limit / control_period - 1e-9)
+    if task.trials.count > control_ticks:
+        raise ctx.fail(
+            _line_of(located, "task.trials.count"),
+            "task.trials.count",
+            f"{task.trials.count} trials in a match of {control_ticks} control periods",
+        )
     return level
 
 
@@ -496,6 +523,9 @@ def _line_of(root: _Node, key: str) -> int | None:
     return line
 
 
+RULE_KEYS = ("speed_limit", "min_impulse", "position_scale", "heading_scale", "penalties")
+
+
 def _rules(m: _Map) -> Rules:
     d = Rules()
     penalties = dict(d.penalties)
@@ -506,6 +536,8 @@ def _rules(m: _Map) -> Rules:
     return Rules(
         speed_limit=m.opt("speed_limit", _nonnegative, 0.0) * m.ctx.scale,
         min_impulse=m.opt("min_impulse", _nonnegative, d.min_impulse),
+        position_scale=m.opt("position_scale", _length, d.position_scale),
+        heading_scale=math.radians(m.opt("heading_scale", _positive, math.degrees(d.heading_scale))),
         penalties=MappingProxyType(penalties),
     )
 
@@ -660,7 +692,52 @@ def _task(ctx: _Ctx, m: _Map, fld: Field) -> tuple[Task, tuple[tuple[float, floa
         raise ctx.fail(m.raw("radius").line, m.key("radius"), "not used by a localize task")
     for i, p in enumerate(path):
         _inside(ctx, fld, p, m.raw("path").line, f"{m.key('path')}[{i}]", "waypoint")
-    return Task(kind=kind, radius=radius, goal=goal), path
+    trials = Trials()
+    if m.has("trials"):
+        if kind != "localize":
+            raise ctx.fail(m.raw("trials").line, m.key("trials"), f"not used by a {kind} task (only by localize)")
+        trials = _trials(ctx, m.sub("trials", ("count", "positions", "region", "headings")), fld)
+    return Task(kind=kind, radius=radius, goal=goal, trials=trials), path
+
+
+def _trials(ctx: _Ctx, m: _Map, fld: Field) -> Trials:
+    """A localize task's trials: how many, and where their secret poses come from."""
+    count = m.req("count", _count)
+    if count < 1:
+        raise ctx.fail(m.raw("count").line, m.key("count"), "at least one trial (the start)")
+    if m.has("positions") and m.has("region"):
+        raise ctx.fail(m.raw("region").line, m.key("region"), "give positions or a region, not both")
+    if count > 1 and not (m.has("positions") or m.has("region")):
+        raise ctx.fail(m.node.line, m.key("positions"), "trials after the first need positions or a region")
+    positions = m.opt("positions", _points, ())
+    for i, p in enumerate(positions):
+        _inside(ctx, fld, p, m.raw("positions").line, f"{m.key('positions')}[{i}]", "trial position")
+    region = m.opt("region", _rectangle, None)
+    if region is not None:
+        for corner in (region[:2], region[2:]):
+            _inside(ctx, fld, corner, m.raw("region").line, m.key("region"), "corner")
+    headings: tuple[float, ...] = ()
+    if m.has("headings"):
+        node = m.raw("headings")
+        if not isinstance(node.value, list) or not node.value:
+            raise ctx.fail(node.line, m.key("headings"), f"expected a list of headings (deg), got {_kind(node.value)}")
+        headings = tuple(math.radians(_number(ctx, n, f"{m.key('headings')}[{i}]")) for i, n in enumerate(node.value))
+    return Trials(count=count, positions=positions, region=region, headings=headings)
+
+
+def _placement(ctx: _Ctx, m: _Map, fld: Field) -> Placement:
+    """How a robot is set down around its nominal start (and each trial's pose)."""
+    if m.has("position") and m.has("region"):
+        raise ctx.fail(m.raw("region").line, m.key("region"), "give a position spread or a region, not both")
+    region = m.opt("region", _rectangle, None)
+    if region is not None:
+        for corner in (region[:2], region[2:]):
+            _inside(ctx, fld, corner, m.raw("region").line, m.key("region"), "corner")
+    return Placement(
+        position=m.opt("position", _nonnegative, 0.0) * ctx.scale,
+        heading=m.opt("heading", _half_turn, 0.0),
+        region=region,
+    )
 
 
 DRIVE_KEYS = tuple(f.name for f in dataclasses.fields(DriveErrors))
@@ -699,7 +776,9 @@ def _robot(
     task: Task,
     shared_path: tuple[tuple[float, float], ...],
 ) -> RobotSlot:
-    m = _Map(ctx, node, key, ("slot", "model", "start", "start_known", "laser", "path", "drive", "silhouette"))
+    m = _Map(
+        ctx, node, key, ("slot", "model", "start", "placement", "start_known", "laser", "path", "drive", "silhouette")
+    )
     model_name = m.opt("model", _choice(*ROBOT_MODELS), "boe-bot")
     model = ROBOT_MODELS[model_name]
     if m.has("drive"):
@@ -738,4 +817,7 @@ def _robot(
         laser=laser,
         start_known=m.opt("start_known", _flag, False),
         path=path,
+        placement=_placement(ctx, m.sub("placement", ("position", "heading", "region")), fld)
+        if m.has("placement")
+        else Placement(),
     )

@@ -107,6 +107,14 @@ class Sensing:
         """Store the world's states after several physics steps (`World.run`: a row each)."""
         self._rows.append(states)
 
+    def moved(self) -> None:
+        """The world's robots were carried to new poses (`World.place`) right after a flush:
+        the next batch starts from where they now stand, so no beam sweeps across the move."""
+        if self._rows:
+            raise RuntimeError("robots may be moved only at a control tick, after the flush")
+        self._last = self.world.state
+        self.body_rate[:] = 0.0
+
     def flush(self) -> list[list[det.Detection]]:
         """Detections per robot for the steps recorded since the last flush, in event order
         (`event_order`). Each source of events (hits, false returns, index clicks, scans)

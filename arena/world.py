@@ -76,9 +76,10 @@ def _deferring(callback: Callable[..., None]) -> Callable[..., None]:
 class World:
     """Walls, obstacles, beacons and robots of one level, and their differential drives.
     With the match's random tree each drive has its robot's errors; without one (ideal mode)
-    every drive is perfect."""
+    every drive is perfect. Robots stand at `starts` (arena.placement draws them), else at
+    the level's nominal starts."""
 
-    def __init__(self, level: Level, rng: RandomTree | None = None):
+    def __init__(self, level: Level, rng: RandomTree | None = None, starts: tuple[Pose, ...] | None = None):
         self.level = level
         self.dt = level.dt
         self.tick = 0
@@ -107,9 +108,10 @@ class World:
         self.drives: list[DiffDrive] = []
         for r in level.robots:
             m = r.model
+            start = r.start if starts is None else starts[r.slot]
             body = pymunk.Body(m.mass, pymunk.moment_for_box(m.mass, (m.length, m.width)))
-            body.position = (r.start.x, r.start.y)
-            body.angle = r.start.heading
+            body.position = (start.x, start.y)
+            body.angle = start.heading
             shape = pymunk.Poly.create_box(body, (m.length, m.width))
             shape.friction = 0.4
             shape.elasticity = 0.1
@@ -355,6 +357,18 @@ class World:
             if any(_within(state[i] - x, state[i + 1] - y, near) for i, x, y in points):
                 break
         return np.array(states, float).reshape(-1, 3 * len(self.bodies)), moving if speeds else None
+
+    def place(self, slot: int, pose: Pose) -> None:
+        """Carry robot `slot` to `pose` and set it down at rest, its wheels stopped and any
+        command still on its way dropped (a trial's new pose: docs/rules.md)."""
+        body = self.bodies[slot]
+        body.position = (pose.x, pose.y)
+        body.angle = pose.heading
+        body.velocity = (0.0, 0.0)
+        body.angular_velocity = 0.0
+        self.space.reindex_shapes_for_body(body)
+        self.drives[slot].halt()
+        self.state = self._read_state()
 
     def pose(self, slot: int) -> Pose:
         """The true pose of robot `slot`, heading wrapped to (-pi, pi]."""

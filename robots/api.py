@@ -10,9 +10,10 @@ This module imports nothing from `arena` or `referee`: it runs inside a team's p
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-API_VERSION = 1
+API_VERSION = 2  # 2: the start announced with its spread (`StartInfo`), localize trials
 
 
 @dataclass(frozen=True)
@@ -48,12 +49,41 @@ class RobotInfo:
 @dataclass(frozen=True)
 class TaskInfo:
     """What this robot must do: `kind` is waypoints | goto | localize | race;
-    `path` the waypoints in order, `goal` an (x, y) target, `radius` how close counts."""
+    `path` the waypoints in order, `goal` an (x, y) target, `radius` how close counts;
+    `trials` how many trials a localize match holds (the referee moves the robot to a new
+    secret pose at the start of each after the first: `Observation.trial` says which)."""
 
     kind: str
     radius: float
     path: tuple[tuple[float, float], ...] = ()
     goal: tuple[float, float] | None = None
+    trials: int = 1
+
+
+@dataclass(frozen=True)
+class StartInfo:
+    """What the rules announce of the robot's start (docs/levels.md). The robot stands within
+    `position_spread` (m) of (x, y), uniformly over that disc, or, when `region` (xmin, ymin,
+    xmax, ymax) is given, anywhere in that rectangle; its heading lies within
+    `heading_spread` (rad) either way of `heading`, and `heading_spread` pi means any heading
+    at all. Spreads of 0: exactly this pose."""
+
+    x: float
+    y: float
+    heading: float
+    position_spread: float = 0.0
+    heading_spread: float = 0.0
+    region: tuple[float, float, float, float] | None = None
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """The nominal pose (x, y, heading)."""
+        return (self.x, self.y, self.heading)
+
+    @property
+    def heading_known(self) -> bool:
+        """Whether the rules say anything of the heading (a spread short of any heading)."""
+        return self.heading_spread < math.pi
 
 
 @dataclass(frozen=True)
@@ -69,7 +99,7 @@ class Brief:
     task: TaskInfo
     control_period: float  # s
     time_limit: float  # s
-    start: tuple[float, float, float] | None = None  # (x, y, heading) when the rules announce it
+    start: StartInfo | None = None  # what the rules announce of the start; None: nothing
 
 
 @dataclass(frozen=True)
@@ -93,11 +123,14 @@ class SensorEvent:
 
 @dataclass(frozen=True)
 class Observation:
-    """What the controller learns at a control tick: the clock and the events since the last tick."""
+    """What the controller learns at a control tick: the clock, the events since the last
+    tick, and the localize trial under way (0 first; when it grows, the robot was carried to
+    a new pose at the start of this control period, and every event here was sensed there)."""
 
     tick: int
     time: float
     events: tuple[SensorEvent, ...] = ()
+    trial: int = 0
 
 
 @dataclass(frozen=True)

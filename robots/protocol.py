@@ -33,6 +33,7 @@ from robots.api import (
     Observation,
     RobotInfo,
     SensorEvent,
+    StartInfo,
     TaskInfo,
 )
 
@@ -79,6 +80,16 @@ class _Task(_Data, frozen=True):
     radius: Real
     path: Annotated[list[Point], msgspec.Meta(max_length=1 << 16)] = []
     goal: Point | None = None
+    trials: Annotated[int, msgspec.Meta(ge=1, le=1 << 40)] = 1
+
+
+class _Start(_Data, frozen=True):
+    x: Real
+    y: Real
+    heading: Real
+    position_spread: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
+    heading_spread: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
+    region: tuple[Real, Real, Real, Real] | None = None
 
 
 class _Brief(_Data, frozen=True):
@@ -91,7 +102,7 @@ class _Brief(_Data, frozen=True):
     task: _Task
     control_period: Real
     time_limit: Real
-    start: tuple[Real, Real, Real] | None = None
+    start: _Start | None = None
 
 
 class _Event(_Data, frozen=True):
@@ -106,6 +117,7 @@ class _Observation(_Data, frozen=True):
     tick: Count
     time: Real
     events: Annotated[list[_Event], msgspec.Meta(max_length=1 << 16)] = []
+    trial: Count = 0
 
 
 class _Drawing(_Data, frozen=True):
@@ -295,6 +307,7 @@ def to_plain(obj: Any) -> Any:
                 {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
                 for e in obj.events
             ],
+            "trial": obj.trial,
         }
     if isinstance(obj, Command):
         est = obj.estimate
@@ -338,10 +351,14 @@ def brief_from(d: Any) -> Brief:
             b.robot.max_wheel_speed,
             b.robot.max_wheel_accel,
         ),
-        task=TaskInfo(b.task.kind, b.task.radius, tuple(b.task.path), b.task.goal),
+        task=TaskInfo(b.task.kind, b.task.radius, tuple(b.task.path), b.task.goal, b.task.trials),
         control_period=b.control_period,
         time_limit=b.time_limit,
-        start=b.start,
+        start=None
+        if b.start is None
+        else StartInfo(
+            b.start.x, b.start.y, b.start.heading, b.start.position_spread, b.start.heading_spread, b.start.region
+        ),
     )
 
 
@@ -352,6 +369,7 @@ def observation_from(d: Any) -> Observation:
         tick=o.tick,
         time=o.time,
         events=tuple(SensorEvent(e.time, e.kind, e.beacon, e.angle, tuple(e.samples)) for e in o.events),
+        trial=o.trial,
     )
 
 

@@ -18,8 +18,9 @@ import numpy as np
 
 from arena.level import Level
 from referee.gym.observation import ObservationEncoder
+from referee.match.estimates import tick_quality
 from referee.match.loop import Match, brief_for
-from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, RMS_SCALE, TASK_POINTS, TIME_POINTS
+from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.records.results import MatchResult
 from referee.sandbox.teams import Team, fill_slots
 from robots.api import Command
@@ -144,7 +145,10 @@ class AgentSession:
             if self.report_estimate:
                 estimate = self.estimate(a)
                 truth = m.world.pose(slot)
-                loc[slot] = self._localization(math.hypot(estimate[0] - truth.x, estimate[1] - truth.y))
+                loc[slot] = self._localization(
+                    math.hypot(estimate[0] - truth.x, estimate[1] - truth.y),
+                    abs(math.remainder(estimate[2] - truth.heading, 2 * math.pi)),
+                )
             m.answer(slot, Command(left, right, estimate))
             self.encoders[slot].command = (left, right)
         m.advance()
@@ -166,9 +170,15 @@ class AgentSession:
             self.done[slot] = terminated[slot]
         return Step(observations, rewards, terminated, truncated, infos)
 
-    def _localization(self, error: float) -> float:
+    def _localization(self, position_error: float, heading_error: float) -> float:
+        """One tick's share of the localization points (docs/rules.md) for an estimate this far off."""
         points = LOCALIZE_TASK_POINTS if self.level.task.kind == "localize" else LOCALIZATION_POINTS
-        return points / self.total_ticks / (1.0 + error / RMS_SCALE)
+        rules = self.level.rules
+        return (
+            points
+            / self.total_ticks
+            * tick_quality(position_error, heading_error, rules.position_scale, rules.heading_scale)
+        )
 
     def _potential(self, slot: int) -> float:
         """Task points reached so far plus the fraction of the current leg covered (shaping)."""
@@ -180,8 +190,8 @@ class AgentSession:
         targets = tracker.targets(slot)
         i = tracker.next[slot]
         if tracker.kind != "goto" and i < len(targets):
-            r = self.level.robots[slot]
-            prev = targets[i - 1] if i else (r.start.x, r.start.y)
+            start = m.starts[slot]
+            prev = targets[i - 1] if i else (start.x, start.y)
             leg = math.dist(prev, targets[i])
             p = m.world.pose(slot)
             if leg > 0:
@@ -198,7 +208,7 @@ class AgentSession:
         self.fouls[slot] = len(fouls)
         finished = m.tracker.finished[slot]
         if finished is not None and not self.done[slot] and m.tracker.kind != "localize":
-            reward += TIME_POINTS * (1.0 - finished / self.level.time_limit)
+            reward += TIME_POINTS * (1.0 - finished / self.level.time_limit) * m.estimates[slot].quality
         return float(reward)
 
     def close(self) -> None:

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from arena import placement
 from arena.angles import wrap
 from arena.detectors import Detection
-from arena.level import ControllerLimits, Level
+from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import Watch, World
@@ -35,7 +37,7 @@ from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
 from referee.sandbox.teams import Team
 from referee.version import __version__
-from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, TaskInfo
+from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, StartInfo, TaskInfo
 from robots.protocol import drawing_problem
 
 NO_LIMITS = ControllerLimits(
@@ -52,9 +54,19 @@ NO_LIMITS = ControllerLimits(
 EVERY_STEP = Watch((), 0.0)  # no robot still driving: the match ends at the next step
 
 
+def announced_start(level: Level, slot: int) -> StartInfo | None:
+    """What the rules announce of robot `slot`'s start: its nominal pose and how far the true
+    start may lie from it (never the true start itself), or nothing."""
+    r = level.robots[slot]
+    if not r.start_known:
+        return None
+    p = r.placement
+    return StartInfo(r.start.x, r.start.y, r.start.heading, p.position, p.heading, p.region)
+
+
 def brief_for(level: Level, slot: int) -> Brief:
-    """What robot `slot`'s team may know: the map, its hardware, its task; never its true pose
-    (unless the level announces the start)."""
+    """What robot `slot`'s team may know: the map, its hardware, its task, and what the rules
+    announce of its start; never its true pose."""
     r = level.robots[slot]
     m = r.model
     f = level.field
@@ -67,10 +79,10 @@ def brief_for(level: Level, slot: int) -> Brief:
         beacons=tuple(BeaconInfo(b.id, b.x, b.y) for b in level.beacons.items),
         laser=LaserInfo(r.laser.angular_velocity, r.laser.index),
         robot=RobotInfo(m.name, m.length, m.width, m.track, m.max_wheel_speed, m.max_wheel_accel),
-        task=TaskInfo(task.kind, task.radius, r.path, goal),
+        task=TaskInfo(task.kind, task.radius, r.path, goal, task.trials.count),
         control_period=level.control_period,
         time_limit=level.time_limit,
-        start=(r.start.x, r.start.y, r.start.heading) if r.start_known else None,
+        start=announced_start(level, slot),
     )
 
 
@@ -107,7 +119,12 @@ class Match:
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
         tree = RandomTree(self.seed, noise_key)  # noise_key: the grader's secret (docs/integrity.md)
-        self.world = World(level, None if ideal else tree)
+        # where the robots really stand, trial by trial (the first trial is the start): drawn
+        # even when ideal, since that is the task's uncertainty, not the hardware's
+        self.starts: tuple[Pose, ...] = placement.starts(level, tree)
+        self.trial_poses = placement.trial_poses(level, tree, self.starts)
+        self.trial = 0
+        self.world = World(level, None if ideal else tree, self.starts)
         self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
         reason = isolation_unavailable() if isolate else None
@@ -128,8 +145,8 @@ class Match:
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
         self.dropped: list[dict[str, tuple[int, int]]] = [{} for _ in teams]  # drawings set aside, by reason
-        self.tracker = TaskTracker(level)
-        self.estimates = [EstimateStats() for _ in teams]
+        self.tracker = TaskTracker(level, self.starts)
+        self.estimates = [EstimateStats(level.rules.position_scale, level.rules.heading_scale) for _ in teams]
         self.rules = Rules(level)
         # how far any robot may travel (path length) in one control period: twice the fastest top speed, and
         # 0.5 m/s for a push or a bounce on top (the match can only end near a final target)
@@ -180,7 +197,7 @@ class Match:
                 out.append(None)
                 continue
             events, self.inbox[slot] = tuple(self.inbox[slot]), []
-            out.append(Observation(tick=tick, time=time, events=events))
+            out.append(Observation(tick=tick, time=time, events=events, trial=self.trial))
         return out
 
     def answer(self, slot: int, out: Command | Fault) -> None:
@@ -283,6 +300,22 @@ class Match:
             self.writer.frame(world.time, poses(world.state))
         self.total_steps = round(level.time_limit * level.physics_rate)
         self.ended = world.tick >= self.total_steps
+        # localize trials begin at control ticks that cut the match into equal spans
+        ticks = math.ceil(level.time_limit / level.control_period - 1e-9)
+        count = len(self.trial_poses)
+        self.trial_ticks = [(j * ticks // count) * level.steps_per_control for j in range(1, count)]
+
+    def _next_trial(self) -> None:
+        """Carry every robot to its pose of the next trial, at rest (docs/rules.md): the
+        observation that ends this control period is the first that tells the new trial."""
+        self.trial += 1
+        self.trial_ticks.pop(0)
+        for slot, pose in enumerate(self.trial_poses[self.trial]):
+            self.world.place(slot, pose)
+        self.sensing.moved()
+        self.rules.moved()
+        if self.writer:
+            self._write(functools.partial(self.writer.record, "trial", t=self.world.time, n=self.trial))
 
     def advance(self) -> None:
         """Step physics up to the next control tick, or to the end of the match: the time limit,
@@ -290,6 +323,8 @@ class Match:
         task progress, rules, replay frames) run once for a run of steps, as step-by-step
         checks would give them. A run stops early only after a step at which the match may
         have ended: a robot still driving stood within its final target's radius."""
+        if self.trial_ticks and self.world.tick >= self.trial_ticks[0]:
+            self._next_trial()
         left = min(self.level.steps_per_control, self.total_steps - self.world.tick)
         while left:
             watch = self._finish_line()  # again after a stop: a robot that finished is no longer watched

@@ -114,6 +114,12 @@ class Rules:
                     self._add("speeding", tick, slot, (x, y), speed=v)
                 self.speeding[slot] = fast
 
+    def moved(self) -> None:
+        """The robots were carried to new poses, at rest and inside the field (`World.place`):
+        a spell outside the field or over the speed limit ended there."""
+        self.outside = [False] * len(self.outside)
+        self.speeding = [False] * len(self.speeding)
+
     def controller(self, slot: int, tick: int, kind: str, place: tuple[float, float], message: str) -> None:
         """A skipped tick or a fault reported by the controller's process."""
         self._add("skipped_tick" if kind == "skipped_tick" else "fault", tick, slot, place, fault=kind, message=message)

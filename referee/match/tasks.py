@@ -10,15 +10,17 @@ import math
 import numpy as np
 from msgspec import UNSET, UnsetType
 
-from arena.level import Level
+from arena.level import Level, Pose
 from referee.match.paths import Polyline, first_near
 from referee.records.results import CrossTrack, TaskProgress
 
 
 class TaskTracker:
-    """Tracks every robot's progress through the level's task."""
+    """Tracks every robot's progress through the level's task, from its true start (`starts`,
+    as arena.placement drew them; the level's nominal starts if not given)."""
 
-    def __init__(self, level: Level):
+    def __init__(self, level: Level, starts: tuple[Pose, ...] | None = None):
+        starts = starts or tuple(r.start for r in level.robots)
         self.level = level
         self.kind = level.task.kind
         self.next = [0] * len(level.robots)
@@ -26,13 +28,13 @@ class TaskTracker:
         self.finished: list[float | None] = [None] * len(level.robots)
         self.final_distance: list[float] = [math.nan] * len(level.robots)
         self.start_distance = [
-            math.dist((r.start.x, r.start.y), self.targets(r.slot)[0]) if self.targets(r.slot) else math.nan
-            for r in level.robots
+            math.dist((s.x, s.y), self.targets(r.slot)[0]) if self.targets(r.slot) else math.nan
+            for r, s in zip(level.robots, starts)
         ]
         # the ideal polyline: from the start through every waypoint
         self.polyline = [
-            Polyline([(r.start.x, r.start.y), *self.targets(r.slot)]) if self.targets(r.slot) else None
-            for r in level.robots
+            Polyline([(s.x, s.y), *self.targets(r.slot)]) if self.targets(r.slot) else None
+            for r, s in zip(level.robots, starts)
         ]
         self.finished_count = 0
         # a target's radius, a hair wide: where a check may look (numpy's distances may differ

@@ -1,10 +1,11 @@
 """Each robot's standing at any moment of a replay, for the viewer's HUD: task progress so
 far, score so far, and the error of its latest estimate. Grows with a live replay.
 
-Progress is tracked on the recorded frames (the referee tracks every physics step, so a
-waypoint grazed between two frames may show a frame late); the score so far applies
-docs/rules.md to what happened up to that moment: task and time points, localization
-points of the estimates so far (ticks so far as the denominator), penalties of the fouls so far.
+Progress is tracked on the recorded frames from the first frame's true starts (the referee
+tracks every physics step, so a waypoint grazed between two frames may show a frame late);
+the score so far applies docs/rules.md to what happened up to that moment: task points,
+localization points of the estimates so far (the ticks so far as the denominator), the time
+bonus scaled by that quality, and the penalties of the fouls so far.
 """
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ from __future__ import annotations
 import bisect
 import math
 
-from arena.level import Level
-from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS, quality
+from arena.level import Level, Pose
+from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.match.tasks import TaskTracker
 from referee.media.error_series import ErrorTrack
 from referee.records.replay import Replay
@@ -24,10 +25,11 @@ class Standings:
 
     def __init__(self, level: Level, rep: Replay):
         self.level, self.rep = level, rep
-        self.tracker = TaskTracker(level)
+        self.tracker = TaskTracker(level, tuple(Pose(*p) for p in rep.frames[0][1]) if rep.frames else None)
         self.progress: list[list[float]] = [[] for _ in level.robots]  # per frame
         self.finished: list[float | None] = [None] * len(level.robots)
-        self.errors = [ErrorTrack(slot) for slot in range(len(level.robots))]
+        rules = level.rules
+        self.errors = [ErrorTrack(slot, rules.position_scale, rules.heading_scale) for slot in range(len(level.robots))]
         self.frames_done = 0
         self.update()
 
@@ -52,14 +54,12 @@ class Standings:
         localize = self.level.task.kind == "localize"
         progress = self.progress[slot][self._frame(t)]
         points = 0.0 if localize else TASK_POINTS * progress
+        ticks = math.floor(t / self.level.control_period + 1e-9) + 1
+        quality = min(1.0, self.errors[slot].quality_sum_until(t) / ticks)
         finished = self.finished[slot]
         if finished is not None and finished <= t and not localize:
-            points += TIME_POINTS * (1.0 - finished / self.level.time_limit)
-        track = self.errors[slot]
-        n, rms = track.until(t), track.rms_until(t)
-        if rms is not None:  # some estimate reported by `t`
-            ticks = math.floor(t / self.level.control_period + 1e-9) + 1
-            points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality(min(1.0, n / ticks), rms)
+            points += TIME_POINTS * (1.0 - finished / self.level.time_limit) * quality
+        points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality
         return points - sum(f["penalty"] for f in self.rep.fouls if f["r"] == slot and f["time"] <= t)
 
     def error_now(self, slot: int, t: float) -> tuple[float, float] | None:

@@ -49,9 +49,11 @@ def level_geometry(level: Level) -> dict:
             "radius": level.task.radius,
             "goal": None if level.task.goal is None else [level.task.goal.x, level.task.goal.y],
         },
-        # what the HUD's standings need (referee/media/standings.py): each slot's start and targets
-        "starts": [[r.start.x, r.start.y] for r in level.robots],
+        # what the HUD's standings need (referee/media/standings.py): each slot's targets and the
+        # localization scales (the starts are each replay's first frame)
         "targets": [[list(p) for p in tracker.targets(r.slot)] for r in level.robots],
+        "position_scale": level.rules.position_scale,
+        "heading_scale": level.rules.heading_scale,
         "time_limit": level.time_limit,
         "control_period": level.control_period,
     }
@@ -76,7 +78,6 @@ def _style() -> dict:
             "time": scoring.TIME_POINTS,
             "localization": scoring.LOCALIZATION_POINTS,
             "localize_task": scoring.LOCALIZE_TASK_POINTS,
-            "rms_scale": scoring.RMS_SCALE,
         },
     }
 

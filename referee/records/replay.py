@@ -5,7 +5,8 @@ timestamp fixed at 0, so the same match gives the same bytes). The first line is
 (software, level name, hash and full text, seed, ideal, record rate, teams with controller
 hashes); then records in the order they were known, each with a kind `k`:
 `f` frame (true poses), `e` sensor event with its beam line, `est` estimate, `dbg` debug
-drawings, `foul`, `fault`; the last line is the result. `load()` reads one back.
+drawings, `trial` (a localize trial began: the robots were carried to new poses), `foul`,
+`fault`; the last line is the result. `load()` reads one back.
 
 Replays are organizer files (0600): a graded one holds the match's noise key. Reading is
 bounded: a record is at most `MAX_RECORD` bytes, nested JSON cannot exhaust the stack, and
@@ -37,7 +38,7 @@ from referee.errors import ReplayError
 from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
-BEHAVIOUR = 8  # bump when a change alters simulation results (the golden-replay test says so)
+BEHAVIOUR = 9  # bump when a change alters simulation results (the golden-replay test says so)
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
 MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
 
@@ -399,6 +400,7 @@ class MemoryRecorder:
             "dbg": self.replay.debug,
             "foul": self.replay.fouls,
             "fault": self.replay.faults,
+            "trial": self.replay.trials,
         }
         lists[record_kind].append({"k": record_kind, **fields})
 
@@ -417,7 +419,13 @@ class Replay:
     debug: list[dict[str, Any]] = field(default_factory=list)
     fouls: list[dict[str, Any]] = field(default_factory=list)
     faults: list[dict[str, Any]] = field(default_factory=list)
+    trials: list[dict[str, Any]] = field(default_factory=list)  # {"t": when, "n": which} of each trial after the first
     result: dict[str, Any] | None = None
+
+    @property
+    def moves(self) -> list[float]:
+        """The times at which the robots were carried to a new trial's poses."""
+        return [float(r["t"]) for r in self.trials]
 
     @property
     def duration(self) -> float:
@@ -474,7 +482,14 @@ def load(path: str | Path) -> Replay:
     check_header(header, path)
     rep = Replay(header)
     slots = len(header["teams"])
-    lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
+    lists = {
+        "e": rep.events,
+        "est": rep.estimates,
+        "dbg": rep.debug,
+        "foul": rep.fouls,
+        "fault": rep.faults,
+        "trial": rep.trials,
+    }
     for rec in it:
         k = rec.get("k")
         if k == "f":

@@ -19,7 +19,7 @@ from typing import Any
 import msgspec
 from msgspec import UNSET, UnsetType
 
-RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 2
+RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 3  # 3: localization quality; the time bonus scaled by it
 SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"
 
 
@@ -91,11 +91,13 @@ class TaskProgress(Record, frozen=True):
 
 
 class Localization(Record, frozen=True):
-    """The reported estimates against the truth: counts, and errors in m and rad (None: no estimate)."""
+    """The reported estimates against the truth: counts, the localization quality (0..1, the
+    mean tick quality of docs/rules.md), and errors in m and rad (None: no estimate)."""
 
     ticks: int
     estimates: int
     fraction: float
+    quality: float
     position_rms: float | None
     position_max: float | None
     heading_rms: float | None

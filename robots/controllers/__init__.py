@@ -2,6 +2,7 @@
 
 REFERENCE: dict[str, str] = {
     "idle": "robots.controllers.idle:Idle",
+    "sensorless": "robots.controllers.sensorless:Sensorless",
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
     "starter": "robots.controllers.starter:Starter",
     "best": "robots.controllers.best:Best",

@@ -2,7 +2,10 @@
 
 `Bac` (ref:bac) is the paper's guidance on a fused pose: the toolkit's HitTracker (an EKF of
 every labelled pulse and the commanded wheels, with Bac's revolution checks to restart it)
-gives the pose at every control tick, heading included. Guidance as the paper's: a 0.05 rad
+gives the pose at every control tick, heading included. The robot has no heading sensor and
+the laser no index, so a robot whose heading is not known (not announced, or a localize
+trial's new pose) first drives a few centimetres straight and takes its heading from its
+consecutive positions, as the paper did ("by evaluating two consecutive positions"). Guidance as the paper's: a 0.05 rad
 dead band (drive straight), a pivot turn (one wheel held) for 0.05-0.3 rad, a spin turn
 (wheels opposite) above 0.3 rad, the next waypoint when close. A turn is commanded so that it
 ends on the right angle: for each control period the wheel speeds are solved (on the nominal
@@ -44,6 +47,8 @@ SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BO
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
 PASSED = 0.9  # a waypoint behind the robot counts as passed within this fraction of the task radius
+HEADING_SURE = 0.05  # rad: a heading known this well (one sd) needs no driving to learn it
+LEARN = 0.06  # m: at most this far driven straight to learn the heading, at CREEP
 
 
 class BacSeed(Controller):
@@ -61,8 +66,10 @@ class BacSeed(Controller):
         self.length, self.width = xmax - xmin, ymax - ymin
         self.origin = (xmin, ymin)
         self.revolutions = BeaconRevolutions(self.o)
-        self.position: tuple[float, float] | None = brief.start[:2] if brief.start else None
-        self.heading: float | None = brief.start[2] if brief.start else None
+        start = brief.start
+        known = start is not None and start.region is None  # the announced start is worth taking
+        self.position: tuple[float, float] | None = (start.x, start.y) if start and known else None
+        self.heading: float | None = start.heading if start and known and start.heading_known else None
         self.last_for_heading = self.position
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
@@ -113,7 +120,7 @@ class BacSeed(Controller):
         """The paper's straight-line run: start and waypoints on one line, no steering at all."""
         if self.brief.start is None or len(self.path) < 2:
             return False
-        x0, y0, _ = self.brief.start
+        x0, y0, _ = self.brief.start.pose
         (x1, y1) = self.path[-1]
         length = math.dist((x0, y0), (x1, y1))
         return length > 0 and all(
@@ -122,7 +129,7 @@ class BacSeed(Controller):
 
     def _guide(self) -> tuple[float, float]:
         if self.straight and self.brief.start:  # "started with both wheels set to move at the same velocity"
-            x0, y0, _ = self.brief.start
+            x0, y0, _ = self.brief.start.pose
             x1, y1 = self.path[-1]
             done = self.position is not None and (
                 (self.position[0] - x1) * (x1 - x0) + (self.position[1] - y1) * (y1 - y0) >= 0
@@ -176,13 +183,34 @@ class Bac(Controller):
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
         self.turning: int | None = None  # +-1 pivot, +-2 spin: the turn in progress, if any
+        self.trial = 0
+        self.learning_from: tuple[float, float] | None = None  # where driving to learn the heading began
+        self.learned = False  # the heading was learned (or as well as LEARN allows) since the trial began
 
     def step(self, observation: Observation) -> Command:
+        if observation.trial != self.trial:  # carried to a new pose, at rest: find it again
+            self.trial, self.turning, self.learning_from, self.learned = observation.trial, None, None, False
+            self.tracker.reset()
         self.tracker.feed(observation.events, observation.time)
         pose = self.tracker.pose
-        left, right = self._guide(pose) if pose is not None else (0.0, 0.0)
+        if pose is None:
+            left, right = 0.0, 0.0
+        elif self._learning(pose):
+            left, right = CREEP, CREEP
+        else:
+            left, right = self._guide(pose)
         self.tracker.command(left, right)
         return Command(left, right, estimate=pose)
+
+    def _learning(self, pose: tuple[float, float, float]) -> bool:
+        """Whether to drive straight on to learn the heading, once per trial: until it is
+        known within HEADING_SURE, for at most LEARN."""
+        if self.learned:
+            return False
+        if self.learning_from is None:
+            self.learning_from = pose[:2]
+        self.learned = self.tracker.heading_sd <= HEADING_SURE or math.dist(pose[:2], self.learning_from) >= LEARN
+        return not self.learned
 
     def _guide(self, pose: tuple[float, float, float]) -> tuple[float, float]:
         x, y, h = pose

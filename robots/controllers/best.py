@@ -33,6 +33,7 @@ class Best(Controller):
         self.tracker = HitTracker(brief, first_fix=None if labelled else self._sector_fix)
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
+        self.trial = 0
 
     def _sector_fix(self, e: SensorEvent) -> tuple[float, float, float, float] | None:
         """Unlabelled returns between index clicks: Vannoy's sector rule and the circle method,
@@ -42,7 +43,8 @@ class Best(Controller):
             if len(rel) != len(self.beacons) or len(self.beacons) != 3:
                 continue
             f = self.brief.field
-            pose = self.tracker.pose or self.brief.start
+            start = self.brief.start
+            pose = self.tracker.pose or (start.pose if start and start.region is None else None)
             ref = pose[:2] if pose else ((f[0] + f[2]) / 2, (f[1] + f[3]) / 2)
             assoc = by_sectors([a % (2 * math.pi) for a in rel], self.beacons, ref)
             if assoc.ambiguous:
@@ -53,6 +55,10 @@ class Best(Controller):
         return None
 
     def step(self, observation: Observation) -> Command:
+        if observation.trial != self.trial:  # carried to a new pose: find it again
+            self.trial = observation.trial
+            self.tracker.reset()
+            self.revolutions = IndexRevolutions(self.revolutions.sign)
         self.tracker.feed(observation.events, observation.time)
         pose = self.tracker.pose
         left, right = self._steer(pose)

@@ -7,7 +7,7 @@ the middle one in counter-clockwise order is the middle light, and the angles be
 the outer ones give the position by the law of sines. The heading follows from the middle
 light's bearing. A scan that does not show three clear peaks (near a light, lights merging
 from afar, a shaky servo) is skipped, as the seed's robot had to. The robot stands still, so
-the reported pose is the mean of all its fixes.
+the reported pose is the mean of all its fixes since the trial began.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ class Osentoski(Controller):
                 break
         self.pose: tuple[float, float, float] | None = None
         self.fixes = 0
+        self.trial = 0
 
     def fix(self, samples: tuple[int, ...]) -> tuple[float, float, float] | None:
         found = peaks(samples)
@@ -81,6 +82,8 @@ class Osentoski(Controller):
         return x, y, math.remainder(heading, 2 * math.pi)
 
     def step(self, observation: Observation) -> Command:
+        if observation.trial != self.trial:  # carried to a new pose: its fixes start again
+            self.trial, self.pose, self.fixes = observation.trial, None, 0
         for e in observation.events:
             if e.kind == "scan":
                 pose = self.fix(e.samples)

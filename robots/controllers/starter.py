@@ -130,7 +130,8 @@ class Starter(Controller):
         self.omega = brief.laser.angular_velocity
         self.period = 2 * math.pi / abs(self.omega)
         xmin, ymin, xmax, ymax = brief.field
-        start = brief.start or ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
+        # the announced start (docs/api.md: its spread says how far off it may be), else the field's centre
+        start = brief.start.pose if brief.start else ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
         self.pose = start  # (x, y, heading): our belief
         self.anchor = start  # the pose where the current stretch of travel began
         self.doubtful: tuple[float, float] | None = None  # a far fix waiting for a second opinion
@@ -138,7 +139,7 @@ class Starter(Controller):
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
         self.wheels = (0.0, 0.0)
-        self.fixed = brief.start is not None
+        self.fixed = brief.start is not None and brief.start.region is None  # a position worth reporting
 
     def step(self, observation: Observation) -> Command:
         self._localize(observation)

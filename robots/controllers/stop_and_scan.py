@@ -33,6 +33,7 @@ class StopAndScan(Controller):
         self.still_since = 0.0
         self.plan: list[tuple[float, float, float]] = []  # (until time, left, right)
         self.goal = brief.task.goal or (brief.task.path[-1] if brief.task.path else None)
+        self.trial = 0
 
     def fix(self, rev: Revolution) -> tuple[float, float, float] | None:
         """The pose (x, y, heading) from one standing revolution, or None."""
@@ -56,6 +57,11 @@ class StopAndScan(Controller):
 
     def step(self, observation: Observation) -> Command:
         now = observation.time
+        if observation.trial != self.trial:  # carried to a new pose, at rest: find it again
+            self.trial = observation.trial
+            self.tracker.reset()
+            self.revolutions = IndexRevolutions(self.sign)
+            self.plan, self.still_since = [], self.tracker.wheels.time
         self.tracker.feed(observation.events, now)
         if any(abs(s) > 1e-9 for s in self.tracker.wheels.speeds):
             self.still_since = now

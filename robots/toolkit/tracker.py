@@ -97,9 +97,35 @@ class HitTracker:
         self._own_fix = first_fix is None  # the labelled fix: it has no state, so it may be skipped
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
-        if brief.start is not None:  # the rules announce the start: the beam's angle comes with the first hit
-            x, y, h = brief.start
-            self.ekf = self._filter(x, y, h, 0.0, var_xy=1e-6, var_heading=1e-4, var_sum=10.0)
+        start = brief.start
+        if start is not None and start.region is None and start.heading_known:
+            # the rules announce the start pose: the filter starts there, as unsure as the
+            # announced spread (uniform: its variance is a third of the square of its half-width);
+            # the beam's angle comes with the first hit. Otherwise the first fix starts it.
+            self.ekf = self._filter(
+                *start.pose,
+                0.0,
+                var_xy=max(1e-6, start.position_spread**2 / 4),
+                var_heading=max(1e-4, start.heading_spread**2 / 3),
+                var_sum=10.0,
+            )
+
+    def reset(self) -> None:
+        """Forget the pose: the robot was carried elsewhere and set down at rest at the time of
+        the last `feed` (a localize trial began); the next fix starts the filter again."""
+        self.wheels = Wheels(self.wheels.track, self.wheels.accel, self.wheels.time)
+        self.ekf = None
+        self.recent.clear()
+        self.verdicts.clear()
+        self.turn_rate = 0.0
+        self.disagree_since = None
+        self.run_from = None
+
+    @property
+    def heading_sd(self) -> float:
+        """The standard deviation of the heading (rad), inf before the first fix: a robot
+        without a heading sensor learns its heading by moving (Bac's consecutive positions)."""
+        return math.sqrt(float(self.ekf.P[2, 2])) if self.ekf else math.inf
 
     @property
     def pose(self) -> tuple[float, float, float] | None:

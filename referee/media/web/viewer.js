@@ -51,8 +51,8 @@
     try { header = JSON.parse(lines[0]); } catch (e) { /* reported below */ }
     if (!header || header.format !== "laserarena-replay") throw new Error(`${name}: not a LaserArena replay`);
     if (header.version !== 1) throw new Error(`${name}: replay format version ${header.version}, this page reads 1`);
-    const rep = { header, frames: [], events: [], estimates: [], debug: [], fouls: [], faults: [], result: null };
-    const lists = { e: rep.events, est: rep.estimates, dbg: rep.debug, foul: rep.fouls, fault: rep.faults };
+    const rep = { header, frames: [], events: [], estimates: [], debug: [], fouls: [], faults: [], trials: [], result: null };
+    const lists = { e: rep.events, est: rep.estimates, dbg: rep.debug, foul: rep.fouls, fault: rep.faults, trial: rep.trials };
     for (let n = 1; n < lines.length; n++) {
       if (!lines[n]) continue;
       let rec;
@@ -68,11 +68,14 @@
   const frameAt = (rep, t) => Math.min(Math.max(pyRound(t * rep.header.record_rate), 0), rep.frames.length - 1);
 
   // ---- estimate errors and standings (referee/media/error_series.py, referee/media/standings.py) ----
-  function truthAt(frames, times, slot, t) {  // the true pose at t, between frames linearly
+  function truthAt(frames, times, slot, t, moves) {  // the true pose at t, between frames linearly, never across a move
     const i = bisectLeft(times, t - 1e-9);
     if (i >= frames.length) return null;
     if (Math.abs(times[i] - t) <= 1e-9 || i === 0) return frames[i][1][slot];
     const [t0, p0] = frames[i - 1], [t1, p1] = frames[i], a = p0[slot], b = p1[slot];
+    for (const move of moves) {
+      if (t0 < move && move <= t1 + 1e-9) return t <= move + 1e-9 ? a : b;
+    }
     const w = (t - t0) / (t1 - t0), dh = remainder(b[2] - a[2], TAU);
     return [a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), remainder(a[2] + w * dh, TAU)];
   }
@@ -85,7 +88,7 @@
       this.progress = geom.robots.map(() => []);
       this.finished = Array(n).fill(null);
       const next = Array(n).fill(0), finalDistance = Array(n).fill(NaN);
-      const startDistance = geom.starts.map((s, slot) => (this.targets[slot].length
+      const startDistance = rep.frames[0][1].map((s, slot) => (this.targets[slot].length
         ? Math.hypot(s[0] - this.targets[slot][0][0], s[1] - this.targets[slot][0][1]) : NaN));
       const progress = (slot) => {
         const targets = this.targets[slot];
@@ -111,16 +114,19 @@
       }
       const frameTimes = rep.frames.map((f) => f[0]);
       this.errors = geom.robots.map((_, slot) => {
-        const track = { times: [], position: [], heading: [], squares: [] };
+        const track = { times: [], position: [], heading: [], qualities: [] };
+        const moves = rep.trials.map((r) => r.t);
         for (const rec of rep.estimates) {
           if (rec.r !== slot) continue;
-          const truth = truthAt(rep.frames, frameTimes, slot, rec.t);
+          const truth = truthAt(rep.frames, frameTimes, slot, rec.t, moves);
           if (truth === null) break;
           const d = Math.hypot(rec.e[0] - truth[0], rec.e[1] - truth[1]);
+          const h = Math.abs(remainder(rec.e[2] - truth[2], TAU));
           track.times.push(rec.t);
           track.position.push(d);
-          track.heading.push(Math.abs(remainder(rec.e[2] - truth[2], TAU)));
-          track.squares.push((track.squares.length ? track.squares[track.squares.length - 1] : 0) + d * d);
+          track.heading.push(h);
+          const q = 1 / (1 + Math.hypot(d / geom.position_scale, h / geom.heading_scale));  // referee/match/estimates.py
+          track.qualities.push((track.qualities.length ? track.qualities[track.qualities.length - 1] : 0) + q);
         }
         return track;
       });
@@ -132,14 +138,12 @@
       const localize = this.geom.task.kind === "localize", P = this.P;
       const progress = this.progress[slot][this.frame(t)];
       let points = localize ? 0 : P.task * progress;
-      const finished = this.finished[slot];
-      if (finished !== null && finished <= t && !localize) points += P.time * (1 - finished / this.geom.time_limit);
       const track = this.errors[slot], n = bisectRight(track.times, t + 1e-9);
-      if (n) {
-        const ticks = Math.floor(t / this.geom.control_period + 1e-9) + 1;
-        const rms = Math.sqrt(track.squares[n - 1] / n);
-        points += (localize ? P.localize_task : P.localization) * (Math.min(1, n / ticks) / (1 + rms / P.rms_scale));
-      }
+      const ticks = Math.floor(t / this.geom.control_period + 1e-9) + 1;
+      const quality = Math.min(1, (n ? track.qualities[n - 1] : 0) / ticks);
+      const finished = this.finished[slot];
+      if (finished !== null && finished <= t && !localize) points += P.time * (1 - finished / this.geom.time_limit) * quality;
+      points += (localize ? P.localize_task : P.localization) * quality;
       return points - this.rep.fouls.filter((f) => f.r === slot && f.time <= t).reduce((a, f) => a + f.penalty, 0);
     }
 
