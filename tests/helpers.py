@@ -70,6 +70,13 @@ def edited(source: str, changes: dict[str, Any]) -> str:
     return yaml.safe_dump(data, sort_keys=False)
 
 
+def exact_starts(source: str) -> dict[str, Any]:
+    """`variant` changes that set every robot of a built-in level down exactly at its nominal
+    start (no placement spread): for tests of something else than finding the start."""
+    robots = yaml.safe_load(levels.path(source).read_text())["robots"]
+    return {f"robots__{i}__placement": None for i, r in enumerate(robots) if "placement" in r}
+
+
 def variant(source: str, name: str = "variant.yaml", **changes: Any) -> Level:
     """A parsed level: `source` (text or built-in name) with `changes` (dotted keys written with
     `__` for the dots: `robots__0__start=[1, 2, 0]`)."""

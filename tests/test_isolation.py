@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import variant
+from helpers import exact_starts, variant
 from hostile.hostile_kit import sandboxed_processes
 
 import levels
@@ -33,7 +33,7 @@ def race():
 
 
 def test_isolated_and_in_process_give_identical_bytes(tmp_path):
-    lv = race()
+    lv = variant("asabe-race", **exact_starts("asabe-race"))  # set down exactly, for driving blind
     teams = [resolve("ref:dead-reckoning")] * 4
     # a perfect drive (ideal), so blind dead reckoning really finishes the race
     a = run_match(lv, teams, seed=4, replay=tmp_path / "a.replay", isolate=True, ideal=True)

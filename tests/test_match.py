@@ -10,6 +10,7 @@ from arena.loader import parse_level
 from referee.errors import TeamError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
+from robots.api import StartInfo
 from robots.loading import load_class
 
 TWO = edited(
@@ -153,7 +154,7 @@ def test_observations_arrive_every_control_period(tmp_path):
     run_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
     seen = __import__(load_class(team.spec).__module__).SEEN
     brief, ticks = seen[0], seen[1:]
-    assert brief.start == (0.5, 0.5, 0.0) and brief.control_period == 0.05
+    assert brief.start == StartInfo(0.5, 0.5, 0.0) and brief.control_period == 0.05
     assert [b.id for b in brief.beacons] == ["O", "A", "B"]
     assert ticks == [(k, pytest.approx(k * 0.05)) for k in range(80)]
 

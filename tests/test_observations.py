@@ -32,9 +32,11 @@ RECORDER = """
 def test_vannoy_ideal_reflections_match_the_seed(tmp_path):
     team = tmp_path / "recorder.py"
     team.write_text(textwrap.dedent(RECORDER))
+    # the worked example's robot, set down exactly at (8, 5) ft, compass 230 deg
+    (tmp_path / "example.yaml").write_text(edited("vannoy", {"robots.0.placement": None}))
     proc = run_cli(
         "run",
-        "vannoy",
+        str(tmp_path / "example.yaml"),
         "--ideal",
         "--team",
         str(team),
@@ -81,7 +83,7 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
     assert sum(len(o.events) for o in log) > 1000
     # nothing in what a controller receives names a pose
     names = {f.name for f in dataclasses.fields(Observation)} | {f.name for f in dataclasses.fields(SensorEvent)}
-    assert names == {"tick", "time", "events", "kind", "beacon", "angle", "samples"}
+    assert names == {"tick", "time", "events", "trial", "kind", "beacon", "angle", "samples"}
 
 
 def test_shared_crosstalk_level_runs(tmp_path, write_level):

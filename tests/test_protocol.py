@@ -340,14 +340,17 @@ def test_numpy_commands_drive_exactly_as_plain_floats(shared_dir, isolate):
 
 
 @pytest.mark.parametrize("isolate", [True, False])
-def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, isolate):
-    team = tmp_path / "future.py"
+@pytest.mark.parametrize(
+    "version", [1, 3]
+)  # written for the brief of old (a start as a tuple), or for a future referee
+def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, isolate, version):
+    team = tmp_path / "other.py"
     team.write_text(
-        textwrap.dedent("""
+        textwrap.dedent(f"""
         from robots.api import Command, Controller
 
-        class Future(Controller):
-            api_version = 2  # written for a referee that does not exist yet
+        class Other(Controller):
+            api_version = {version}
 
             def step(self, obs):
                 return Command(0.1, 0.1)
@@ -357,7 +360,7 @@ def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, i
     result = run_match(level, [resolve(str(team))], isolate=isolate)
     (fault,) = result["robots"][0]["faults"]
     assert fault["kind"] == "load" and fault["tick"] == 0
-    assert fault["message"] == "the team's controller speaks API version 2, this referee speaks 1"
+    assert fault["message"] == f"the team's controller speaks API version {version}, this referee speaks 2"
     assert result["robots"][0]["stopped"]
 
 

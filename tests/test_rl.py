@@ -13,8 +13,10 @@ import yaml
 gymnasium = pytest.importorskip("gymnasium", reason="the rl extra is not installed: pip install '.[rl]'")
 pytest.importorskip("pettingzoo", reason="the rl extra is not installed: pip install '.[rl]'")
 
+from helpers import exact_starts, variant  # noqa: E402
+
 import levels  # noqa: E402
-from arena.loader import load_level, parse_level  # noqa: E402
+from arena.loader import parse_level  # noqa: E402
 from referee.gym.observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
 from referee.match.loop import brief_for, run_match  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402
@@ -63,7 +65,7 @@ def drive_like_dead_reckoning(env, level):
 def test_env_runs_the_referees_physics_and_its_return_is_the_score():
     from referee.gym import LaserArenaEnv
 
-    level = load_level(levels.path("bac-line"))
+    level = variant("bac-line", **exact_starts("bac-line"))  # set down exactly where the blind driver believes
     ref = run_match(level, [resolve("ref:dead-reckoning")], isolate=False)["robots"][0]
     env = LaserArenaEnv(level=level)
     total, info = drive_like_dead_reckoning(env, level)
@@ -72,8 +74,11 @@ def test_env_runs_the_referees_physics_and_its_return_is_the_score():
     assert got["final_pose"] == pytest.approx(ref["final_pose"], abs=1e-9)
     assert got["task"]["reached"] == ref["task"]["reached"] == 10
     assert got["task"]["finished"] == pytest.approx(ref["task"]["finished"], abs=1e-9)
-    s = ref["score"]  # every waypoint reached: the shaping telescopes to nothing, no estimates were given
-    assert total == pytest.approx(s["task"] + s["time"] - s["penalties"], abs=1e-6)
+    # every waypoint reached: the shaping telescopes to nothing; the agent gave no estimates, so
+    # it earns no localization points and no time bonus (which is scaled by localization quality)
+    s = got["score"]
+    assert s["task"] == ref["score"]["task"] and s["localization"] == s["time"] == 0
+    assert total == pytest.approx(s["total"], abs=1e-6)
 
 
 def test_bearings_in_the_observation_match_the_geometry():
@@ -81,7 +86,7 @@ def test_bearings_in_the_observation_match_the_geometry():
     angle from the robot's heading to the beacon, computed here from the level's coordinates."""
     from referee.gym import LaserArenaEnv
 
-    level = load_level(levels.path("bac-static"))
+    level = variant("bac-static", **exact_starts("bac-static"))  # standing exactly at its nominal start
     env = LaserArenaEnv(level=level, ideal=True)
     env.reset(seed=1)
     for _ in range(5):

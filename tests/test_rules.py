@@ -33,20 +33,36 @@ STRAIGHT = """
 """
 
 
+KNOWING = """
+    class Knowing(Controller):
+        # drives straight at 0.1 m/s from (0.5, 0.5) facing east and reports where straight-line
+        # kinematics puts it: the wheels ramp up at 0.5 m/s^2, so 0.2 s at first, then steady
+        def step(self, obs):
+            t = obs.time
+            x = 0.5 + (0.25 * t * t if t < 0.2 else 0.1 * t - 0.01)
+            return Command(0.1, 0.1, estimate=(x, 0.5, 0.0))
+"""
+
+
 def test_waypoints_score_time_and_cross_track(tmp_path):
     # a robot driving dead straight along y = 0.5 through waypoints on y = 0.5 and y = 0.52
     text = MINI_LEVEL.replace("time_limit: 4", "time_limit: 20").replace(
         "path: [[1.0, 0.5], [1.5, 0.5]]", "path: [[1.0, 0.52], [1.5, 0.5]]"
     )
-    r = play(text, team(tmp_path, STRAIGHT))["robots"][0]
-    assert r["task"]["reached"] == 2
+    blind = play(text, team(tmp_path, STRAIGHT))["robots"][0]
+    r = play(text, team(tmp_path, KNOWING, "knowing.py"))["robots"][0]
+    assert r["task"]["reached"] == blind["task"]["reached"] == 2
     finished = r["task"]["finished"]
+    assert blind["task"]["finished"] == finished
     # it drives 1 m at 0.1 m/s after a 0.2 s ramp, reaching the last point 5 cm short of it
     assert finished == pytest.approx((0.95 + 0.1 * 0.2 / 2) / 0.1, abs=0.05)
-    sc = r["score"]
-    assert sc["task"] == 100 and sc["time"] == pytest.approx(20 * (1 - finished / 20))
-    assert sc["localization"] == 0 and sc["penalties"] == 0
-    assert sc["total"] == pytest.approx(sc["task"] + sc["time"])
+    sc, quality = r["score"], r["localization"]["quality"]
+    assert quality > 0.9  # its kinematics are the ideal drive's, to a fraction of a millimetre
+    assert sc["task"] == 100 and sc["time"] == pytest.approx(20 * (1 - finished / 20) * quality)
+    assert sc["localization"] == pytest.approx(25 * quality) and sc["penalties"] == 0
+    assert sc["total"] == pytest.approx(sc["task"] + sc["time"] + sc["localization"])
+    # the same finish without a word of where it was: no localization points, and no time bonus
+    assert blind["score"]["time"] == blind["score"]["localization"] == 0 and blind["score"]["total"] == 100
     # cross-track from the polyline (0.5,0.5)->(1.0,0.52)->(1.5,0.5) for a robot on y = 0.5:
     # 0 at the ends, 2 cm at x = 1.0 (distance to a line of slope 0.04 is 0.02 cos(atan 0.04) at most)
     ct = r["task"]["cross_track_mm"]

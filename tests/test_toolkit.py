@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, TaskInfo
+from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, StartInfo, TaskInfo
 from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible, wrap
 from robots.toolkit.ekf import BearingEKF
@@ -160,7 +160,7 @@ def test_tracker_checks_revolution_time_and_time_out():
 def test_tracker_drops_merged_pulses_and_recovers_when_lost():
     # announced start 0.1 m off the truth: most pulses fail the gate until the tracker
     # restarts from a checked revolution, then it holds the true pose
-    tracker = HitTracker(table_brief(start=(0.8, 0.5, 0.0)))
+    tracker = HitTracker(table_brief(start=StartInfo(0.8, 0.5, 0.0)))
     hits = standing_hits(0.7, 0.5, 0.3, 81.0, 12)
     merged = SensorEvent(hits[21].time, "hit", hits[20].beacon)  # pulse 20 reported at 21's time
     events = sorted(hits[:20] + [merged] + hits[21:], key=lambda e: e.time)
@@ -172,7 +172,7 @@ def test_tracker_drops_merged_pulses_and_recovers_when_lost():
 def test_bac_turn_ends_on_the_angle_between_control_ticks():
     # a perfect drive that does exactly what the wheel model says: after one spin turn the
     # robot drives off along the bearing to its waypoint, though the turn's end falls between ticks
-    brief = table_brief(start=(0.5, 0.5, 0.0))
+    brief = table_brief(start=StartInfo(0.5, 0.5, 0.0))
     brief = dataclasses.replace(brief, task=TaskInfo("waypoints", 0.05, ((0.5 + math.cos(2.0), 0.5 + math.sin(2.0)),)))
     bac = Bac()
     bac.setup(brief)
@@ -213,7 +213,7 @@ def moving_hits(x0, y0, heading, v, beam0, omega, duration):
 def test_tracker_takes_the_heading_from_the_direction_of_travel():
     # the announced heading is 1 rad wrong (a robot put down askew): driving straight, the
     # filtered positions go where the robot goes, and Bac's heading from them corrects it
-    tracker = HitTracker(table_brief(start=(0.5, 0.5, 1.3)))
+    tracker = HitTracker(table_brief(start=StartInfo(0.5, 0.5, 1.3)))
     hits = moving_hits(0.5, 0.5, 0.3, 0.1, 0.7, 81.0, 3.0)
     tracker.command(0.1, 0.1)
     tracker.wheels.speeds = (0.1, 0.1)  # already at speed, as the hits assume
@@ -231,7 +231,7 @@ def test_tracker_takes_the_heading_from_the_direction_of_travel():
 def test_tracker_restarts_when_the_closed_form_fixes_contradict_it():
     # 5 cm off with the lost rule out of play (lost_after beyond the window): the filter takes
     # the pulses with a wrong laser phase, but a revolution of Bac-checked fixes says otherwise
-    tracker = HitTracker(table_brief(start=(0.75, 0.5, 0.0)), lost_after=17)
+    tracker = HitTracker(table_brief(start=StartInfo(0.75, 0.5, 0.0)), lost_after=17)
     hits = standing_hits(0.7, 0.5, 0.3, 81.0, 6)
     tracker.feed(hits, hits[-1].time)
     x, y, _ = tracker.pose

@@ -27,7 +27,7 @@ def replay(tmp_path_factory):
     os.environ["SDL_VIDEODRIVER"] = "dummy"  # the test's choice, never the code's
     d = yaml.safe_load(levels.path("asabe-race").read_text())
     d["time_limit"] = 12
-    d["rules"] = {"speed_limit": 0.05}  # ref:bac drives faster: speeding fouls to score
+    d["rules"]["speed_limit"] = 0.05  # ref:bac drives faster: speeding fouls to score
     path = tmp_path_factory.mktemp("watch") / "race.replay"
     result = run_match(
         parse_level(yaml.safe_dump(d).encode(), "race12.yaml"), [resolve("ref:bac")] * 4, replay=path, isolate=False
@@ -68,7 +68,11 @@ def test_help_shows_at_start_hides_by_itself_and_toggles(replay):
 
 
 def direct_standing(rep, result, slot, t, control_period):
-    """Score so far, waypoints reached and latest estimate error, from the records (docs/rules.md)."""
+    """Score so far, waypoints reached and latest estimate error, from the records (docs/rules.md):
+    each tick's quality 1 / (1 + hypot(d / position_scale, h / heading_scale)), 0 without an
+    estimate, averaged over the ticks so far, with the scales of the level the replay carries."""
+    rules = yaml.safe_load(rep.header["level"]["text"])["rules"]
+    position_scale, heading_scale = rules["position_scale"], math.radians(rules["heading_scale"])
     robot = result["robots"][slot]
     reached = sum(1 for r in robot["task"]["reached_at"] if r <= t)
     frames = {round(ft, 6): poses for ft, poses in rep.frames}
@@ -83,10 +87,10 @@ def direct_standing(rep, result, slot, t, control_period):
                 )
             )
     ticks = math.floor(t / control_period + 1e-9) + 1
-    rms = math.sqrt(sum(d * d for d, _ in errors) / len(errors))
+    quality = sum(1 / (1 + math.hypot(d / position_scale, h / heading_scale)) for d, h in errors) / ticks
     score = (
         100 * reached / robot["task"]["total"]
-        + 25 * (len(errors) / ticks) / (1 + rms / 0.010)
+        + 25 * quality
         - sum(f["penalty"] for f in robot["fouls"] if f["time"] <= t)
     )
     return score, reached, errors[-1]

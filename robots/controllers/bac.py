@@ -35,7 +35,7 @@ from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.angles import BeaconRevolutions, Revolution, wrap
 from robots.toolkit.motion import heading_change
 from robots.toolkit.solvers import bac, total
-from robots.toolkit.steering import next_waypoint
+from robots.toolkit.steering import HeadingProbe, next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 DEAD_BAND, SPIN = 0.05, 0.3  # rad
@@ -47,8 +47,6 @@ SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BO
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
 PASSED = 0.9  # a waypoint behind the robot counts as passed within this fraction of the task radius
-HEADING_SURE = 0.05  # rad: a heading known this well (one sd) needs no driving to learn it
-LEARN = 0.06  # m: at most this far driven straight to learn the heading, at CREEP
 
 
 class BacSeed(Controller):
@@ -78,6 +76,7 @@ class BacSeed(Controller):
         self.turn_until: float | None = None
         self.steady_from = 0.0  # revolutions starting earlier overlapped a rotation
         self.now = 0.0
+        self.trial = 0
 
     def fix(self, rev: Revolution) -> tuple[float, float] | None:
         """(x, y) from one revolution, or None if Bac's checks reject it."""
@@ -98,6 +97,10 @@ class BacSeed(Controller):
         return (f.x, f.y) if f.ok else None
 
     def step(self, observation: Observation) -> Command:
+        if observation.trial != self.trial:  # carried to a new pose: what it knew is void
+            self.trial, self.position, self.heading, self.last_for_heading = observation.trial, None, None, None
+            self.revolutions = BeaconRevolutions(self.o)
+            self.command, self.turn_until, self.steady_from = (0.0, 0.0), None, self.now
         self.now = observation.time
         # a revolution during a rotation command sees the beam turn at the wrong rate: skip it
         revs = [r for r in self.revolutions.feed(observation.events) if r.start >= self.steady_from]
@@ -184,33 +187,23 @@ class Bac(Controller):
         self.target = 0
         self.turning: int | None = None  # +-1 pivot, +-2 spin: the turn in progress, if any
         self.trial = 0
-        self.learning_from: tuple[float, float] | None = None  # where driving to learn the heading began
-        self.learned = False  # the heading was learned (or as well as LEARN allows) since the trial began
+        self.probe = HeadingProbe()  # drives straight to learn an unknown heading
 
     def step(self, observation: Observation) -> Command:
         if observation.trial != self.trial:  # carried to a new pose, at rest: find it again
-            self.trial, self.turning, self.learning_from, self.learned = observation.trial, None, None, False
+            self.trial, self.turning = observation.trial, None
             self.tracker.reset()
+            self.probe.reset()
         self.tracker.feed(observation.events, observation.time)
         pose = self.tracker.pose
         if pose is None:
             left, right = 0.0, 0.0
-        elif self._learning(pose):
+        elif self.probe.driving(pose[0], pose[1], self.tracker.heading_sd):
             left, right = CREEP, CREEP
         else:
             left, right = self._guide(pose)
         self.tracker.command(left, right)
         return Command(left, right, estimate=pose)
-
-    def _learning(self, pose: tuple[float, float, float]) -> bool:
-        """Whether to drive straight on to learn the heading, once per trial: until it is
-        known within HEADING_SURE, for at most LEARN."""
-        if self.learned:
-            return False
-        if self.learning_from is None:
-            self.learning_from = pose[:2]
-        self.learned = self.tracker.heading_sd <= HEADING_SURE or math.dist(pose[:2], self.learning_from) >= LEARN
-        return not self.learned
 
     def _guide(self, pose: tuple[float, float, float]) -> tuple[float, float]:
         x, y, h = pose

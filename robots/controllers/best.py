@@ -17,7 +17,7 @@ from robots.api import Brief, Command, Controller, Observation, SensorEvent
 from robots.toolkit.angles import IndexRevolutions, wrap
 from robots.toolkit.associate import by_sectors
 from robots.toolkit.solvers import circles
-from robots.toolkit.steering import next_waypoint
+from robots.toolkit.steering import HeadingProbe, next_waypoint
 from robots.toolkit.tracker import HitTracker
 
 APPROACH = 2.0  # 1/s: the speed (m/s) is at most this times the distance (m) to the waypoint
@@ -34,6 +34,7 @@ class Best(Controller):
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
         self.trial = 0
+        self.probe = HeadingProbe()  # drives straight to learn an unknown heading
 
     def _sector_fix(self, e: SensorEvent) -> tuple[float, float, float, float] | None:
         """Unlabelled returns between index clicks: Vannoy's sector rule and the circle method,
@@ -59,9 +60,13 @@ class Best(Controller):
             self.trial = observation.trial
             self.tracker.reset()
             self.revolutions = IndexRevolutions(self.revolutions.sign)
+            self.probe.reset()
         self.tracker.feed(observation.events, observation.time)
         pose = self.tracker.pose
-        left, right = self._steer(pose)
+        if pose is not None and self.probe.driving(pose[0], pose[1], self.tracker.heading_sd):
+            left, right = CREEP, CREEP
+        else:
+            left, right = self._steer(pose)
         self.tracker.command(left, right)
         return Command(left, right, estimate=pose)
 

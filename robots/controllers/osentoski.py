@@ -22,11 +22,13 @@ def peaks(samples: tuple[int, ...]) -> list[float]:
     """Angles (counter-clockwise from straight ahead) of the bright spots of one scan."""
     n = len(samples)
     # "a filter using the average light value": a robust average (the median, as most samples
-    # are dark) and the noise around it (median absolute deviation); spikes within it are noise
+    # are dark) and the noise around it, read on the bright side (the quarter of the samples
+    # brightest but for the lights lies 0.674 sd below the median; the dark side clips at 255,
+    # so a spread measured both ways would hide the noise); spikes within six sd are noise
     ordered = sorted(samples)
     median = ordered[n // 2]
-    mad = sorted(abs(s - median) for s in samples)[n // 2]
-    threshold = median - max(5.0, 6.0 * mad)
+    sd = (median - ordered[n // 4]) / 0.674
+    threshold = median - max(5.0, 6.0 * sd)
     found = []
     for k in range(n):
         a, b, c = samples[k - 1], samples[k], samples[(k + 1) % n]

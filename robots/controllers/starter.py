@@ -139,9 +139,13 @@ class Starter(Controller):
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
         self.wheels = (0.0, 0.0)
-        self.fixed = brief.start is not None and brief.start.region is None  # a position worth reporting
+        # an exactly announced start is worth reporting at once; otherwise wait for the first fix
+        self.fixed = brief.start is not None and brief.start.region is None and brief.start.position_spread == 0
+        self.trial = 0
 
     def step(self, observation: Observation) -> Command:
+        if observation.trial != self.trial:  # a localize level carried us to a new pose: start over
+            self.trial, self.fixed, self.hits, self.wheels = observation.trial, False, [], (0.0, 0.0)
         self._localize(observation)
         # report an estimate once we know where we are
         estimate = self.pose if self.fixed else None

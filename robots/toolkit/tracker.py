@@ -26,7 +26,10 @@ The heading is checked as Bac measured it, "by evaluating two consecutive positi
 straight run, once the filtered position has moved `track_check` (m), the direction of travel
 must agree with the filtered heading within `heading_check` (rad), or the heading restarts
 from it (a robot held by a wall or another robot turns less than it was told, and the laser's
-own rate cannot tell that from a robot that turns).
+own rate cannot tell that from a robot that turns). A robot whose heading is not known yet
+(its sd above UNKNOWN_HEADING: no heading announced, and labelled pulses without an index tell
+only the beam's world angle) is predicted to stay where it is, less sure of where the further
+it drives (`WANDER`), since it could be driving any way; its first straight run gives it its heading.
 """
 
 from __future__ import annotations
@@ -45,6 +48,11 @@ from robots.toolkit.solvers import least_squares
 # same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
 TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
 STEADY_TURN = 0.3  # rad/s: turning slower, a closed-form fix may check the filter
+UNKNOWN_HEADING = 0.5  # rad: a heading less sure than this (one sd) does not say which way the robot drives
+LEARN_TRACK = 0.01  # m: "only when the distance between two consecutive positions was larger than 1 cm"
+# s: a robot that drives a way it does not know moves, to its filter, as a random walk whose
+# spread grows by the distance it drives in WANDER, so that the pulses lead its position
+WANDER = 1.0
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
 
 
@@ -159,10 +167,12 @@ class HitTracker:
         if self.run_from is None or self.ekf is None:
             return
         x, y, h = self.ekf.pose
-        if math.dist((x, y), self.run_from) <= self.track_check:
+        unknown = self.heading_sd > UNKNOWN_HEADING
+        # an unknown heading is taken at Bac's "larger than 1 cm"; a known one is checked over `track_check`
+        if math.dist((x, y), self.run_from) <= (min(self.track_check, LEARN_TRACK) if unknown else self.track_check):
             return
         travel = math.atan2(y - self.run_from[1], x - self.run_from[0])
-        if abs(wrap(travel - h)) > self.heading_check:  # keep the beam's world angle, turn the heading
+        if unknown or abs(wrap(travel - h)) > self.heading_check:  # keep the beam's world angle, turn the heading
             self.ekf = self._filter(
                 x,
                 y,
@@ -172,7 +182,7 @@ class HitTracker:
                 var_heading=0.05,
                 var_sum=1e-4,
             )
-            self.restarts += 1
+            self.restarts += not unknown  # a heading learned is no restart
         self.run_from = (x, y)
 
     def _filter(
@@ -195,7 +205,13 @@ class HitTracker:
         dt, v, w = self.wheels.advance(time)
         if dt > 0:
             self.turn_rate = w
-        if self.ekf:
+        if self.ekf is None:
+            return
+        if v and self.heading_sd > UNKNOWN_HEADING:  # driving, but which way: any, as far as it knows
+            self.ekf.predict(dt, 0.0, w)
+            self.ekf.P[0, 0] += v * v * dt * WANDER
+            self.ekf.P[1, 1] += v * v * dt * WANDER
+        else:
             self.ekf.predict(dt, v, w)
 
     def _event(self, e: SensorEvent) -> None:
