@@ -10,7 +10,7 @@ SOURCES := pyproject.toml $(shell find arena robots referee levels -name '*.py' 
 export SDL_VIDEODRIVER ?= dummy
 export SDL_AUDIODRIVER ?= dummy
 
-.PHONY: demo lint test bench fidelity clean
+.PHONY: demo lint test bench fidelity baselines clean
 
 $(VENV)/bin/python:
 	$(PYTHON) -m venv $(VENV)
@@ -39,6 +39,9 @@ test: lint
 
 bench: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/all.py --json out/bench.json
+
+baselines: $(VENV)/.installed
+	$(VENV)/bin/python benchmarks/baselines.py --out docs/baselines.md
 
 fidelity: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/fidelity.py --out docs/fidelity.md

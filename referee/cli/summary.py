@@ -45,6 +45,7 @@ def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
         "hdg rms deg",
         "hdg max deg",
         "est %",
+        "quality",
         "fouls",
         "faults",
     )
@@ -64,6 +65,7 @@ def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
                 _deg(loc["heading_rms"]),
                 _deg(loc["heading_max"]),
                 f"{100 * loc['fraction']:.0f}",
+                f"{loc['quality']:.2f}",
                 fouls,
                 faults,
             )

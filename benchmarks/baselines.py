@@ -1,0 +1,182 @@
+"""`make baselines`: does the score measure the laser? Each built-in level's default reference
+beside two controllers that never use it, over many seeds.
+
+- the reference: the level's default controller (each seed's method, fused with odometry);
+- blind: `ref:dead-reckoning` started from the nominal start written in the public level file (what a
+  team can copy into its code when the brief announces nothing better), driving its task open-loop;
+- sensorless: `ref:sensorless`, which reports that nominal start and stands still.
+
+Each plays robot slot 0 (the level's default controller fills the others) on seeds 1..N with the
+level's default hardware error, in parallel worker processes (in-process controllers: the
+references give the same bytes isolated). The table gives each one's median score with its
+range, the reference's median position RMS beside blind driving's, and on how many seeds the
+reference beat blind driving (score and RMS both) and scored at least twice the sensorless one.
+It is printed and written as Markdown to docs/baselines.md (`--out`); `--json` keeps every match.
+
+    python benchmarks/baselines.py [--seeds 20] [--workers 2] [--out docs/baselines.md] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import levels
+
+WHO = ("reference", "blind", "sensorless")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one controller did in one match (robot slot 0)."""
+
+    level: str
+    who: str
+    seed: int
+    score: float
+    quality: float
+    position_rms: float  # m; inf without an estimate
+    reached: bool  # the task done (a localize task has none: False)
+
+
+def play(level_name: str, who: str, seed: int) -> Outcome:
+    """One match of `who` in slot 0 of a built-in level."""
+    from arena.loader import load_level
+    from referee.match.loop import run_match
+    from referee.sandbox.teams import Team, resolve
+    from robots.controllers.dead_reckoning import DeadReckoning
+    from robots.controllers.sensorless import Sensorless
+
+    level = load_level(levels.path(level_name))
+    start = level.robots[0].start
+    nominal = (start.x, start.y, start.heading)  # as the public level file writes it
+    if who == "reference":
+        team = resolve(level.default_controller)
+    elif who == "blind":
+        team = Team("blind", "ref:dead-reckoning", "sha256:blind", factory=lambda: DeadReckoning(nominal))
+    else:
+        team = Team("sensorless", "ref:sensorless", "sha256:sensorless", factory=lambda: Sensorless(nominal))
+    others = [resolve(level.default_controller) for _ in level.robots[1:]]
+    r = run_match(level, [team, *others], seed=seed, isolate=False)["robots"][0]
+    loc = r["localization"]
+    return Outcome(
+        level_name,
+        who,
+        seed,
+        r["score"]["total"],
+        loc["quality"],
+        loc["position_rms"] if loc["position_rms"] is not None else math.inf,
+        r["task"]["finished"] is not None,
+    )
+
+
+def _play(job: tuple[str, str, int]) -> Outcome:
+    return play(*job)
+
+
+def summary(outcomes: list[Outcome], level: str) -> dict:
+    """One level's figures: per controller the median score, its range and the median RMS; the
+    reference's wins over blind driving and over twice the sensorless score, seed by seed."""
+    by = {w: sorted((o for o in outcomes if o.level == level and o.who == w), key=lambda o: o.seed) for w in WHO}
+    ref, blind, still = by["reference"], by["blind"], by["sensorless"]
+    out: dict = {"level": level, "seeds": len(ref)}
+    for w in WHO:
+        scores = [o.score for o in by[w]]
+        out[w] = {
+            "score_median": statistics.median(scores),
+            "score_min": min(scores),
+            "score_max": max(scores),
+            "rms_mm_median": 1000 * statistics.median(o.position_rms for o in by[w]),
+            "rms_mm_worst": 1000 * max(o.position_rms for o in by[w]),
+            "reached": sum(o.reached for o in by[w]),
+        }
+    out["beats_blind"] = sum(r.score > b.score and r.position_rms < b.position_rms for r, b in zip(ref, blind))
+    out["twice_sensorless"] = sum(r.score >= 2 * s.score for r, s in zip(ref, still))
+    return out
+
+
+def _mm(v: float) -> str:
+    return "none" if math.isinf(v) else f"{v:.1f}" if v < 100 else f"{v:.0f}"
+
+
+def markdown(rows: list[dict], seeds: int, seconds: float, workers: int) -> str:
+    lines = [
+        "# Baselines: the laser against blind driving and against not sensing at all",
+        "",
+        "Made by `make baselines` (`python benchmarks/baselines.py`): every built-in level, seeds 1 to",
+        f"{seeds}, its default hardware error, in {seconds:.0f} s on {workers} worker processes. Do not edit by hand:",
+        "run it again. In slot 0: the level's default reference; `ref:dead-reckoning` started from the",
+        "nominal start written in the level file (blind); `ref:sensorless`, which reports that start and",
+        "stands still. Scores are medians with their range; RMS is the position RMS of the estimates",
+        "(median, worst seed). *beats blind*: seeds on which the reference scored higher AND localized",
+        "better than blind driving; *>= 2x sensorless*: seeds on which it scored at least twice the",
+        "sensorless controller; *task*: seeds on which the reference did the level's task (a localize",
+        "level has none to do).",
+        "",
+        "| level | reference | its score | its RMS mm | task | blind score | blind RMS mm | sensorless score "
+        "| beats blind | >= 2x sensorless |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        ref, blind, still, n = r["reference"], r["blind"], r["sensorless"], r["seeds"]
+        task = "-" if r["localize"] else f"{ref['reached']} of {n}"
+        lines.append(
+            f"| {r['level']} | {r['controller']} | {ref['score_median']:.1f} ({ref['score_min']:.1f} to "
+            f"{ref['score_max']:.1f}) | {_mm(ref['rms_mm_median'])} / {_mm(ref['rms_mm_worst'])} | "
+            f"{task} | {blind['score_median']:.1f} "
+            f"({blind['score_min']:.1f} to {blind['score_max']:.1f}) | {_mm(blind['rms_mm_median'])} | "
+            f"{still['score_median']:.1f} ({still['score_min']:.1f} to {still['score_max']:.1f}) | "
+            f"{r['beats_blind']} of {n} | {r['twice_sensorless']} of {n} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=20, help="seeds 1..N (default 20)")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    ap.add_argument("--levels", nargs="*", default=None, help="built-in levels (default: all)")
+    ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "docs" / "baselines.md"))
+    ap.add_argument("--json", metavar="FILE", help="write every match's outcome and the summary as JSON")
+    args = ap.parse_args(argv)
+    if args.seeds < 1 or args.workers < 1:
+        ap.error("--seeds and --workers must be at least 1")
+    names = args.levels or levels.names()
+    jobs = [(name, who, seed) for name in names for seed in range(1, args.seeds + 1) for who in WHO]
+    start = time.perf_counter()
+    with ProcessPoolExecutor(args.workers) as pool:
+        outcomes = list(pool.map(_play, jobs, chunksize=1))
+    seconds = time.perf_counter() - start
+    from arena.loader import load_level
+
+    rows = []
+    for name in names:
+        level = load_level(levels.path(name))
+        row = summary(outcomes, name) | {
+            "controller": level.default_controller,
+            "localize": level.task.kind == "localize",
+        }
+        rows.append(row)
+        ref, blind, still = row["reference"], row["blind"], row["sensorless"]
+        print(
+            f"{name:11} ref {ref['score_median']:6.1f} blind {blind['score_median']:6.1f} sensorless "
+            f"{still['score_median']:6.1f}  beats blind {row['beats_blind']}/{row['seeds']}  "
+            f">= 2x sensorless {row['twice_sensorless']}/{row['seeds']}  task {ref['reached']}/{row['seeds']}",
+            flush=True,
+        )
+    Path(args.out).write_text(markdown(rows, args.seeds, seconds, args.workers), encoding="utf-8")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"summary": rows, "matches": [asdict(o) for o in outcomes]}, indent=1))
+    print(f"{len(jobs)} matches in {seconds:.0f} s; wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
