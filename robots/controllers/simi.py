@@ -10,16 +10,17 @@ from __future__ import annotations
 
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
+from robots.toolkit.motion import Pose
 from robots.toolkit.solvers import newton
 
 
 class Simi(StopAndScan):
-    def fix(self, rev: Revolution) -> tuple[float, float, float] | None:
+    def candidates(self, rev: Revolution) -> list[Pose]:
         seen = {b: a for a, b in rev.hits if b is not None}
         if len(seen) < 3:
-            return None
+            return []
         xmin, ymin, xmax, ymax = self.brief.field
         guess = self.tracker.pose or ((xmin + xmax) / 2, (ymin + ymax) / 2, 0.0)
         ids = sorted(seen)
         fix = newton([self.beacons[b] for b in ids], [seen[b] for b in ids], guess)
-        return (fix.x, fix.y, fix.heading) if fix.ok else None
+        return [(fix.x, fix.y, fix.heading)] if fix.ok and self.inside(fix.x, fix.y) else []

@@ -1,7 +1,13 @@
 """Ubersetzig 1999: three retroreflective targets on one wall, angles in 256 binary steps,
 solved by his circle-centre method; stop-and-scan to the goal. A scan that does not show
 exactly three targets within half a turn is rejected ("lost: can't find 3 targets",
-"targets on more than one wall")."""
+"targets on more than one wall").
+
+One step is 1.406 deg, and from the far end of the room that moves a fix by tens of
+centimetres along the wall. So each step read is taken as its middle, and at every stop the
+robot looks again after turning on the spot by two thirds of a step, three times: the same
+targets then fall at other places within the steps, and the filter, which takes a repeated
+reading of a head at rest only once, averages what the steps hide."""
 
 from __future__ import annotations
 
@@ -9,11 +15,16 @@ import math
 
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
+from robots.toolkit.motion import Pose
 from robots.toolkit.solvers import wall
 
 
 class Ubersetzig(StopAndScan):
-    BEARING_SIGMA = 2 * math.pi / 256 / math.sqrt(12)  # "256 divisions in a complete circle": a uniform step
+    ANGLE_STEP = 2 * math.pi / 256  # "256 divisions in a complete circle"
+    LATCHED_SIGMA = ANGLE_STEP / math.sqrt(12)  # uniform within the step
+    SLACK = 0.5  # m: at the far end of the room one step of a target's angle moves the fix this much
+    DITHERS = 3
+    DITHER = 2 / 3 * ANGLE_STEP
 
     def setup(self, brief) -> None:
         super().setup(brief)
@@ -27,7 +38,12 @@ class Ubersetzig(StopAndScan):
         ay = ((p3[0] - p1[0]) / (2 * self.spacing), (p3[1] - p1[1]) / (2 * self.spacing))
         self.axes = ((ay[1], -ay[0]), ay)
 
-    def fix(self, rev: Revolution) -> tuple[float, float, float] | None:
+    def candidates(self, rev: Revolution) -> list[Pose]:
+        pose = self.fix(rev)
+        return [pose] if pose is not None and self.inside(pose[0], pose[1]) else []
+
+    def fix(self, rev: Revolution) -> Pose | None:
+        """The pose from one standing turn by the circle-centre method, or None."""
         angles = self.relative(rev)
         if len(angles) != 3:
             return None

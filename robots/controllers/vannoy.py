@@ -1,26 +1,23 @@
-"""Vannoy 2001: unlabelled reflections identified by sector order, the circle method, and the
-heading from the click-to-first-reflection time; stop-and-scan to the charger."""
+"""Vannoy 2001: unlabelled reflections in their cyclic order, the circle method, and the
+heading from the click-to-first-reflection time; stop-and-scan to the charger.
+
+His sector rule (long / medium / short) picks one of the "three possible scenarios that make
+sense", and fails where the sectors are alike: "There is of course one point where the angles
+between all three reflectors will all be 120 degrees. In this case, the robot would have to
+move". So every scenario is solved, and all that fit inside the field are candidates; the
+robot moves to tell them apart (robots.controllers.stop_and_scan)."""
 
 from __future__ import annotations
 
 from robots.controllers.stop_and_scan import StopAndScan
 from robots.toolkit.angles import Revolution
-from robots.toolkit.associate import by_sectors
-from robots.toolkit.solvers import circles
+from robots.toolkit.associate import hypotheses
+from robots.toolkit.motion import Pose
 
 
 class Vannoy(StopAndScan):
-    def fix(self, rev: Revolution) -> tuple[float, float, float] | None:
+    def candidates(self, rev: Revolution) -> list[Pose]:
+        # "If there were less than or more than three reflections, we know that there has been a problem"
         if len(rev.hits) != 3 or len(self.beacons) != 3:
-            return None
-        rel = self.relative(rev)
-        xmin, ymin, xmax, ymax = self.brief.field
-        pose = self.tracker.pose
-        reference = pose[:2] if pose else ((xmin + xmax) / 2, (ymin + ymax) / 2)
-        assoc = by_sectors(rel, self.beacons, reference)
-        if assoc.ambiguous:
-            return None  # Vannoy: "the robot would have to move ... to resolve the problem"
-        fix = circles([self.beacons[b] for b in assoc.ids if b is not None], rel)
-        if not fix.ok or not (xmin <= fix.x <= xmax and ymin <= fix.y <= ymax):
-            return None
-        return fix.x, fix.y, fix.heading
+            return []
+        return [c for c in hypotheses(self.relative(rev), self.beacons) if self.inside(c[0], c[1])]

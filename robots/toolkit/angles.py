@@ -110,3 +110,69 @@ class BeaconRevolutions:
             elif self.last is not None:
                 self.pending.append(e)
         return done
+
+
+class TurnWindow:
+    """The returns of the last turn of a standing robot, at every event: a fix need not wait for
+    a turn that begins at an index click. Each hit's angle, counter-clockwise from straight
+    ahead, is the head's own latched reading, else the time from the last index click in the
+    window times the laser's rate (measured between the last two clicks, else nominal). The
+    window is a turn and `tolerance` of a turn long, and a hit with another a turn (within
+    `tolerance`) after it is that beacon seen again: it is dropped, so a `whole` window (the
+    robot stood through all of it) holds every beacon once, and any stray return besides.
+    Vannoy checks his laser's rate at each click ("The time from the first to second click was
+    four seconds. This verifies that our laser is tracking at the correct speed. A reading not
+    considered close should generate an error"): while the last two clicks were further apart
+    than `tolerance` of a turn from the nominal period, timed angles are refused."""
+
+    def __init__(self, sign: float, period: float, tolerance: float = 0.05) -> None:
+        self.sign, self.period, self.tolerance = sign, period, tolerance * period
+        self.span = period + self.tolerance
+        self.rate = TWO_PI / period
+        self.tracking = True  # the last two clicks were a plausible turn apart
+        self.last_click: float | None = None
+        self.since = -math.inf  # the robot stands from then on
+        self.events: list[SensorEvent] = []  # those of the window, repeats dropped
+
+    def restart(self, since: float) -> None:
+        """Forget the returns before `since`: the robot moves until then."""
+        self.since = since
+        self.events = []
+
+    @property
+    def whole(self) -> bool:
+        """Whether the robot stood through the whole window: it holds a whole turn."""
+        return bool(self.events) and self.events[-1].time - self.since >= self.span
+
+    def feed(self, e: SensorEvent) -> Revolution | None:
+        """Take the next event; return the turn that ends with it if every hit in it has an
+        angle, else None. `Revolution.hits` are in time order, so the last is `e` if a hit."""
+        if e.kind == "index":
+            if self.last_click is not None:
+                interval = e.time - self.last_click
+                self.tracking = abs(interval - self.period) <= self.tolerance
+                if self.tracking:
+                    self.rate = TWO_PI / interval
+            self.last_click = e.time
+        if e.kind not in ("index", "hit") or e.time < self.since:
+            return None
+        window = [old for old in self.events if old.time > e.time - self.span] + [e]
+        self.events = [
+            old
+            for old in window
+            if not any(
+                new.kind == old.kind and abs(new.time - old.time - self.period) <= self.tolerance for new in window
+            )
+        ]
+        clicks = [old.time for old in self.events if old.kind == "index"]
+        hits = [old for old in self.events if old.kind == "hit"]
+        if any(h.angle is None for h in hits) and (not clicks or not self.tracking):
+            return None
+        angles = tuple(
+            (
+                h.angle if h.angle is not None else (self.sign * self.rate * (h.time - clicks[-1])) % TWO_PI,
+                h.beacon,
+            )
+            for h in hits
+        )
+        return Revolution(self.events[0].time, e.time, angles)

@@ -5,14 +5,19 @@ return is the first is unknown. Vannoy identified it by the sizes of the sectors
 returns (long / medium / short). `by_sectors` generalizes that: it predicts the sector sizes
 from a reference point (the field centre, or the last known position), and matches the
 cyclic shift whose sector ranking agrees; it flags the case it cannot decide (sectors of
-nearly equal size, as at Vannoy's 120-degree point). `by_prediction` associates each return
-with the beacon whose predicted bearing from a prior pose is nearest, within a gate.
+nearly equal size, as at Vannoy's 120-degree point). `cyclic` keeps every association in
+that cyclic order, and `hypotheses` the pose each gives by the circle method where it fits the
+returns: Vannoy's "three possible scenarios that make sense", for a robot that keeps those
+where it may be and tells them apart by moving. `by_prediction` associates each return with the beacon whose predicted bearing from a
+prior pose is nearest, within a gate.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from robots.toolkit.solvers import circles
 
 TWO_PI = 2 * math.pi
 
@@ -78,3 +83,55 @@ def by_prediction(
             out[i] = b
             used.add(b)
     return Association(tuple(out), ambiguous=any(o is None for o in out))
+
+
+def cyclic(
+    angles: list[float], beacons: dict[str, tuple[float, float]], reference: tuple[float, float]
+) -> list[Association]:
+    """Every association of one revolution's returns (`angles`, counter-clockwise from any
+    reference, one per beacon) that keeps the beacons' counter-clockwise order seen from
+    `reference`: one per cyclic shift, none if the counts differ."""
+    ids = list(beacons)
+    n = len(ids)
+    if len(angles) != n:
+        return []
+    rx, ry = reference
+    ccw = sorted(ids, key=lambda b: math.atan2(beacons[b][1] - ry, beacons[b][0] - rx))
+    order = sorted(range(n), key=lambda i: angles[i] % TWO_PI)
+    out = []
+    for shift in range(n):
+        ids_: list[str | None] = [None] * n
+        for k, i in enumerate(order):
+            ids_[i] = ccw[(k + shift) % n]
+        out.append(Association(tuple(ids_)))
+    return out
+
+
+def predicted_angles(beacons: dict[str, tuple[float, float]], pose: tuple[float, float, float]) -> list[float]:
+    """The angles, counter-clockwise from straight ahead in [0, 2 pi), at which a robot at
+    `pose` (x, y, heading) sees the beacons, in increasing order: its unlabelled revolution."""
+    x, y, h = pose
+    return sorted((math.atan2(by - y, bx - x) - h) % TWO_PI for bx, by in beacons.values())
+
+
+def hypotheses(
+    angles: list[float], beacons: dict[str, tuple[float, float]], residual: float = 0.02
+) -> list[tuple[float, float, float]]:
+    """The poses (x, y, heading of angle 0) of every cyclic association (seen from the beacons'
+    centroid) of three returns that the circle method solves, each checked against the
+    returns: a circle holds both arcs of a chord, which see it under an angle and under its
+    supplement, so a solution must give back every return's angle within `residual` rad."""
+    centroid = (sum(x for x, _ in beacons.values()) / len(beacons), sum(y for _, y in beacons.values()) / len(beacons))
+    out = []
+    for assoc in cyclic(angles, beacons, centroid):
+        points = [beacons[b] for b in assoc.ids if b is not None]
+        fix = circles(points, angles)
+        if not fix.ok:
+            continue
+        errors = [
+            math.remainder(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a, TWO_PI)
+            for (bx, by), a in zip(points, angles)
+        ]
+        if max(abs(e) for e in errors) <= residual:
+            out.append((fix.x, fix.y, fix.heading))
+    return out

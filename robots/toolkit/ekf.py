@@ -130,7 +130,44 @@ class BearingEKF:
         H = np.array([-dy / d2, dx / d2, 1.0, d_phase, 0.0])  # d(h + offset - bearing)/d(state)
         return self._update(innovation, H, var, gate)
 
+    def confine(self, box: tuple[float, float, float, float]) -> None:
+        """The position is known to lie in `box` (xmin, ymin, xmax, ymax), anywhere in it alike
+        (a start region the rules announce): each coordinate's estimate becomes the mean and
+        variance of its Gaussian cut to the box, taken in as a measurement that gives exactly
+        those (so the rest of the state follows); well inside the box nothing changes."""
+        for axis in (0, 1):
+            mean, var = float(self.s[axis]), float(self.P[axis, axis])
+            low, high = box[axis], box[axis + 2]
+            cut_mean, cut_var = _cut(mean, var, low, high)
+            if cut_var >= var * (1 - 1e-9):
+                continue
+            r = var * cut_var / (var - cut_var)  # a measurement's variance that leaves cut_var
+            H = np.zeros(5)
+            H[axis] = 1.0
+            self._update(mean + (cut_mean - mean) * (var + r) / var - mean, H, r, math.inf)
+
+    def agrees(self, other: BearingEKF, chi2: float) -> bool:
+        """Whether another filter's pose (x, y, heading) is this one's within their joint
+        uncertainty: the squared Mahalanobis distance of the difference is at most `chi2`."""
+        d = other.s[:3] - self.s[:3]
+        d[2] = wrap(float(d[2]))
+        return float(d @ np.linalg.solve(self.P[:3, :3] + other.P[:3, :3], d)) <= chi2
+
     def predicted_bearing(self, bx: float, by: float) -> float:
         """Bearing of (bx, by) relative to the current beam direction (rad, wrapped)."""
         x, y, h, phase, _ = self.s
         return wrap(math.atan2(by - y, bx - x) - h - phase)
+
+
+def _cut(mean: float, var: float, low: float, high: float) -> tuple[float, float]:
+    """The mean and variance of N(mean, var) cut to [low, high] (a truncated normal)."""
+    sd = math.sqrt(var)
+    a, b = (low - mean) / sd, (high - mean) / sd
+    pdf = lambda z: math.exp(-z * z / 2) / math.sqrt(2 * math.pi)  # noqa: E731
+    cdf = lambda z: (1 + math.erf(z / math.sqrt(2))) / 2  # noqa: E731
+    mass = cdf(b) - cdf(a)
+    if mass < 1e-9:  # all but nothing outside: the nearer edge, as sure as the estimate was
+        return min(max(mean, low), high), var
+    shift = (pdf(a) - pdf(b)) / mass
+    spread = (a * pdf(a) - b * pdf(b)) / mass
+    return mean + sd * shift, var * max(1e-9, 1 + spread - shift * shift)

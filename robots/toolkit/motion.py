@@ -3,10 +3,15 @@
 The drive ramps each wheel towards its command at `max_wheel_accel` (docs/levels.md), so a
 controller that remembers its commands knows its forward speed and turn rate at any time,
 up to slip and collisions. Used to predict between fixes and to compensate a revolution's
-hits for the motion during it.
+hits for the motion during it; the poses the commands alone give (`advance`), and the motion
+between two such poses (`between`, `compose`), to carry candidate poses along a move.
 """
 
 from __future__ import annotations
+
+import math
+
+Pose = tuple[float, float, float]  # x, y (m), heading (rad)
 
 
 class Wheels:
@@ -60,3 +65,25 @@ def heading_change(wheels: Wheels, plan: list[tuple[float, float, float]], top: 
         dt, _, rate = w.advance(w.time + duration)
         turned += rate * dt
     return turned
+
+
+def advance(pose: Pose, dt: float, v: float, w: float) -> Pose:
+    """Where a unicycle at `pose` (x, y, heading) ends after `dt` s at forward speed v and turn
+    rate w (the midpoint rule, as the EKF predicts)."""
+    x, y, h = pose
+    mid = h + w * dt / 2
+    return x + v * math.cos(mid) * dt, y + v * math.sin(mid) * dt, h + w * dt
+
+
+def between(a: Pose, b: Pose) -> Pose:
+    """The motion from pose `a` to pose `b` in `a`'s own frame (forward, left, turned)."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return c * dx + s * dy, -s * dx + c * dy, b[2] - a[2]
+
+
+def compose(pose: Pose, motion: Pose) -> Pose:
+    """Pose `pose` moved by `motion` (forward, left, turned) given in its own frame."""
+    x, y, h = pose
+    c, s = math.cos(h), math.sin(h)
+    return x + c * motion[0] - s * motion[1], y + s * motion[0] + c * motion[1], h + motion[2]

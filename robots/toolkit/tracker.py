@@ -22,6 +22,11 @@ three levels:
   tolerance"); three of the four arrays are enough ("the system uses the remaining three
   pulses"). A fix with four arrays must also be self-consistent. Hardware without labels
   brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule between index clicks.
+A stopping robot can instead judge its standing turns itself: `fit_turn` is a filter of one
+standing turn alone, as sure of the pose as that turn's geometry makes it (not a fixed guess),
+and `adopt` restarts from it. A head at rest that latches the same angle again brings nothing
+new: such a repeat is not taken twice. `odometry` is where the commanded wheels alone put the
+robot, for carrying candidate poses along a move.
 The heading is checked as Bac measured it, "by evaluating two consecutive positions": on a
 straight run, once the filtered position has moved `track_check` (m), the direction of travel
 must agree with the filtered heading within `heading_check` (rad), or the heading restarts
@@ -41,7 +46,7 @@ from collections.abc import Callable
 from robots.api import Brief, SensorEvent
 from robots.toolkit.angles import wrap
 from robots.toolkit.ekf import BearingEKF
-from robots.toolkit.motion import Wheels
+from robots.toolkit.motion import Pose, Wheels, advance
 from robots.toolkit.solvers import least_squares
 
 # "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
@@ -53,11 +58,13 @@ LEARN_TRACK = 0.01  # m: "only when the distance between two consecutive positio
 # s: a robot that drives a way it does not know moves, to its filter, as a random walk whose
 # spread grows by the distance it drives in WANDER, so that the pulses lead its position
 WANDER = 1.0
+VAGUE = 1.0  # m^2, rad^2: the variances of a pose known only from the returns about to come
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
 
 
 # A closed-form fix from an event and those before it: (x, y, the beam's world angle now,
-# the heading if the hardware tells it, else None), or None.
+# the heading if the hardware tells it, else None), or None (also when it has started or
+# dropped the filter itself, with `adopt` or `reset`).
 FirstFix = Callable[[SensorEvent], "tuple[float, float, float, float | None] | None"]
 
 
@@ -67,8 +74,10 @@ class HitTracker:
     `bearing_sigma` is one hit's bearing noise (rad), `gate` the EKF gate (standard
     deviations); when `lost_after` of the last `window` hits failed the gate, it restarts;
     `q_heading` (rad^2 per rad turned) and `q_drift` (rad^2 per m driven) say how far the
-    drive may stray from its commands in heading. `first_fix` replaces the labelled
-    revolution fix for starts and restarts."""
+    drive may stray from its commands in heading; `wobble` is the laser's relative rate
+    noise (its correlation time 1 s, BearingEKF); `latched_sigma`, if given, is the noise of an
+    angle the head latches itself (a stepped head), where it differs from a timed one's.
+    `first_fix` replaces the labelled revolution fix for starts and restarts."""
 
     def __init__(
         self,
@@ -82,6 +91,8 @@ class HitTracker:
         q_drift: float = 0.02,
         track_check: float = 0.02,
         heading_check: float = 0.5,
+        wobble: float = 0.005,
+        latched_sigma: float | None = None,
         first_fix: FirstFix | None = None,
     ):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
@@ -90,8 +101,15 @@ class HitTracker:
         self.time_out = TIME_OUT_TURNS * self.period
         self.top = brief.robot.max_wheel_speed
         self.wheels = Wheels(brief.robot.track, brief.robot.max_wheel_accel)
+        # where the commanded wheels alone say the robot is, from (0, 0, 0) at the start: the
+        # motion between two times, whatever the filter did meanwhile
+        self.odometry: Pose = (0.0, 0.0, 0.0)
+        self.readings: set[tuple[str | None, float]] = set()  # latched angles read where the odometry stands
+        self.readings_at = self.odometry
         self.var, self.gate, self.lost_after = bearing_sigma**2, gate, lost_after
+        self.latched_var = self.var if latched_sigma is None else latched_sigma**2
         self.q = dict(q_xy=q_xy, q_heading=q_heading, q_drift=q_drift)
+        self.wobble = wobble
         self.turn_rate = 0.0  # the robot's own turn rate (rad/s) over the last prediction
         self.recent: list[tuple[float, str]] = []  # hits of the last revolutions, for a restart
         self.verdicts: deque[bool] = deque(maxlen=window)  # the last hits: did they pass the gate?
@@ -123,6 +141,7 @@ class HitTracker:
         the last `feed` (a localize trial began); the next fix starts the filter again."""
         self.wheels = Wheels(self.wheels.track, self.wheels.accel, self.wheels.time)
         self.ekf = None
+        self.readings.clear()
         self.recent.clear()
         self.verdicts.clear()
         self.turn_rate = 0.0
@@ -197,7 +216,8 @@ class HitTracker:
             var_xy=var_xy,
             var_heading=var_heading,
             var_sum=var_sum,
-            var_rate=(0.005 * self.omega) ** 2,
+            var_rate=(self.wobble * self.omega) ** 2,
+            wobble=self.wobble,
             **self.q,
         )
 
@@ -205,6 +225,7 @@ class HitTracker:
         dt, v, w = self.wheels.advance(time)
         if dt > 0:
             self.turn_rate = w
+            self.odometry = advance(self.odometry, dt, v, w)
         if self.ekf is None:
             return
         if v and self.heading_sd > UNKNOWN_HEADING:  # driving, but which way: any, as far as it knows
@@ -239,21 +260,35 @@ class HitTracker:
 
     def _update(self, ekf: BearingEKF, e: SensorEvent) -> bool:
         """The EKF update of `ekf` for one event; False once the filter is lost."""
+        if e.angle is not None:
+            if self.odometry != self.readings_at:
+                self.readings, self.readings_at = set(), self.odometry
+            if (e.beacon, e.angle) in self.readings:
+                return True  # a head at rest latches the same angle again: nothing new
+            self.readings.add((e.beacon, e.angle))
+        ok = self._measure(ekf, e)
         if e.kind == "index":
-            ekf.index(self.var, self.gate)
             return True  # a click is no evidence of being lost or not
+        self.verdicts.append(ok)
+        return ok or not self.lost
+
+    def _measure(self, ekf: BearingEKF, e: SensorEvent) -> bool:
+        """The EKF update of `ekf` for one event; False if the gate refused it."""
+        if e.kind == "index":
+            return ekf.index(self.var, self.gate)
         if e.beacon is None:  # unlabelled: the beacon the beam should be pointing at
             beacon = min(self.beacons, key=lambda k: abs(ekf.predicted_bearing(*self.beacons[k])))
         else:
             beacon = e.beacon
         bx, by = self.beacons[beacon]
-        ok = (
-            ekf.relative(bx, by, e.angle, self.var, self.gate)
-            if e.angle is not None
-            else ekf.hit(bx, by, self.var, self.gate)
-        )
-        self.verdicts.append(ok)
-        return ok or self.verdicts.count(False) < self.lost_after
+        if e.angle is not None:
+            return ekf.relative(bx, by, e.angle, self.latched_var, self.gate)
+        return ekf.hit(bx, by, self.var, self.gate)
+
+    @property
+    def lost(self) -> bool:
+        """Whether `lost_after` of the last hits failed the gate."""
+        return self.verdicts.count(False) >= self.lost_after
 
     def restart(self, x: float, y: float, beam: float, heading: float | None = None) -> None:
         """(Re)start the filter at (x, y) with the beam's world angle `beam` now, and the
@@ -267,6 +302,31 @@ class HitTracker:
             h = self.ekf.pose[2]
             self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=0.3, var_sum=1e-4)
             self.restarts += 1
+        self.verdicts.clear()
+        self.disagree_since = None
+
+    def fit_turn(self, x: float, y: float, beam: float, heading: float, turn: list[SensorEvent]) -> BearingEKF:
+        """A filter of the last turn of a standing robot alone (`turn`: its events in time
+        order, the last now), around (x, y, heading), that turn's closed-form fix, with the
+        beam's world angle `beam` now: knowing nothing at the turn's start, then taking each
+        event as an update, it is as sure of its pose as that turn makes it (its geometry, its
+        heading tied to its position), not as sure as a fixed guess. `adopt` makes it the filter."""
+        now = self.wheels.time
+        phase = beam - heading - self.omega * (now - turn[0].time)  # the laser's angle at the turn's start
+        ekf = self._filter(x, y, heading, phase, var_xy=VAGUE, var_heading=VAGUE, var_sum=VAGUE)
+        last = turn[0].time
+        for e in turn:
+            ekf.predict(e.time - last, 0.0, 0.0)
+            last = e.time
+            self._measure(ekf, e)
+        ekf.predict(now - last, 0.0, 0.0)
+        return ekf
+
+    def adopt(self, ekf: BearingEKF) -> None:
+        """(Re)start from this filter (one of `fit_turn`)."""
+        if self.ekf is not None:
+            self.restarts += 1
+        self.ekf = ekf
         self.verdicts.clear()
         self.disagree_since = None
 
