@@ -50,13 +50,18 @@ class ObservationEncoder:
         self.index_time: float | None = None
         self.scan = np.zeros(self.samples, dtype=np.float32)
         self.command = (0.0, 0.0)
+        self.trial = 0
 
     def bearing(self, time: float, angle: float | None) -> float:
         """The laser's angle relative to the robot at an event: latched, else nominal."""
         return angle if angle is not None else math.fmod(self.brief.laser.angular_velocity * time, 2 * math.pi)
 
     def take(self, obs: Observation) -> None:
-        """Take in one control tick's events."""
+        """Take in one control tick's events (a new localize trial: the robot was carried
+        elsewhere and set down at rest, so what was seen and commanded before is void)."""
+        if obs.trial != self.trial:
+            self.reset()
+            self.trial = obs.trial
         for e in obs.events:
             if e.kind == "index":
                 self.index_time = e.time
