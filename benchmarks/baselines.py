@@ -173,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         )
     Path(args.out).write_text(markdown(rows, args.seeds, seconds, args.workers), encoding="utf-8")
     if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(json.dumps({"summary": rows, "matches": [asdict(o) for o in outcomes]}, indent=1))
     print(f"{len(jobs)} matches in {seconds:.0f} s; wrote {args.out}")
     return 0
