@@ -275,5 +275,10 @@ class Level:
         return round(self.control_period * self.physics_rate)
 
     @property
+    def control_ticks(self) -> int:
+        """The control ticks of a match that runs to its time limit."""
+        return math.ceil(self.time_limit / self.control_period - 1e-9)
+
+    @property
     def steps_per_record(self) -> int:
         return self.physics_rate // self.record_rate

@@ -474,12 +474,11 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
     problem = level_checks.level_problem(level, contest=base is not None)
     if problem:
         raise ctx.fail(problem.line or _line_of(located, problem.key), problem.key, problem.message)
-    control_ticks = math.ceil(level.time_limit / control_period - 1e-9)
-    if task.trials.count > control_ticks:
+    if task.trials.count > level.control_ticks:
         raise ctx.fail(
             _line_of(located, "task.trials.count"),
             "task.trials.count",
-            f"{task.trials.count} trials in a match of {control_ticks} control periods",
+            f"{task.trials.count} trials in a match of {level.control_ticks} control periods",
         )
     return level
 

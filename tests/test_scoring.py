@@ -132,6 +132,45 @@ def test_a_match_scores_withheld_guesses_no_higher(tmp_path):
     assert all(totals[True, s] < totals[False, s] for s in (1, 2, 3)), totals
 
 
+QUITTER = """
+    from robots.api import Command, Controller
+
+    class Quitter(Controller):
+        # reports the announced start (it knows it within 0.1 in and 1 deg) for the first trial,
+        # then {how}, so that the match, whose only robot is stopped, ends at once
+        def setup(self, brief):
+            self.start = brief.start.pose
+
+        def step(self, obs):
+            if obs.trial >= 1 and {quit}:
+                {action}
+            return Command(0.0, 0.0, estimate=self.start)
+"""
+
+
+def test_faulting_to_end_a_match_early_never_pays(tmp_path):
+    level = variant("simi", time_limit=6)  # ten trials of 0.6 s: the first is the announced start
+    teams = {}
+    for name, how, action in (
+        ("reporter", "goes on reporting it", "pass"),
+        ("raiser", "raises", "raise RuntimeError('I only knew the first trial')"),
+        ("nan", "sends a command that is not one", "return Command(float('nan'), 0.0)"),
+    ):
+        path = tmp_path / f"{name}.py"
+        path.write_text(textwrap.dedent(QUITTER.format(how=how, quit=name != "reporter", action=action)))
+        teams[name] = resolve(str(path))
+    for seed in (1, 2, 3):
+        reporter = run_match(level, [teams["reporter"]], seed=seed, isolate=False)["robots"][0]
+        for name in ("raiser", "nan"):
+            result = run_match(level, [teams[name]], seed=seed, isolate=False)
+            quitter = result["robots"][0]
+            assert result["end_reason"] == "all_stopped" and result["end_time"] < 1.0
+            assert quitter["stopped"] and quitter["localization"]["ticks"] == level.control_ticks == 120
+            # it earned the first trial's quality and nothing after: no more than reporting on
+            assert quitter["localization"]["quality"] <= reporter["localization"]["quality"]
+            assert quitter["score"]["total"] < reporter["score"]["total"]
+
+
 class Turned(Bac):
     """ref:bac with its reported heading turned by 20 degrees: the same driving, a worse estimate."""
 

@@ -76,7 +76,7 @@ class AgentSession:
         self.ideal, self.report_estimate, self.replay = ideal, report_estimate, replay
         samples = int(self.level.beacons.params.get("samples_per_turn", 0))
         self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}
-        self.total_ticks = math.ceil(self.level.time_limit / self.level.control_period - 1e-9)
+        self.total_ticks = self.level.control_ticks
         self.match: Match | None = None
         self.result: MatchResult | None = None
 

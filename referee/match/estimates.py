@@ -3,7 +3,8 @@
 Each control tick earns a quality q in 0..1 (docs/rules.md): an estimate that is off by d in
 position and h in heading earns q = 1 / (1 + sqrt((d / position_scale)^2 + (h / heading_scale)^2)),
 a tick without an estimate earns 0. The match's localization quality is the mean of q over its
-ticks, so withholding an estimate can never raise it.
+ticks, so withholding an estimate can never raise it; a robot stopped by a fault says nothing
+until the time limit (`silent_until`), so stopping, which may end a match early, cannot either.
 """
 
 from __future__ import annotations
@@ -45,6 +46,11 @@ class EstimateStats:
         self.hdg_sq += h * h
         self.pos_max = max(self.pos_max, d)
         self.hdg_max = max(self.hdg_max, h)
+
+    def silent_until(self, ticks: int) -> None:
+        """Count the ticks after the last one added, up to `ticks` in all, as ticks without an
+        estimate (a stopped robot's, to the time limit, whenever the match ended)."""
+        self.ticks = max(self.ticks, ticks)
 
     @property
     def fraction(self) -> float:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -301,9 +300,8 @@ class Match:
         self.total_steps = round(level.time_limit * level.physics_rate)
         self.ended = world.tick >= self.total_steps
         # localize trials begin at control ticks that cut the match into equal spans
-        ticks = math.ceil(level.time_limit / level.control_period - 1e-9)
         count = len(self.trial_poses)
-        self.trial_ticks = [(j * ticks // count) * level.steps_per_control for j in range(1, count)]
+        self.trial_ticks = [(j * level.control_ticks // count) * level.steps_per_control for j in range(1, count)]
 
     def _next_trial(self) -> None:
         """Carry every robot to its pose of the next trial, at rest (docs/rules.md): the
@@ -379,9 +377,14 @@ class Match:
         self.writer.frames([((tick + every * i) / rate, poses(state)) for i, state in enumerate(recorded)])
 
     def end(self) -> MatchResult:
-        """Finish the rules, write the replay's last records, and return the result."""
+        """Finish the rules, write the replay's last records, and return the result. A robot
+        stopped by a fault is counted without an estimate to the time limit: a controller that
+        faults on purpose ends nothing early (a match whose robots are all stopped ends at once)."""
         self.write_unwritten()
         world = self.world
+        for slot, stopped in enumerate(self.stopped):
+            if stopped:
+                self.estimates[slot].silent_until(self.level.control_ticks)
         self.rules.finish(world)
         result = self._result()
         if self.writer:
