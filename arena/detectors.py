@@ -170,6 +170,18 @@ def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
     return rel
 
 
+def step_time(t: np.ndarray, phase: np.ndarray, omega: np.ndarray, steps: float, start: float) -> np.ndarray:
+    """When a stepped head (`steps` per turn) reached the step it read each return at: it sees a
+    return while it stands at a step, so the time says no more of the angle than the step does.
+    `phase` is the laser's phase at `t` and `omega` its rate; no earlier than `start`, the
+    period's (a head turning clockwise reaches a step at its far edge)."""
+    q = TWO_PI / steps
+    rel = np.mod(phase, TWO_PI)
+    into = rel - np.floor(rel / q + 1e-9) * q
+    back = np.where(omega > 0, into, q - into)
+    return np.maximum(t - back / np.abs(omega), start)
+
+
 def jitter(t: np.ndarray, noise: np.ndarray, window: tuple[float, float]) -> np.ndarray:
     """Event times `t` (never -0) moved by the detector's timing noise, kept inside the batch
     `window` (no event is reported before the previous tick or after the one that delivers

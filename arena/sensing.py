@@ -262,6 +262,8 @@ class Sensing:
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         m = len(source)
+        if self.kind == "reflector" and steps:  # a stepped head: what it reads is the step, and when it got there
+            times = det.step_time(times, phase, self.omega[robot], steps, window[0])
         angles = det.quantize_angle(phase, steps).tolist() if latched else [None] * m
         labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
         beams = zip(c.x[source].tolist(), c.y[source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
@@ -316,11 +318,13 @@ class Sensing:
             return events
         for t in times:
             angle = None
-            if self.params["quantization"]:
+            steps = self.params["quantization"]
+            if steps:
                 k = min(int(np.searchsorted(traj.t, t)) - 1, len(traj.t) - 2)
                 s = (t - traj.t[k]) / (traj.t[k + 1] - traj.t[k])
-                phase = traj.phi[k, r] + s * (traj.phi[k + 1, r] - traj.phi[k, r])
-                angle = float(det.quantize_angle(np.array([phase]), self.params["quantization"])[0])
+                phase = np.array([traj.phi[k, r] + s * (traj.phi[k + 1, r] - traj.phi[k, r])])
+                angle = float(det.quantize_angle(phase, steps)[0])
+                t = float(det.step_time(np.array([t]), phase, self.omega[r : r + 1], steps, float(traj.t[0]))[0])
             events.append(det.Detection(r, float(t), "hit", None, angle, source=-1))
         return events
 

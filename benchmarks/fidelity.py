@@ -1,68 +1,73 @@
-"""`make fidelity`: each seed's experiment, re-run in LaserArena, beside the seed's published figure.
+"""`make fidelity`: each seed's experiment, re-run in LaserArena over many seeds, beside the seed's
+published figure; every model parameter with its source; and what the figures become when a
+parameter the seeds do not give is halved or doubled.
 
-Every row runs the built-in level of a seed with its default hardware error (or `--ideal` where
-the row says so), reads what happened from the match's replay (events, estimates, true poses),
-and compares one figure with the seed's, quoted, inside a pass band. The goto references are
-also run from starts anywhere in their level's region over 30 seeds (in worker processes). The table is printed and
-written as Markdown to docs/fidelity.md (`--out` to change). Exit status 0; `--strict` makes a
-failed row exit 1.
+An experiment runs a built-in level (or a variant of it: the seed's experiment at the seed's own
+pose) for one seed, reads what happened from the match's replay (events, estimates, true poses)
+and returns named figures. A row takes one figure over `--seeds` seeds (in worker processes) and
+passes when its median lies in the row's band; the table gives the median, the 5-95 % range of
+the seeds and how many seeds fell outside the band. Written as Markdown to docs/fidelity.md and
+as JSON to docs/fidelity.json (`--out`, `--json`): docs quote figures from it
+(tests/test_docs_figures.py holds them to it). Exit status 0; `--strict` makes a failed row exit 1.
 
-    python benchmarks/fidelity.py [--seeds 3] [--out docs/fidelity.md] [--strict]
+    python benchmarks/fidelity.py [--seeds 20] [--workers 2] [--sensitivity-seeds 5] [--strict]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import re
 import statistics
 import sys
-import tempfile
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 import levels
 from arena.level import Level
-from arena.loader import load_level, parse_level
-from referee.match.loop import run_match
+from arena.loader import parse_level
+from referee.match.loop import Match
 from referee.media import error_series
-from referee.records.replay import Replay, load
+from referee.records.replay import MemoryRecorder, Replay
 from referee.sandbox.teams import resolve
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import baselines
 
 IN = 0.0254  # m
 SIMI = "Simi 2000 (seed 003)"
 BAC = "Bac, Grift & Menezes 2011 (seed 002)"
 VANNOY = "Vannoy 2001 (seed 000)"
+UBERSETZIG = "Ubersetzig 1999 (seed 001)"
+OSENTOSKI = "Osentoski (seed 004)"
+ROOT = Path(__file__).resolve().parent.parent
+
+# ---- levels and matches ------------------------------------------------------------------------
+
+Scale = tuple[tuple[str, float], ...]  # (dotted key in the level's data, factor): a parameter scaled
 
 
-@dataclass(frozen=True)
-class Row:
-    """One figure: the seed's, ours, the band ours must fall in, and whether it does."""
-
-    experiment: str
-    source: str  # the seed and the sentence the figure comes from
-    published: str
-    simulated: str
-    band: str
-    ok: bool
-
-
-def level_named(name: str) -> Level:
-    return load_level(levels.path(name), display=f"levels/{name}.yaml")
-
-
-def variant(name: str, **changes) -> Level:
-    """A built-in level with top-level fields or the first robot's fields replaced (parsed
-    data, dumped back: the loader validates the variant like any level); a robot field given
-    as None is removed (`placement=None`: set down exactly at the start)."""
+def level_data(name: str, scale: Scale = ()) -> dict[str, Any]:
+    """A built-in level's parsed data, each parameter of `scale` multiplied by its factor."""
     data = yaml.safe_load(levels.path(name).read_text())
-    robot = changes.pop("robot", None)
+    for key, factor in scale:
+        *parents, last = key.split(".")
+        node = data
+        for part in parents:
+            node = node[int(part)] if isinstance(node, list) else node[part]
+        node[last] = node[last] * factor
+    return data
+
+
+def variant(name: str, scale: Scale = (), robot: dict[str, Any] | None = None, **changes: Any) -> Level:
+    """A built-in level with top-level fields or the first robot's fields replaced (parsed data,
+    dumped back: the loader validates the variant like any level); a robot field given as None
+    is removed (`placement=None`: set down exactly at the start)."""
+    data = level_data(name, scale)
     data.update(changes)
     for key, value in (robot or {}).items():
         if value is None:
@@ -72,29 +77,28 @@ def variant(name: str, **changes) -> Level:
     return parse_level(yaml.safe_dump(data).encode(), f"levels/{name}.yaml (variant)")
 
 
-def exactly_at(name: str, **changes) -> Level:
+def exactly_at(name: str, scale: Scale = (), robot: dict[str, Any] | None = None, **changes: Any) -> Level:
     """A built-in level whose robot is set down exactly at its nominal start, in one trial: the
     seed's experiment at the seed's own pose."""
-    robot = {"placement": None, **changes.pop("robot", {})}
-    if "task" not in changes and yaml.safe_load(levels.path(name).read_text())["task"]["kind"] == "localize":
+    if "task" not in changes and level_data(name)["task"]["kind"] == "localize":
         changes["task"] = {"kind": "localize"}
-    return variant(name, robot=robot, **changes)
+    return variant(name, scale, {"placement": None, **(robot or {})}, **changes)
 
 
-def play(level: Level, teams: list[str], seed: int, folder: Path, ideal: bool = False) -> Replay:
-    """Run a match in this process (the reference controllers give the same bytes isolated)
-    and read its replay back."""
-    path = folder / f"{level.name}-{seed}-{len(list(folder.iterdir()))}.replay"
-    run_match(level, [resolve(t) for t in teams], seed=seed, replay=path, ideal=ideal, isolate=False)
-    return load(path)
+def play(level: Level, teams: list[str], seed: int, ideal: bool = False) -> Replay:
+    """A match in this process (the reference controllers give the same bytes isolated), its
+    replay kept in memory."""
+    recorder = MemoryRecorder(level, level.text, seed, ideal, [(t, t) for t in teams])
+    Match(level, [resolve(t) for t in teams], seed=seed, ideal=ideal, isolate=False, recorder=recorder).run()
+    return recorder.replay
 
 
 def truth_at(rep: Replay, t: float, slot: int = 0) -> tuple[float, float, float]:
     """The true pose of `slot` at time `t`, interpolated between recorded frames but never across
-    a trial's move (as the viewer and `laserarena plot` take it)."""
+    a trial's move (as the viewer and `laserarena plot` take it); past the last frame (a match
+    that ended between two), the last."""
     pose = error_series.truth_at(rep.frames, [f[0] for f in rep.frames], slot, t, rep.moves)
-    assert pose is not None, f"no frame at {t} s"
-    return pose
+    return pose if pose is not None else tuple(rep.frames[-1][1][slot])
 
 
 def errors(rep: Replay, slot: int = 0, after: float = 0.0) -> list[tuple[float, float, float]]:
@@ -111,38 +115,40 @@ def errors(rep: Replay, slot: int = 0, after: float = 0.0) -> list[tuple[float, 
     return out
 
 
-def fmt_range(values: list[float], unit: str, digits: int = 1) -> str:
-    return " / ".join(f"{v:.{digits}f}" for v in values) + f" {unit}"
+def rms(values: list[float]) -> float:
+    return math.sqrt(statistics.fmean(v * v for v in values)) if values else math.inf
 
 
-# ---- Vannoy ---------------------------------------------------------------------------------
-
-
-def vannoy(folder: Path) -> list[Row]:
-    """The worked example: reflections after the click, robot still at (8, 5) ft."""
-    published = [1.0556, 2.3628, 2.8508]
-    rows = []
-    for ideal in (True, False):
-        rep = play(exactly_at("vannoy"), ["ref:idle"], 1, folder, ideal=ideal)
-        mine = [e for e in rep.events if e["r"] == 0]
-        click = next(e["t"] for e in mine if e["kind"] == "index" and e["t"] > 0)
-        hits = [e["t"] - click for e in mine if e["kind"] == "hit" and e["t"] > click][:3]
-        worst = max(abs(a - b) for a, b in zip(hits, published)) if len(hits) == 3 else math.inf
-        band = 1e-3 if ideal else 5e-3
-        rows.append(
-            Row(
-                f"Vannoy worked example, reflection times after the click{' (ideal)' if ideal else ''}",
-                f'{VANNOY}: "1.0556, 2.3628, 2.8508 seconds after the click"',
-                "1.0556 / 2.3628 / 2.8508 s",
-                fmt_range(hits, "s", 4),
-                f"each within {band * 1000:g} ms",
-                worst <= band,
-            )
+def heading_rms_after(rep: Replay, after: float, slot: int = 0) -> float:
+    """RMS heading error (deg) of the estimates `slot` reported after `after` seconds."""
+    return math.degrees(
+        rms(
+            [
+                math.remainder(e["e"][2] - truth_at(rep, e["t"], slot)[2], math.tau)
+                for e in rep.estimates
+                if e["r"] == slot and e["t"] > after
+            ]
         )
-    return rows
+    )
 
 
-# ---- Bac ------------------------------------------------------------------------------------
+# ---- experiments: one seed in, named figures out -----------------------------------------------
+
+
+def vannoy_example(seed: int, scale: Scale = (), ideal: bool = False) -> dict[str, float]:
+    """The worked example: the robot still at (8, 5) ft, compass 230 deg; the three reflection
+    times after the second click against the seed's, the largest difference (ms)."""
+    published = [1.0556, 2.3628, 2.8508]
+    rep = play(exactly_at("vannoy", scale), ["ref:idle"], seed, ideal=ideal)
+    mine = [e for e in rep.events if e["r"] == 0]
+    click = next(e["t"] for e in mine if e["kind"] == "index" and e["t"] > 0)
+    hits = [e["t"] - click for e in mine if e["kind"] == "hit" and e["t"] > click][:3]
+    worst = max(abs(a - b) for a, b in zip(hits, published)) if len(hits) == 3 else math.inf
+    return {"worst_ms": 1000 * worst}
+
+
+def vannoy_ideal_example(seed: int, scale: Scale = ()) -> dict[str, float]:
+    return vannoy_example(seed, scale, ideal=True)
 
 
 def bad_revolutions(rep: Replay, omega: float, slot: int = 0) -> tuple[int, float]:
@@ -173,147 +179,65 @@ def bad_revolutions(rep: Replay, omega: float, slot: int = 0) -> tuple[int, floa
     return bad, total
 
 
-def bac_static(folder: Path, seeds: list[int]) -> list[Row]:
-    level = exactly_at("bac-static")  # Table 1 was measured at one point, in one run
-    omega = level.robots[0].laser.angular_velocity
-    rates, sx, sy = [], [], []
-    for seed in seeds:
-        rep = play(level, ["ref:bac-seed"], seed, folder)  # the paper's own method, as Table 1 was made
-        bad, total = bad_revolutions(rep, omega)
-        rates.append(100 * bad / total)
-        errs = errors(rep, after=2.0)
-        mx, my = statistics.median(e[1] for e in errs), statistics.median(e[2] for e in errs)
-        correct = [e for e in errs if math.hypot(e[1] - mx, e[2] - my) < 0.01]  # the seed filtered the rest
-        sx.append(1000 * statistics.pstdev(e[1] for e in correct))
-        sy.append(1000 * statistics.pstdev(e[2] for e in correct))
-    return [
-        Row(
-            "Bac static: revolutions with a bad pulse set (bac-static)",
-            f'{BAC}: "the number of filtered errors varied between 1% and 3.7% of the total measurements"',
-            "1-3.7 %",
-            fmt_range(rates, "%"),
-            "1-4 %",
-            all(1.0 <= r <= 4.0 for r in rates),
-        ),
-        Row(
-            "Bac Table 1: static std of x / y, the paper's method (ref:bac-seed) at (1.16, 0.53) m",
-            f"{BAC}: Table 1, standard deviation 1.7 mm among correct measurements",
-            "1.7 mm",
-            "x " + fmt_range(sx, "mm", 2) + "; y " + fmt_range(sy, "mm", 2),
-            "0.85-3.4 mm (x2)",
-            all(0.85 <= v <= 3.4 for v in sx + sy),
-        ),
+def bac_static(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """Table 1: the paper's own method (ref:bac-seed), as Table 1 was made, standing at the
+    measured point in one run: bad revolutions (%) and the std of the correct fixes (mm)."""
+    level = exactly_at("bac-static", scale)
+    rep = play(level, ["ref:bac-seed"], seed)
+    bad, total = bad_revolutions(rep, level.robots[0].laser.angular_velocity)
+    errs = errors(rep, after=2.0)
+    if len(errs) < 2 or not total:  # hardware that gives no measurements (a parameter far off)
+        return {"bad_percent": 100.0, "std_x_mm": math.inf, "std_y_mm": math.inf}
+    mx, my = statistics.median(e[1] for e in errs), statistics.median(e[2] for e in errs)
+    correct = [e for e in errs if math.hypot(e[1] - mx, e[2] - my) < 0.01]  # the seed filtered the rest
+    return {
+        "bad_percent": 100 * bad / total,
+        "std_x_mm": 1000 * statistics.pstdev(e[1] for e in correct),
+        "std_y_mm": 1000 * statistics.pstdev(e[2] for e in correct),
+    }
+
+
+def bac_line(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """Fig. 7: the paper's method on its unsteered straight run; the std of the y deviation of
+    its fixes from the true path over the first 0.9 m travelled (the seed's 40 readings), mm."""
+    rep = play(variant("bac-line", scale), ["ref:bac-seed"], seed)
+    x0, y0, _ = rep.frames[0][1][0]
+    dev = []
+    for e in rep.estimates:
+        x, y, _ = truth_at(rep, e["t"])
+        if e["t"] >= 1.0 and math.hypot(x - x0, y - y0) <= 0.9:
+            dev.append(e["e"][1] - y)
+    return {"std_y_mm": 1000 * statistics.pstdev(dev), "readings": len(dev)}
+
+
+def asabe(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """Fig. 8: ref:bac on the letters from its real start; blind dead reckoning from the announced
+    start; and blind dead reckoning set down exactly at its start (the drive's own drift)."""
+    rep = play(variant("asabe", scale), ["ref:bac"], seed)
+    laser = rep.result["robots"][0]
+    blind = play(variant("asabe", scale), ["ref:dead-reckoning"], seed).result["robots"][0]
+    exact = play(exactly_at("asabe", scale), ["ref:dead-reckoning"], seed).result["robots"][0]
+    return {
+        "reached": laser["task"]["reached"],
+        "finished": float(laser["task"]["finished"] is not None),
+        "rms_mm": 1000 * laser["localization"]["position_rms"],
+        "heading_after_deg": heading_rms_after(rep, 5.0),
+        "ratio": laser["localization"]["position_rms"] / blind["localization"]["position_rms"],
+        "beats_blind": float(laser["score"]["total"] > blind["score"]["total"]),
+        "drift_mm": 1000 * exact["localization"]["position_rms"],
+    }
+
+
+def asabe_race(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """Four ref:bac robots blocking each other's beams: their position RMS (mm), the worst and
+    the median of the four."""
+    level = variant("asabe-race", scale)
+    rms_ = [
+        1000 * r["localization"]["position_rms"]
+        for r in play(level, ["ref:bac"] * len(level.robots), seed).result["robots"]
     ]
+    return {"worst_mm": max(rms_), "median_mm": statistics.median(rms_)}
 
-
-def bac_line(folder: Path, seeds: list[int]) -> list[Row]:
-    """Fig. 7: the paper's method on its unsteered straight run; the y deviation of the fixes
-    from the true path over the first 0.9 m travelled (the seed's 40 readings)."""
-    stds, counts = [], []
-    for seed in seeds:
-        rep = play(level_named("bac-line"), ["ref:bac-seed"], seed, folder)
-        x0, y0, _ = rep.frames[0][1][0]
-        dev = []
-        for e in rep.estimates:
-            x, y, _ = truth_at(rep, e["t"])
-            if e["t"] >= 1.0 and math.hypot(x - x0, y - y0) <= 0.9:
-                dev.append(e["e"][1] - y)
-        stds.append(1000 * statistics.pstdev(dev))
-        counts.append(len(dev))
-    return [
-        Row(
-            "Bac fig. 7: straight 0.9 m line at 31 rad/s, std of the y deviation (ref:bac-seed)",
-            f'{BAC}: "the deviations from the straight path had a standard deviation of 3.6 mm" '
-            "(40 readings over 0.9 m)",
-            "3.6 mm",
-            fmt_range(stds, "mm") + f" ({'/'.join(map(str, counts))} readings)",
-            "1.2-10.8 mm (x3: one run of 40 readings)",
-            all(1.2 <= v <= 10.8 for v in stds),
-        )
-    ]
-
-
-def heading_rms_after(rep: Replay, after: float, slot: int = 0) -> float:
-    """RMS heading error (deg) of the estimates `slot` reported after `after` seconds."""
-    errs = [
-        math.remainder(e["e"][2] - truth_at(rep, e["t"], slot)[2], math.tau)
-        for e in rep.estimates
-        if e["r"] == slot and e["t"] > after
-    ]
-    return math.degrees(math.sqrt(statistics.fmean(h * h for h in errs)))
-
-
-def asabe(folder: Path, seeds: list[int]) -> list[Row]:
-    level = level_named("asabe")
-    n = len(level.robots[0].path)
-    laser, blind, drift, hdg = [], [], [], []
-    for seed in seeds:
-        rep = play(level, ["ref:bac"], seed, folder)
-        laser.append(rep.result["robots"][0])
-        hdg.append(heading_rms_after(rep, 5.0))
-        blind.append(play(level, ["ref:dead-reckoning"], seed, folder).result["robots"][0])
-        # the drive's own drift: set down exactly where the blind driver believes it starts
-        exact = play(exactly_at("asabe"), ["ref:dead-reckoning"], seed, folder).result["robots"][0]
-        drift.append(1000 * exact["localization"]["position_rms"])
-    finished = sum(r["task"]["finished"] is not None for r in laser)
-    reached = [r["task"]["reached"] for r in laser]
-    ratio = [a["localization"]["position_rms"] / b["localization"]["position_rms"] for a, b in zip(laser, blind)]
-    better = [a["score"]["total"] > b["score"]["total"] for a, b in zip(laser, blind)]
-    return [
-        Row(
-            "ASABE: blind dead reckoning (ref:dead-reckoning) position RMS, set down exactly at its start",
-            f'{BAC}: "this is no guarantee that the robot will follow a perfectly straight line"',
-            "drifts",
-            fmt_range(drift, "mm", 0),
-            "tens of cm: 100-1500 mm",
-            all(100 <= d <= 1500 for d in drift),
-        ),
-        Row(
-            "Bac fig. 8: the 'ASABE' letters, ref:bac (waypoints reached)",
-            f"{BAC}: \"the robot followed the 'ASABE' path reasonably well\"",
-            f"{n} of {n}",
-            " / ".join(f"{k}" for k in reached) + f" of {n}",
-            "finished on at least 2 of 3 seeds",
-            finished >= min(2, len(seeds)),
-        ),
-        Row(
-            "ASABE: ref:bac heading RMS once it has driven to learn it (after 5 s)",
-            f'{BAC}: "the orientation was determined by evaluating two consecutive positions"',
-            "-",
-            fmt_range(hdg, "deg"),
-            "< 10 deg",
-            all(h < 10 for h in hdg),
-        ),
-        Row(
-            "ASABE: laser (ref:bac) vs blind (ref:dead-reckoning from the announced start), position RMS ratio",
-            'Simi 2000 (seed 003): "As with any system that uses dead-reckoning, error will always accumulate over time"',
-            "laser wins",
-            fmt_range(ratio, "", 2) + "; laser scores higher: " + " / ".join("yes" if b else "no" for b in better),
-            "ratio <= 0.33 and a higher score on every seed",
-            all(r <= 1 / 3 for r in ratio) and all(better),
-        ),
-    ]
-
-
-def asabe_race(folder: Path, seeds: list[int]) -> list[Row]:
-    level = level_named("asabe-race")
-    rms = []
-    for seed in seeds:
-        rep = play(level, ["ref:bac"] * len(level.robots), seed, folder)
-        rms += [1000 * r["localization"]["position_rms"] for r in rep.result["robots"]]
-    return [
-        Row(
-            "asabe-race: four ref:bac robots blocking each other's beams, position RMS",
-            "ours: references keep their fix under occlusion",
-            "-",
-            f"median {statistics.median(rms):.1f} mm, worst {max(rms):.1f} mm",
-            "every robot < 60 mm, median < 30 mm",
-            max(rms) < 60 and statistics.median(rms) < 30,
-        )
-    ]
-
-
-# ---- Simi -----------------------------------------------------------------------------------
 
 # Appendix F: the 40 tile positions (in) at which the seed compared optical with measured values.
 SIMI_POSITIONS = [
@@ -360,193 +284,416 @@ SIMI_POSITIONS = [
 ]
 # five of them, each turned through the seed's 45, 90, -45 and -90 degrees for the heading error
 SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.465, -82.116), (81.465, -58.116)]
+# each position's optical solution as the thesis computed it: from the detectors alone, the robot
+# not told where it stands (an announced exact pose would be a prior to lean on)
+UNTOLD = {"start_known": False}
 
 
-def simi(folder: Path, seeds: list[int]) -> list[Row]:
-    # each position's optical solution as the thesis computed it: from the detectors alone, the
-    # robot not told where it stands (an announced exact pose would be a prior to lean on)
-    blind = {"start_known": False}
-    worst_pos, fixed, worst_hdg, start = [], [], [], []
-    for seed in seeds:
-        start.append(
-            1000
-            * play(exactly_at("simi", robot=blind), ["ref:simi"], seed, folder).result["robots"][0]["localization"][
-                "position_max"
-            ]
-        )
-        pos, got = 0.0, 0
-        for x, y in SIMI_POSITIONS:
-            level = exactly_at("simi", time_limit=3, robot={"start": [x, y, 0], **blind})
-            r = play(level, ["ref:simi"], seed, folder).result["robots"][0]["localization"]
-            if r["fraction"] > 0:
-                got += 1
-                pos = max(pos, r["position_max"])
-        hdg = 0.0
-        for x, y in SIMI_TURNS:
-            for turn in (45, 90, -45, -90):
-                r = play(
-                    exactly_at("simi", time_limit=3, robot={"start": [x, y, turn], **blind}), ["ref:simi"], seed, folder
-                ).result["robots"][0]["localization"]
-                if r["fraction"] > 0:
-                    hdg = max(hdg, r["heading_max"])
-        worst_pos.append(1000 * pos)
-        fixed.append(got)
-        worst_hdg.append(math.degrees(hdg))
-    n = len(SIMI_POSITIONS)
-    return [
-        Row(
-            "Simi: the robot set down exactly at the measured start, worst position error",
-            f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"',
-            "0.298 in = 7.6 mm",
-            fmt_range(start, "mm"),
-            "2.5-15 mm",
-            all(2.5 <= v <= 15 for v in start),
-        ),
-        Row(
-            "Simi: positions of Appendix F that get a fix",
-            f"{SIMI}: Appendix F, 40 tile positions",
-            f"{n} of {n}",
-            " / ".join(str(k) for k in fixed) + f" of {n}",
-            f"all {n}",
-            all(k == n for k in fixed),
-        ),
-        Row(
-            "Simi: worst position error over the 40 positions",
-            f'{SIMI}: "errors of up to 0.259 inches for position variables"',
-            "0.259 in = 6.6 mm",
-            fmt_range(worst_pos, "mm"),
-            "2.5-15 mm",
-            all(2.5 <= v <= 15 for v in worst_pos),
-        ),
-        Row(
-            "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg",
-            f'{SIMI}: "The maximum error was found to be 0.8 degrees"',
-            "0.8 deg",
-            fmt_range(worst_hdg, "deg", 2),
-            "0.27-2.4 deg (x3)",
-            all(0.27 <= v <= 2.4 for v in worst_hdg),
-        ),
-    ]
+def simi(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """Chapter 4: the robot at the measured start, then at the 40 tile positions (3 s each) and at
+    five of them turned by +-45 and +-90 deg: the worst position error at the start (mm), over
+    the 40 (mm) and how many got a fix, and the worst heading error over the turned ones (deg)."""
+    start = play(exactly_at("simi", scale, UNTOLD), ["ref:simi"], seed).result["robots"][0]["localization"]
+    worst, fixed = 0.0, 0
+    for x, y in SIMI_POSITIONS:
+        level = exactly_at("simi", scale, {"start": [x, y, 0], **UNTOLD}, time_limit=3)
+        loc = play(level, ["ref:simi"], seed).result["robots"][0]["localization"]
+        if loc["fraction"] > 0:
+            fixed += 1
+            worst = max(worst, loc["position_max"])
+    heading = 0.0
+    for x, y in SIMI_TURNS:
+        for turn in (45, 90, -45, -90):
+            level = exactly_at("simi", scale, {"start": [x, y, turn], **UNTOLD}, time_limit=3)
+            loc = play(level, ["ref:simi"], seed).result["robots"][0]["localization"]
+            if loc["fraction"] > 0:
+                heading = max(heading, loc["heading_max"])
+    return {
+        "start_mm": 1000 * start["position_max"],
+        "fixed": fixed,
+        "worst_mm": 1000 * worst,
+        "heading_deg": math.degrees(heading),
+    }
 
 
-# ---- references that find an unknown start ----------------------------------------------------
-
-UNKNOWN_START = {
-    "vannoy": f'{VANNOY}: "Point R represents the exact position of the robot, which is unknown in the beginning"',
-    "ubersetzig": 'Ubersetzig 1999 (seed 001): "Accuracy is plus or minus a few inches within a typical room"',
-}
-
-
-def unknown_starts(seeds: int, workers: int) -> list[Row]:
-    """The goto references over many seeds, each from a start drawn anywhere in its level's
-    region, facing anywhere: how often they reach the goal, and their position RMS."""
-    jobs = [(name, "reference", seed) for name in UNKNOWN_START for seed in range(1, seeds + 1)]
-    with ProcessPoolExecutor(workers) as pool:
-        outcomes = list(pool.map(baselines._play, jobs, chunksize=1))
-    rows = []
-    for name, source in UNKNOWN_START.items():
-        mine = [o for o in outcomes if o.level == name]
-        reached = sum(o.reached for o in mine)
-        rms = [1000 * o.position_rms for o in mine]
-        worst = max(mine, key=lambda o: o.position_rms)
-        rows.append(
-            Row(
-                f"{name}: {level_named(name).default_controller} from a start anywhere in the level's region, "
-                f"{seeds} seeds: goal reached, position RMS",
-                source,
-                "-",
-                f"reached on {reached} of {seeds}; RMS median {statistics.median(rms):.1f} mm, "
-                f"worst {1000 * worst.position_rms:.1f} mm (seed {worst.seed})",
-                f"reached on at least {seeds - seeds // 30} of {seeds}",
-                reached >= seeds - seeds // 30,
-            )
-        )
-    return rows
+def osentoski(seed: int, scale: Scale = ()) -> dict[str, float]:
+    """ref:osentoski's own level: six trials anywhere in front of the lights (no published
+    figure: what its parameters cost)."""
+    r = play(variant("osentoski", scale), ["ref:osentoski"], seed).result["robots"][0]
+    return {"rms_mm": 1000 * (r["localization"]["position_rms"] or math.inf), "fraction": r["localization"]["fraction"]}
 
 
-# ---- ideal hardware -------------------------------------------------------------------------
+def unknown_start(name: str, seed: int, scale: Scale = ()) -> dict[str, float]:
+    """A goto reference from a start drawn anywhere in its level's region, facing anywhere."""
+    r = play(variant(name, scale), [f"ref:{name}"], seed).result["robots"][0]
+    return {
+        "reached": float(r["task"]["finished"] is not None),
+        "rms_mm": 1000 * (r["localization"]["position_rms"] or math.inf),
+    }
+
+
+def vannoy_start(seed: int, scale: Scale = ()) -> dict[str, float]:
+    return unknown_start("vannoy", seed, scale)
+
+
+def ubersetzig_start(seed: int, scale: Scale = ()) -> dict[str, float]:
+    return unknown_start("ubersetzig", seed, scale)
+
 
 SEED_LEVELS = ["vannoy", "ubersetzig", "bac-static", "bac-line", "asabe", "simi", "osentoski"]
 
 
-def ideal(folder: Path) -> list[Row]:
-    """With perfect hardware every seed level's default reference must localize within 5 mm, from
-    its first event on (the estimate at t = 0 can only be the announced start, off by its spread)."""
-    rows = []
-    for name in SEED_LEVELS:
-        level = level_named(name)
-        rep = play(level, [level.default_controller], level.seed, folder, ideal=True)
-        d = [1000 * math.hypot(ex, ey) for t, ex, ey in errors(rep) if t > 0]
-        rms, worst = (math.sqrt(statistics.fmean(v * v for v in d)), max(d)) if d else (math.inf, math.inf)
-        rows.append(
-            Row(
-                f"--ideal: {name} with {level.default_controller}",
-                "ours: perfect hardware, exact method",
-                "-",
-                f"RMS {rms:.2f} mm, max {worst:.2f} mm",
-                "RMS and max < 5 mm",
-                rms < 5 and worst < 5,
-            )
+def ideal(name: str, seed: int) -> dict[str, float]:
+    """With perfect hardware a level's default reference localizes within 5 mm from its first
+    event on (the estimate at t = 0 can only be the announced start, off by its spread): RMS and
+    worst, mm."""
+    level = variant(name)
+    rep = play(level, [level.default_controller], seed, ideal=True)
+    d = [1000 * math.hypot(ex, ey) for t, ex, ey in errors(rep) if t > 0]
+    return {"rms_mm": rms(d), "max_mm": max(d) if d else math.inf}
+
+
+EXPERIMENTS: dict[str, Callable[..., dict[str, float]]] = {
+    "vannoy_example": vannoy_example,
+    "vannoy_ideal_example": vannoy_ideal_example,
+    "bac_static": bac_static,
+    "bac_line": bac_line,
+    "asabe": asabe,
+    "asabe_race": asabe_race,
+    "simi": simi,
+    "osentoski": osentoski,
+    "vannoy_start": vannoy_start,
+    "ubersetzig_start": ubersetzig_start,
+    **{f"ideal_{name}": (lambda n: lambda seed, scale=(): ideal(n, seed))(name) for name in SEED_LEVELS},
+}
+
+
+def _run(job: tuple[str, int, Scale]) -> tuple[tuple[str, int, Scale], dict[str, float]]:
+    experiment, seed, scale = job
+    return job, EXPERIMENTS[experiment](seed, scale)
+
+
+# ---- rows: one figure of an experiment over the seeds, against the seed's ---------------------
+
+
+@dataclass(frozen=True)
+class Row:
+    """One figure: the seed's, ours over the seeds (the median passes or fails the band)."""
+
+    key: str  # its name in docs/fidelity.json
+    experiment: str
+    figure: str
+    title: str
+    source: str  # the seed and the sentence the figure comes from
+    published: str
+    low: float
+    high: float
+    unit: str
+    digits: int = 1
+    seeds: int = 0  # 0: the run's --seeds; more where a row counts seeds (at least 29 of 30)
+
+
+ROWS = [
+    Row("vannoy.example_ideal", "vannoy_ideal_example", "worst_ms", "Vannoy worked example, reflection times after the click, worst difference (ideal)", f"{VANNOY}: Table 1, reflections at 1.0556, 2.3628 and 2.8508 s after the click", "0 ms", 0, 1, "ms", 2),
+    Row("vannoy.example", "vannoy_example", "worst_ms", "Vannoy worked example, reflection times after the click, worst difference", f"{VANNOY}: Table 1, reflections at 1.0556, 2.3628 and 2.8508 s after the click", "0 ms (timed to 0.1 ms)", 0, 1, "ms", 2),
+    Row("bac.static_bad", "bac_static", "bad_percent", "Bac static: revolutions with a bad pulse set (bac-static, the measured point)", f'{BAC}: "the number of filtered errors varied between 1% and 3.7% of the total measurements"', "1-3.7 %", 1, 4, "%"),
+    Row("bac.static_std_x", "bac_static", "std_x_mm", "Bac Table 1: static std of x, the paper's method (ref:bac-seed) at (1.16, 0.53) m", f"{BAC}: Table 1, standard deviation 1.7 mm among correct measurements", "1.7 mm", 0.85, 3.4, "mm", 2),
+    Row("bac.static_std_y", "bac_static", "std_y_mm", "Bac Table 1: static std of y, the paper's method (ref:bac-seed) at (1.16, 0.53) m", f"{BAC}: Table 1, standard deviation 1.7 mm among correct measurements", "1.7 mm", 0.85, 3.4, "mm", 2),
+    Row("bac.line_std", "bac_line", "std_y_mm", "Bac fig. 7: straight 0.9 m line at 31 rad/s, std of the y deviation (ref:bac-seed)", f'{BAC}: "the deviations from the straight path had a standard deviation of 3.6 mm" (40 readings over 0.9 m)', "3.6 mm", 1.2, 10.8, "mm"),
+    Row("asabe.drift", "asabe", "drift_mm", "ASABE: blind dead reckoning (ref:dead-reckoning) position RMS, set down exactly at its start", f'{BAC}: "this is no guarantee that the robot will follow a perfectly straight line"', "drifts", 100, 1500, "mm", 0),
+    Row("asabe.reached", "asabe", "reached", "Bac fig. 8: the 'ASABE' letters, ref:bac, waypoints reached of 33", f"{BAC}: \"the robot followed the 'ASABE' path reasonably well\"", "33 of 33", 33, 33, "", 0),
+    Row("asabe.rms", "asabe", "rms_mm", "ASABE: ref:bac position RMS", "ours: the fused reference keeps its fix along the letters", "-", 0, 5, "mm"),
+    Row("asabe.heading", "asabe", "heading_after_deg", "ASABE: ref:bac heading RMS once it has driven to learn it (after 5 s)", f'{BAC}: "the orientation was determined by evaluating two consecutive positions"', "-", 0, 10, "deg"),
+    Row("asabe.ratio", "asabe", "ratio", "ASABE: laser (ref:bac) vs blind (ref:dead-reckoning from the announced start), position RMS ratio", f'{SIMI}: "As with any system that uses dead-reckoning, error will always accumulate over time"', "laser wins", 0, 1 / 3, "", 3),
+    Row("race.worst", "asabe_race", "worst_mm", "asabe-race: four ref:bac robots blocking each other's beams, worst robot's position RMS", "ours: references keep their fix under occlusion", "-", 0, 60, "mm"),
+    Row("race.median", "asabe_race", "median_mm", "asabe-race: the same, median robot's position RMS", "ours: references keep their fix under occlusion", "-", 0, 30, "mm"),
+    Row("simi.start", "simi", "start_mm", "Simi: the robot set down exactly at the measured start, worst position error", f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"', "0.298 in = 7.6 mm", 2.5, 15, "mm"),
+    Row("simi.fixed", "simi", "fixed", "Simi: positions of Appendix F that get a fix, of 40", f"{SIMI}: Appendix F, 40 tile positions", "40 of 40", 40, 40, "", 0),
+    Row("simi.worst", "simi", "worst_mm", "Simi: worst position error over the 40 positions", f'{SIMI}: "errors of up to 0.259 inches for position variables"', "0.259 in = 6.6 mm", 2.5, 15, "mm"),
+    Row("simi.heading", "simi", "heading_deg", "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg", f'{SIMI}: "The maximum error was found to be 0.8 degrees"', "0.8 deg", 0.27, 2.4, "deg", 2),
+    Row("vannoy.reached", "vannoy_start", "reached", "vannoy: ref:vannoy from a start anywhere in the level's region, seeds on which it reaches the charger", f'{VANNOY}: "Point R represents the exact position of the robot, which is unknown in the beginning"', "-", 29 / 30, 1, "", 2, 30),
+    Row("vannoy.rms", "vannoy_start", "rms_mm", "vannoy: ref:vannoy from a start anywhere in the region, position RMS", f"{VANNOY}: (no figure; ours)", "-", 0, 100, "mm", 1, 30),
+    Row("ubersetzig.reached", "ubersetzig_start", "reached", "ubersetzig: ref:ubersetzig from a start anywhere in the level's region, seeds on which it reaches the goal", f'{UBERSETZIG}: the robot is localized from one scan anywhere in "0 < rx < 127, -127 < ry < +127"', "-", 29 / 30, 1, "", 2, 30),
+    Row("ubersetzig.rms", "ubersetzig_start", "rms_mm", "ubersetzig: ref:ubersetzig from a start anywhere in the region, position RMS", f'{UBERSETZIG}: "Accuracy is plus or minus a few inches within a typical room"', "a few inches: 25-100 mm", 0, 100, "mm", 1, 30),
+    Row("osentoski.rms", "osentoski", "rms_mm", "osentoski: ref:osentoski over six trials anywhere in front of the lights, position RMS", f"{OSENTOSKI}: no figure published; the level's position scale is one 3-degree sample at 1.2 m", "-", 0, 63, "mm"),
+    *(
+        Row(f"ideal.{name}", f"ideal_{name}", "max_mm", f"--ideal: {name}, the default reference's worst position error from its first event on", "ours: perfect hardware, exact method", "-", 0, 5, "mm", 2)
+        for name in SEED_LEVELS
+    ),
+]  # fmt: skip
+# a share row's figure is 1 or 0 per seed: it passes on the mean, not the median
+SHARES = {"vannoy.reached", "ubersetzig.reached"}
+
+
+def percentile(values: list[float], q: float) -> float:
+    """The q-quantile of the values (linear between order statistics)."""
+    ordered = sorted(values)
+    pos = q * (len(ordered) - 1)
+    lo, hi = math.floor(pos), math.ceil(pos)
+    return ordered[lo] + (ordered[hi] - ordered[lo]) * (pos - lo)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """A row's figure over the seeds."""
+
+    row: Row
+    values: list[float]
+
+    @property
+    def centre(self) -> float:
+        return statistics.fmean(self.values) if self.row.key in SHARES else statistics.median(self.values)
+
+    @property
+    def ok(self) -> bool:
+        return self.row.low - 1e-9 <= self.centre <= self.row.high + 1e-9
+
+    @property
+    def outside(self) -> int:
+        if self.row.key in SHARES:
+            return sum(v < 1 for v in self.values)
+        return sum(not self.row.low - 1e-9 <= v <= self.row.high + 1e-9 for v in self.values)
+
+    def shown(self) -> str:
+        d, unit = self.row.digits, f" {self.row.unit}" if self.row.unit else ""
+        if self.row.key in SHARES:
+            return f"{sum(self.values):.0f} of {len(self.values)} seeds"
+        return (
+            f"{self.centre:.{d}f}{unit} ({percentile(self.values, 0.05):.{d}f} to "
+            f"{percentile(self.values, 0.95):.{d}f})"
         )
-    return rows
+
+    def band(self) -> str:
+        unit = f" {self.row.unit}" if self.row.unit else ""
+        if self.row.key in SHARES:
+            return f"at least {self.row.low:.0%} of seeds"
+        if self.row.low == self.row.high:
+            return f"{self.row.low:g}{unit}"
+        return f"{self.row.low:g}-{self.row.high:g}{unit}" if self.row.low > 0 else f"< {self.row.high:g}{unit}"
 
 
-def markdown(rows: list[Row], seeds: list[int], seconds: float, goto_seeds: int) -> str:
+# ---- sensitivity: what the figures become at half and twice a parameter of ours ----------------
+
+
+@dataclass(frozen=True)
+class Sensitive:
+    """A model parameter no seed gives (its level comment says "ours"), and the figure it moves."""
+
+    level: str
+    key: str  # dotted key in the level's data
+    row: str  # the row whose figure it moves most
+
+
+SENSITIVE = [
+    Sensitive("bac-static", "beacons.params.timing_noise", "bac.static_std_x"),
+    Sensitive("bac-static", "beacons.params.acceptance", "bac.static_bad"),
+    Sensitive("bac-static", "beacons.params.trigger_fraction", "bac.static_std_x"),
+    Sensitive("bac-static", "beacons.params.rise_time", "bac.static_bad"),
+    Sensitive("bac-static", "beacons.params.false_rate", "bac.static_bad"),
+    Sensitive("bac-static", "beacons.params.wobble", "bac.static_std_x"),
+    Sensitive("bac-static", "beacons.params.beam_diameter", "bac.static_std_x"),
+    Sensitive("asabe", "beacons.params.spin_time", "asabe.rms"),
+    Sensitive("simi", "beacons.params.light_noise", "simi.worst"),
+    Sensitive("simi", "beacons.params.trigger_fraction", "simi.worst"),
+    Sensitive("vannoy", "beacons.params.timing_noise", "vannoy.example"),
+    Sensitive("vannoy", "beacons.params.wobble", "vannoy.example"),
+    Sensitive("vannoy", "beacons.params.max_incidence", "vannoy.rms"),
+    Sensitive("vannoy", "beacons.params.false_rate", "vannoy.rms"),
+    Sensitive("ubersetzig", "beacons.params.max_incidence", "ubersetzig.rms"),
+    Sensitive("osentoski", "beacons.params.beam_width", "osentoski.rms"),
+    Sensitive("osentoski", "beacons.params.brightness_noise", "osentoski.rms"),
+    Sensitive("osentoski", "beacons.params.servo_jitter", "osentoski.rms"),
+    Sensitive("osentoski", "beacons.params.saturation_range", "osentoski.rms"),
+]
+FACTORS = (0.5, 2.0)
+
+
+def sensitivity_jobs(seeds: int) -> list[tuple[str, int, Scale]]:
+    """A run of each sensitive parameter's row experiment at half and at twice its value."""
+    jobs = []
+    for s in SENSITIVE:
+        experiment = next(r.experiment for r in ROWS if r.key == s.row)
+        for factor in FACTORS:
+            scale = ((s.key, factor),)
+            jobs += [(experiment, seed, scale) for seed in range(1, seeds + 1)]
+    return jobs
+
+
+def level_parameters() -> list[tuple[str, str, str, str]]:
+    """Every hardware parameter the built-in levels set, with the comment its level file gives it
+    (its source sentence, or "ours" and why): (level, key, value, comment)."""
+    out = []
+    for name in levels.names():
+        lines = levels.path(name).read_text().splitlines()
+        section = ""
+        for i, line in enumerate(lines):
+            stripped = line.strip()
+            if line and not line[0].isspace():
+                section = stripped.split(":")[0]
+            if section not in ("beacons", "laser") or ":" not in stripped or stripped.startswith(("#", "-", "{")):
+                continue
+            key, _, rest = stripped.partition(":")
+            value, _, comment = rest.partition("#")
+            if not value.strip() or key in ("kind", "items", "params", "radius", "crosstalk"):
+                continue
+            out.append((name, key, value.strip(), " ".join([comment.strip(), *_continued(lines, i)]).strip()))
+    return out
+
+
+def _continued(lines: list[str], i: int) -> list[str]:
+    """The comment lines that carry on line i's comment: comment-only lines below it whose `#`
+    stands at least as far right as line i's."""
+    if "#" not in lines[i]:
+        return []
+    column, more = lines[i].index("#"), []
+    for follow in lines[i + 1 :]:
+        if not follow.strip().startswith("#") or follow.index("#") < column:
+            break
+        more.append(follow.strip().lstrip("# "))
+    return more
+
+
+# ---- the report --------------------------------------------------------------------------------
+
+
+def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: dict, s_seeds: int) -> str:
     lines = [
         "# Fidelity: the seeds' figures beside LaserArena's",
         "",
         "Made by `make fidelity` (`python benchmarks/fidelity.py`): each seed's experiment re-run on its",
-        f"built-in level with the default hardware error, seeds {', '.join(map(str, seeds))} (figures per seed,",
-        f"separated by /; the unknown-start rows over {goto_seeds} seeds), in {seconds:.0f} s. Do not edit by hand:",
-        "run it again. An experiment the seed made at one pose sets the robot down exactly there; the",
-        "level's own matches draw the start within its spread (docs/levels.md). How the references",
-        "fare against blind driving and not sensing at all, level by level: docs/baselines.md.",
+        f"built-in level with the default hardware error over seeds 1-{seeds}, in {seconds:.0f} s. Do not edit by",
+        "hand: run it again. LaserArena's figure is the median over the seeds with the 5-95 % range of",
+        "the seeds in brackets (a share of seeds where the row counts them); a row passes when its",
+        "median lies in the band, and *outside* counts the seeds that did not. An experiment the seed",
+        "made at one pose sets the robot down exactly there; the level's own matches draw the start",
+        "within its spread (docs/levels.md). How the references fare against blind driving and not",
+        "sensing at all, level by level: docs/baselines.md. The figures are also in docs/fidelity.json.",
         "",
-        "| experiment | source | published | LaserArena | band | pass |",
-        "|---|---|---|---|---|---|",
+        "| experiment | source | published | LaserArena | band | outside | pass |",
+        "|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
+    for o in outcomes:
+        r = o.row
         lines.append(
-            f"| {r.experiment} | {r.source} | {r.published} | {r.simulated} | {r.band} | "
-            f"{'yes' if r.ok else '**no**'} |"
+            f"| {r.title} | {r.source} | {r.published} | {o.shown()} | {o.band()} | "
+            f"{o.outside} of {len(o.values)} | {'yes' if o.ok else '**no**'} |"
         )
+    lines += [
+        "",
+        "## Sensitivity: the parameters no seed gives",
+        "",
+        'Each parameter whose level comment says "ours" (the list below gives the reason for its',
+        f"value), halved and doubled, and the median over seeds 1-{s_seeds} of the figure it moves most",
+        "(the row named; its median at the level's own value is in the table above).",
+        "",
+        "| level | parameter | value | figure | at half | as set | at twice |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    by_row = {o.row.key: o for o in outcomes}
+    for s in SENSITIVE:
+        o = by_row[s.row]
+        value = level_data(s.level)
+        for part in s.key.split("."):
+            value = value[part]
+        d = o.row.digits
+        half, twice = (sensitivity[(s.key, s.level, f)] for f in FACTORS)
+        lines.append(
+            f"| {s.level} | `{s.key.rsplit('.', 1)[-1]}` | {value:g} | {o.row.title} ({o.row.unit or 'value'}) | "
+            f"{half:.{d}f} | {o.centre:.{d}f} | {twice:.{d}f} |"
+        )
+    lines += [
+        "",
+        "## Every hardware parameter of the built-in levels, and where it comes from",
+        "",
+        "Read from the level files (the comment beside each value); the drive's parameters are in",
+        "docs/drive.md, each robot's start and its spread in docs/levels.md.",
+        "",
+        "| level | parameter | value | source, or why ours |",
+        "|---|---|---|---|",
+    ]
+    for name, key, value, comment in level_parameters():
+        lines.append(f"| {name} | `{key}` | {value} | {comment.replace('|', '/')} |")
     return "\n".join(lines) + "\n"
+
+
+# a figure quoted in the docs from this report: <!--f:KEY:STAT-->VALUE<!--/f--> (STAT: median, p5, p95)
+QUOTED = re.compile(r"<!--f:([\w.-]+):(median|p5|p95)-->(-?[0-9.]+)<!--/f-->")
+
+
+def quoted_pages() -> list[Path]:
+    """The pages that may quote the report: README.md and docs/*.md."""
+    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+
+
+def requote(text: str, report: dict[str, dict[str, float]]) -> str:
+    """`text` with every figure it quotes from the report set to the report's value, to the
+    decimals it was quoted with."""
+
+    def figure(m: re.Match) -> str:
+        key, stat, old = m.groups()
+        digits = len(old.partition(".")[2])
+        return f"<!--f:{key}:{stat}-->{report[key][stat]:.{digits}f}<!--/f-->"
+
+    return QUOTED.sub(figure, text)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=3, help="seeds 1..N (default 3)")
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "docs" / "fidelity.md"))
+    ap.add_argument("--seeds", type=int, default=20, help="seeds 1..N of every row (default 20)")
+    ap.add_argument("--sensitivity-seeds", type=int, default=5, help="seeds of each sensitivity run (default 5)")
+    ap.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    ap.add_argument("--out", default=str(ROOT / "docs" / "fidelity.md"))
+    ap.add_argument("--json", default=str(ROOT / "docs" / "fidelity.json"))
     ap.add_argument("--strict", action="store_true", help="exit 1 if a row fails its band")
-    ap.add_argument("--goto-seeds", type=int, default=30, help="seeds of the unknown-start rows (default 30)")
-    ap.add_argument("--workers", type=int, default=2, help="worker processes of the unknown-start rows (default 2)")
     args = ap.parse_args(argv)
-    seeds = list(range(1, args.seeds + 1))
+    if min(args.seeds, args.workers, args.sensitivity_seeds) < 1:
+        ap.error("--seeds, --sensitivity-seeds and --workers must be at least 1")
     start = time.perf_counter()
-    rows: list[Row] = []
-    with tempfile.TemporaryDirectory(prefix="laserarena-fidelity-") as d:
-        folder = Path(d)
-        for part in (
-            lambda: vannoy(folder),
-            lambda: bac_static(folder, seeds),
-            lambda: bac_line(folder, seeds),
-            lambda: asabe(folder, seeds),
-            lambda: asabe_race(folder, seeds),
-            lambda: unknown_starts(args.goto_seeds, args.workers),
-            lambda: simi(folder, seeds),
-            lambda: ideal(folder),
-        ):
-            for r in part():
-                rows.append(r)
-                print(
-                    f"{'pass' if r.ok else 'FAIL'}  {r.experiment}: {r.simulated}  (published {r.published}; "
-                    f"band {r.band})",
-                    flush=True,
-                )
-    text = markdown(rows, seeds, time.perf_counter() - start, args.goto_seeds)
-    Path(args.out).write_text(text, encoding="utf-8")
-    failed = sum(not r.ok for r in rows)
-    print(f"{len(rows) - failed} of {len(rows)} figures within their band; wrote {args.out}")
+    seeds_of = {r.experiment: max(r.seeds or args.seeds, 1) for r in ROWS}
+    for r in ROWS:
+        seeds_of[r.experiment] = max(seeds_of[r.experiment], r.seeds or args.seeds)
+    jobs = [(e, seed, ()) for e, n in sorted(seeds_of.items()) for seed in range(1, n + 1)]
+    jobs += sensitivity_jobs(args.sensitivity_seeds)
+    figures: dict[tuple[str, int, Scale], dict[str, float]] = {}
+    with ProcessPoolExecutor(args.workers) as pool:
+        for job, result in pool.map(_run, jobs, chunksize=1):
+            figures[job] = result
+    outcomes = []
+    for row in ROWS:
+        o = Outcome(
+            row, [figures[(row.experiment, seed, ())][row.figure] for seed in range(1, (row.seeds or args.seeds) + 1)]
+        )
+        outcomes.append(o)
+        print(
+            f"{'pass' if o.ok else 'FAIL'}  {row.title}: {o.shown()}  (published {row.published}; band {o.band()}; "
+            f"outside {o.outside} of {len(o.values)})",
+            flush=True,
+        )
+    sensitivity = {}
+    for s in SENSITIVE:
+        row = next(r for r in ROWS if r.key == s.row)
+        for factor in FACTORS:
+            scale = ((s.key, factor),)
+            values = [
+                figures[(row.experiment, seed, scale)][row.figure] for seed in range(1, args.sensitivity_seeds + 1)
+            ]
+            sensitivity[(s.key, s.level, factor)] = statistics.median(values)
+    seconds = time.perf_counter() - start
+    Path(args.out).write_text(
+        markdown(outcomes, args.seeds, seconds, sensitivity, args.sensitivity_seeds), encoding="utf-8"
+    )
+    report = {
+        o.row.key: {"median": o.centre, "p5": percentile(o.values, 0.05), "p95": percentile(o.values, 0.95), "ok": o.ok, "outside": o.outside, "seeds": len(o.values)}
+        for o in outcomes
+    }  # fmt: skip
+    Path(args.json).write_text(json.dumps(report, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    if args.json == str(ROOT / "docs" / "fidelity.json"):  # the committed report: the docs quote it
+        for page in quoted_pages():
+            text = page.read_text(encoding="utf-8")
+            if requote(text, report) != text:
+                page.write_text(requote(text, report), encoding="utf-8")
+    failed = sum(not o.ok for o in outcomes)
+    print(f"{len(outcomes) - failed} of {len(outcomes)} rows within their band in {seconds:.0f} s; wrote {args.out}")
     return 1 if args.strict and failed else 0
 
 

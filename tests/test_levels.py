@@ -60,7 +60,8 @@ def test_ubersetzig_targets_on_one_wall():
     assert (lv.field.xmin, lv.field.xmax, lv.field.ymin, lv.field.ymax) == pytest.approx(
         (0, 127 * IN, -127 * IN, 127 * IN)
     )
-    assert lv.beacons.params["quantization"] == 256
+    # the head's 200 raw steps, which the seed's code turns into 256 BAMs: "hit(hit_index) * 64 / 50"
+    assert lv.beacons.params["quantization"] == 200 and lv.beacons.params["false_rate"] == 0
 
 
 @pytest.mark.parametrize("name", ["asabe", "bac-static", "bac-line", "asabe-race"])

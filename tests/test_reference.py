@@ -179,12 +179,15 @@ def test_starter_beats_driving_blind_on_asabe():
 # the share of its ticks a localize reference reports on: Osentoski's turret takes 2 s a turn and
 # the first full turn after each move 2-4 s of a 10 s trial; the others fix within a period
 COVERAGE = {"bac-static": 0.95, "simi": 0.85, "osentoski": 0.6}
+# and its position RMS within the level's position scale (docs/rules.md): Osentoski's shaking
+# servo blurs every sample by 1 deg, a sample step (3 deg) at 1.2 m is 63 mm
+ACCURACY = {"bac-static": 0.0017, "simi": 0.259 * IN, "osentoski": 0.063}
 
 
 @pytest.mark.parametrize("level", ["bac-static", "simi", "osentoski"])
 def test_localize_controllers_report(level):
     r = run(level, load_level(levels.path(level)).default_controller)
-    assert r["localization"]["fraction"] > COVERAGE[level] and r["localization"]["position_rms"] < 0.02
+    assert r["localization"]["fraction"] > COVERAGE[level] and r["localization"]["position_rms"] < ACCURACY[level]
 
 
 def test_simi_within_the_published_error():

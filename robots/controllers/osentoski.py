@@ -7,7 +7,7 @@ the middle one in counter-clockwise order is the middle light, and the angles be
 the outer ones give the position by the law of sines. The heading follows from the middle
 light's bearing. A scan that does not show three clear peaks (near a light, lights merging
 from afar, a shaky servo) is skipped, as the seed's robot had to. The robot stands still, so
-the reported pose is the mean of all its fixes since the trial began.
+the reported pose is the median of its fixes since the trial began.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ import math
 
 from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.solvers import law_of_sines
+
+SPLIT = 2  # samples (6 deg, one beam width): closer peaks are one light's, split by the servo's shake
 
 
 def peaks(samples: tuple[int, ...]) -> list[float]:
@@ -29,16 +31,26 @@ def peaks(samples: tuple[int, ...]) -> list[float]:
     median = ordered[n // 2]
     sd = (median - ordered[n // 4]) / 0.674
     threshold = median - max(5.0, 6.0 * sd)
+    minima = [
+        k
+        for k in range(n)
+        if samples[k] < threshold and samples[k] <= samples[k - 1] and samples[k] < samples[(k + 1) % n]
+    ]
+    # a shaking servo ("more than three light spikes") splits one light's peak in two: of peaks
+    # within SPLIT samples of each other only the brightest is a light
+    kept: list[int] = []
+    for k in sorted(minima, key=lambda k: samples[k]):
+        if all(min((k - j) % n, (j - k) % n) > SPLIT for j in kept):
+            kept.append(k)
     found = []
-    for k in range(n):
+    for k in sorted(kept):
         a, b, c = samples[k - 1], samples[k], samples[(k + 1) % n]
-        if b < threshold and b <= a and b < c:
-            # a beam of Gaussian profile: the log of the light (1 - sample / 255) is a parabola,
-            # so the vertex through the log of three samples is exact where nothing saturates
-            la, lb, lc = (math.log(max(1e-3, 1.0 - v / 255.0)) for v in (a, b, c))
-            curve = 2 * lb - la - lc
-            offset = 0.5 * (lc - la) / curve if curve > 0 else 0.0
-            found.append(((k + offset) * 2 * math.pi / n) % (2 * math.pi))
+        # a beam of Gaussian profile: the log of the light (1 - sample / 255) is a parabola,
+        # so the vertex through the log of three samples is exact where nothing saturates
+        la, lb, lc = (math.log(max(1e-3, 1.0 - v / 255.0)) for v in (a, b, c))
+        curve = 2 * lb - la - lc
+        offset = 0.5 * (lc - la) / curve if curve > 0 else 0.0
+        found.append(((k + offset) * 2 * math.pi / n) % (2 * math.pi))
     return found
 
 
@@ -60,7 +72,7 @@ class Osentoski(Controller):
                 self.axis = (ux, uy)
                 break
         self.pose: tuple[float, float, float] | None = None
-        self.fixes = 0
+        self.fixes: list[tuple[float, float, float]] = []
         self.trial = 0
 
     def fix(self, samples: tuple[int, ...]) -> tuple[float, float, float] | None:
@@ -85,7 +97,7 @@ class Osentoski(Controller):
 
     def step(self, observation: Observation) -> Command:
         if observation.trial != self.trial:  # carried to a new pose: its fixes start again
-            self.trial, self.pose, self.fixes = observation.trial, None, 0
+            self.trial, self.pose, self.fixes = observation.trial, None, []
         for e in observation.events:
             if e.kind == "scan":
                 pose = self.fix(e.samples)
@@ -94,16 +106,17 @@ class Osentoski(Controller):
         return Command(0.0, 0.0, estimate=self.pose)
 
     def _fuse(self, fix: tuple[float, float, float]) -> None:
-        """The robot never moves, so the Kalman filter of its pose is the running mean of the
-        fixes (zero process noise): each scan's brightness noise averages out."""
-        self.fixes += 1
-        if self.pose is None:
-            self.pose = fix
-            return
-        k = 1.0 / self.fixes
-        x, y, h = self.pose
-        self.pose = (
-            x + k * (fix[0] - x),
-            y + k * (fix[1] - y),
-            math.remainder(h + k * math.remainder(fix[2] - h, 2 * math.pi), 2 * math.pi),
-        )
+        """The robot never moves, so its pose is what its fixes since the trial began agree on:
+        their median, each coordinate's (the heading's about the first fix), so that a scan that
+        a shaking servo or a merging pair of lights made wrong is outvoted, not averaged in."""
+        self.fixes.append(fix)
+        h0 = self.fixes[0][2]
+        xs, ys = sorted(f[0] for f in self.fixes), sorted(f[1] for f in self.fixes)
+        hs = sorted(math.remainder(f[2] - h0, 2 * math.pi) for f in self.fixes)
+        self.pose = (_median(xs), _median(ys), math.remainder(h0 + _median(hs), 2 * math.pi))
+
+
+def _median(ordered: list[float]) -> float:
+    """The median of sorted values."""
+    n = len(ordered)
+    return ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2

@@ -1,10 +1,11 @@
-"""Ubersetzig 1999: three retroreflective targets on one wall, angles in 256 binary steps,
+"""Ubersetzig 1999: three retroreflective targets on one wall, angles read in the head's 200 raw steps,
 solved by his circle-centre method; stop-and-scan to the goal. A scan that does not show
 exactly three targets within half a turn is rejected ("lost: can't find 3 targets",
 "targets on more than one wall").
 
-One step is 1.406 deg, and from the far end of the room that moves a fix by tens of
-centimetres along the wall. So each step read is taken as its middle, and at every stop the
+One raw step is 1.8 deg (the seed's code turns it into 1.406 deg BAMs, "* 64 / 50"; we keep
+the raw reading), and from the far end of the room that moves a fix by tens of centimetres
+along the wall. So each step read is taken as its middle, and at every stop the
 robot looks again after turning on the spot by two thirds of a step, three times: the same
 targets then fall at other places within the steps, and the filter, which takes a repeated
 reading of a head at rest only once, averages what the steps hide."""
@@ -20,7 +21,7 @@ from robots.toolkit.solvers import wall
 
 
 class Ubersetzig(StopAndScan):
-    ANGLE_STEP = 2 * math.pi / 256  # "256 divisions in a complete circle"
+    ANGLE_STEP = 2 * math.pi / 200  # the raw step: the seed converts it to its 256 BAMs by "hit * 64 / 50"
     LATCHED_SIGMA = ANGLE_STEP / math.sqrt(12)  # uniform within the step
     SLACK = 0.5  # m: at the far end of the room one step of a target's angle moves the fix this much
     DITHERS = 3
