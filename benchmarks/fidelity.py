@@ -33,6 +33,7 @@ import yaml
 import levels
 from arena.level import Level
 from arena.loader import parse_level
+from arena.robot_models import ROBOT_MODELS
 from referee.match.loop import Match
 from referee.media import error_series
 from referee.records.replay import MemoryRecorder, Replay
@@ -52,13 +53,18 @@ Scale = tuple[tuple[str, float], ...]  # (dotted key in the level's data, factor
 
 
 def level_data(name: str, scale: Scale = ()) -> dict[str, Any]:
-    """A built-in level's parsed data, each parameter of `scale` multiplied by its factor."""
+    """A built-in level's parsed data, each parameter of `scale` multiplied by its factor (a
+    robot's drive error the level leaves at its model's default, `robots.0.drive.gain_sd`, is
+    scaled from that default)."""
     data = yaml.safe_load(levels.path(name).read_text())
     for key, factor in scale:
         *parents, last = key.split(".")
         node = data
         for part in parents:
-            node = node[int(part)] if isinstance(node, list) else node[part]
+            node = node[int(part)] if isinstance(node, list) else node.setdefault(part, {})
+        if last not in node and parents[-1:] == ["drive"]:
+            robot = data["robots"][int(parents[1])]
+            node[last] = getattr(ROBOT_MODELS[robot.get("model", "boe-bot")].drive, last)
         node[last] = node[last] * factor
     return data
 
@@ -504,7 +510,11 @@ SENSITIVE = [
     Sensitive("osentoski", "beacons.params.brightness_noise", "osentoski.rms"),
     Sensitive("osentoski", "beacons.params.servo_jitter", "osentoski.rms"),
     Sensitive("osentoski", "beacons.params.saturation_range", "osentoski.rms"),
-]
+    *(
+        Sensitive("asabe", f"robots.0.drive.{key}", "asabe.drift")
+        for key in ("gain_sd", "radius_sd", "track_sd", "dead_band", "saturation", "turn_slip", "turn_slip_sd", "accel_slip", "latency", "latency_jitter")
+    ),
+]  # fmt: skip
 FACTORS = (0.5, 2.0)
 
 
@@ -592,9 +602,9 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
     by_row = {o.row.key: o for o in outcomes}
     for s in SENSITIVE:
         o = by_row[s.row]
-        value = level_data(s.level)
+        value: Any = level_data(s.level, ((s.key, 1.0),))
         for part in s.key.split("."):
-            value = value[part]
+            value = value[int(part)] if isinstance(value, list) else value[part]
         d = o.row.digits
         half, twice = (sensitivity[(s.key, s.level, f)] for f in FACTORS)
         lines.append(
