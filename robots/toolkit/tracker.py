@@ -77,8 +77,18 @@ CROWD_GAP, CROWD_EVIDENCE, CROWD_WINDOW = 0.5, 3, 1.0
 # (on asabe-race, the middle 95 % of the innovations lie within 0.35-0.97 of their predicted sd); these
 # bring it to 0.8-1.3 (q_heading rad^2 per rad turned, q_drift rad^2 per m driven)
 CROWDED_Q = dict(q_heading=0.003, q_drift=0.002)
+# s: and a robot driving a way it does not know spreads, between two of its pulses, about as far
+# as it drives (WANDER's random walk would spread it three times as far in a turn)
+CROWDED_WANDER = 0.1
+CROWDED_RESTART_HEADING = 0.02  # rad^2 added to the heading's variance by a restart among others' pulses
+BEAM_CHECK = 0.03  # rad: a fix's beam this far from the filter's says the filter follows another laser
+# a restart among others' pulses waits for a second fix, CONFIRM_GAP to CONFIRM_WITHIN turns later,
+# that lies as far from the first as the odometry moved (within CONFIRM m and CONFIRM_SLIP of it)
+CONFIRM_GAP, CONFIRM_WITHIN, CONFIRM, CONFIRM_SLIP = 0.9, 3.0, 0.01, 0.2
 SEPARATION = 3.0  # sd: a rival pulse this much further from the prediction is not its own
-CROWDED_GATE = 4.0  # sd: the gate among other lasers' pulses, whose sd is now what the pulses scatter
+# sd: the gate among other lasers' pulses, whose sd is now what the pulses scatter (on asabe-race-shared,
+# seeds 1-3, 99.8 % of a robot's own pulses fall within it, and 20 % fewer of the others' than within 4)
+CROWDED_GATE = 3.0
 # rad: but never wider than this, where others' pulses come too often (a filter that unsure of its
 # beam takes a whole turn's pulses at once: a restart from `one_laser`)
 WIDEST = 0.04
@@ -153,8 +163,12 @@ class HitTracker:
         self.crowded = False  # other lasers' pulses reach these arrays too (shared crosstalk)
         self.last_pulse: dict[str, float] = {}  # each array's last pulse, anyone's
         self.doubles: deque[float] = deque(maxlen=CROWD_EVIDENCE)  # when an array fired again within CROWD_GAP
-        self.heard: list[tuple[float, str]] = []  # crowded: every labelled pulse of the last turns
+        self.heard: list[tuple[float, str]] = []  # every labelled pulse of the last turns, anyone's
         self.own: dict[str, float] = {}  # crowded: when each array last gave a pulse taken as its own
+        self.checked = -math.inf  # crowded: when a fix from anyone's pulses last checked the filter
+        # crowded: the last fix that disagreed with the filter, to be confirmed before a restart:
+        # (time, x, y, and the odometry's x, y then)
+        self.candidate: tuple[float, float, float, float, float] | None = None
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
         start = brief.start
@@ -183,6 +197,7 @@ class HitTracker:
         self.run_from = None
         self.heard.clear()
         self.own.clear()
+        self.candidate = None
         self.start = None  # carried elsewhere: the announced start says nothing of where
 
     @property
@@ -219,7 +234,7 @@ class HitTracker:
                 continue
             self._advance(e.time)
             if e.kind == "hit" and e.beacon is not None and self._own_fix:
-                self._notice_others(e)
+                self._hear(e)
             if self.crowded and e.kind == "hit" and e.beacon is not None:
                 self._crowded_hit(e, pulses[e.beacon])
             else:
@@ -276,8 +291,9 @@ class HitTracker:
             return
         if v and self.heading_sd > UNKNOWN_HEADING:  # driving, but which way: any, as far as it knows
             self.ekf.predict(dt, 0.0, w)
-            self.ekf.P[0, 0] += v * v * dt * WANDER
-            self.ekf.P[1, 1] += v * v * dt * WANDER
+            wander = CROWDED_WANDER if self.crowded else WANDER
+            self.ekf.P[0, 0] += v * v * dt * wander
+            self.ekf.P[1, 1] += v * v * dt * wander
         else:
             self.ekf.predict(dt, v, w)
 
@@ -299,23 +315,32 @@ class HitTracker:
         disagreed with it for over a revolution."""
         if fix is None:
             return
-        if ekf is None or lost:
+        if ekf is None or lost or self._wrong(fix[:2], ekf, time):
             self.restart(*fix)
-        elif abs(self.turn_rate) > STEADY_TURN or math.dist(fix[:2], ekf.pose[:2]) <= self.fix_check:
+
+    def _wrong(self, fix: tuple[float, float], ekf: BearingEKF, time: float) -> bool:
+        """Whether every closed-form fix, this one the last, has disagreed with the filter
+        for over a revolution."""
+        if abs(self.turn_rate) > STEADY_TURN or math.dist(fix, ekf.pose[:2]) <= self.fix_check:
             self.disagree_since = None  # agreed, or turning: the laser lags its motor, fixes are poor
         elif self.disagree_since is None:
             self.disagree_since = time
         elif time - self.disagree_since > self.period:
             # every fix far off for over a revolution: not one bad pulse shared by a few
             # overlapping revolutions, but a filter that is wrong
-            self.restart(*fix)
+            return True
+        return False
 
     # ---- other lasers' pulses on the same arrays (shared crosstalk) ----------------------
 
-    def _notice_others(self, e: SensorEvent) -> None:
-        """Count an array that fires again within `CROWD_GAP` of a turn; enough of them, and
-        the tracker takes the table to be shared from now on."""
+    def _hear(self, e: SensorEvent) -> None:
+        """Keep a labelled pulse (a start among others' pulses needs the whole turn before it
+        noticed them), and count an array that fires again within `CROWD_GAP` of a turn; enough
+        of them, and the tracker takes the table to be shared from now on."""
         assert e.beacon is not None
+        self.heard.append((e.time, e.beacon))
+        while self.heard[0][0] < e.time - 2 * self.time_out:
+            self.heard.pop(0)
         last = self.last_pulse.get(e.beacon)
         self.last_pulse[e.beacon] = e.time
         if self.crowded or last is None or e.time - last >= CROWD_GAP * self.period:
@@ -332,9 +357,6 @@ class HitTracker:
     def _crowded_hit(self, e: SensorEvent, times: list[float]) -> None:
         """A labelled pulse that may be any laser's (`times`: its array's pulses this period)."""
         assert e.beacon is not None
-        self.heard.append((e.time, e.beacon))
-        while self.heard[0][0] < e.time - 2 * self.time_out:
-            self.heard.pop(0)
         ekf = self.ekf
         mine = ekf is not None and self._mine(ekf, e, times)
         if mine:
@@ -344,15 +366,56 @@ class HitTracker:
             while self.recent[0][0] < e.time - 2 * self.time_out:
                 self.recent.pop(0)
             self.own[e.beacon] = e.time
-        if ekf is not None and e.time - self.heard_from(TRACKING) <= SILENCE * self.period:
-            if mine and (self.disagree_since is not None or abs(self.turn_rate) <= STEADY_TURN):
-                self._check_fix(self._labelled_fix(e), ekf, False, e.time)
-            return
+        tracking = ekf is not None and e.time - self.heard_from(TRACKING) <= SILENCE * self.period
+        if tracking and self.candidate is None and e.time - self.checked < self.period:
+            return  # a filter that tracks is checked once a turn
         found = self._crowded_fix(e.time)
-        if found is not None:
-            (x, y, beam), pulses = found
+        self.checked = e.time
+        if found is None:
+            return
+        (x, y, beam), pulses = found
+        if tracking and ekf is not None and self._agrees(ekf, x, y, beam):
+            self.candidate = None
+            return
+        if self._confirmed(x, y, e.time):
+            self._crowded_restart(x, y, beam)
+            self.recent, self.own, self.candidate = pulses, {b: e.time for _, b in pulses}, None
+
+    def _agrees(self, ekf: BearingEKF, x: float, y: float, beam: float) -> bool:
+        """Whether a fix from anyone's pulses agrees with the filter: its position within
+        `fix_check`, its beam within BEAM_CHECK of the filter's (a filter that took another
+        laser's pulse for its own is off in its beam first). Turning, fixes are poor: no check."""
+        if abs(self.turn_rate) > STEADY_TURN:
+            return True
+        off = abs(wrap(beam - float(ekf.s[2] + ekf.s[3])))
+        return math.dist((x, y), ekf.pose[:2]) <= self.fix_check and off <= BEAM_CHECK
+
+    def _confirmed(self, x: float, y: float, time: float) -> bool:
+        """Whether a fix from anyone's pulses is confirmed by the one before it, a turn or more
+        earlier (pulses of another turn): apart by as much as the robot's own wheels moved it
+        meanwhile. Another robot near the prior makes its fixes too, but they move as it moves.
+        This fix becomes the one the next must confirm."""
+        last = self.candidate
+        if last is not None and time - last[0] < CONFIRM_GAP * self.period:
+            return False  # the same turn's pulses, much the same fix: it would confirm nothing
+        self.candidate = (time, x, y, self.odometry[0], self.odometry[1])
+        if last is None or time - last[0] > CONFIRM_WITHIN * self.period:
+            return False
+        moved = math.dist(self.odometry[:2], last[3:])
+        return abs(math.dist((x, y), last[1:3]) - moved) <= CONFIRM + CONFIRM_SLIP * moved
+
+    def _crowded_restart(self, x: float, y: float, beam: float) -> None:
+        """Restart at a fix among other lasers' pulses. A filter lost there has mostly taken
+        another laser's pulse for its own, which moves its beam, not its heading: the heading
+        is kept, a little less sure (`_check_heading` still corrects a robot turned by a push)."""
+        if self.ekf is None:
             self.restart(x, y, beam)
-            self.recent, self.own = pulses, {b: e.time for _, b in pulses}
+            return
+        h, var = self.ekf.pose[2], float(self.ekf.P[2, 2]) + CROWDED_RESTART_HEADING
+        self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=var, var_sum=1e-4)
+        self.restarts += 1
+        self.verdicts.clear()
+        self.disagree_since = None
 
     def heard_from(self, arrays: int) -> float:
         """Since when pulses taken as its own have come from at least `arrays` arrays."""
@@ -395,7 +458,7 @@ class HitTracker:
         laser near the prior could have made (`one_laser`): the set of four arrays that fits
         one pose nearest the prior, else, if the prior is sure enough, of three."""
         prior, radius = self._prior(now)
-        reach = radius + self.top * self.period  # and it moves while the turn lasts
+        reach = radius + max(map(abs, self.wheels.speeds)) * self.period  # and it moves while the turn lasts
         best: tuple[int, float, tuple[float, float, float], list[tuple[float, str]]] | None = None
         for pulses in one_laser(self.heard, self.beacons, prior, reach, self.omega + self.turn_rate):
             if best is not None and len(pulses) < best[0]:
