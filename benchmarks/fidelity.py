@@ -313,6 +313,38 @@ def asabe_race(folder: Path, seeds: list[int]) -> list[Row]:
     ]
 
 
+def shared_race_seed(seed: int) -> list[tuple[int, int, float]]:
+    """One seed of asabe-race-shared, four ref:bac robots run in this process: per robot, the
+    waypoints reached, of how many, and its position RMS (mm; inf without an estimate). One
+    seed in, figures out, so that seeds can run side by side (`shared_race_row` joins them)."""
+    level = level_named("asabe-race-shared")
+    result = run_match(level, [resolve("ref:bac")] * len(level.robots), seed=seed, isolate=False)
+    out = []
+    for r in result.robots:
+        rms = r.localization.position_rms
+        out.append((int(r.task.reached or 0), int(r.task.total or 0), math.inf if rms is None else 1000 * rms))
+    return out
+
+
+def shared_race_row(figures: list[list[tuple[int, int, float]]]) -> Row:
+    """The asabe-race-shared row from each seed's `shared_race_seed` figures."""
+    finished = sum(all(k == n for k, n, _ in seed) for seed in figures)
+    rms = [r for seed in figures for _, _, r in seed]
+    return Row(
+        "asabe-race-shared: four ref:bac robots, every array latching every robot's pulse: seeds on "
+        "which all reach every waypoint; position RMS",
+        f'{BAC}: "all 20 phototransistors in the array were placed in parallel" (ours: four robots on one table)',
+        "-",
+        f"{finished} of {len(figures)} seeds; median {statistics.median(rms):.1f} mm, worst {max(rms):.1f} mm",
+        "all finish on 90 % of seeds or more; every robot < 60 mm, median < 30 mm",
+        finished >= 0.9 * len(figures) and max(rms) < 60 and statistics.median(rms) < 30,
+    )
+
+
+def asabe_race_shared(seeds: list[int]) -> list[Row]:
+    return [shared_race_row([shared_race_seed(seed) for seed in seeds])]
+
+
 # ---- Simi -----------------------------------------------------------------------------------
 
 # Appendix F: the 40 tile positions (in) at which the seed compared optical with measured values.
@@ -532,6 +564,7 @@ def main(argv: list[str] | None = None) -> int:
             lambda: bac_line(folder, seeds),
             lambda: asabe(folder, seeds),
             lambda: asabe_race(folder, seeds),
+            lambda: asabe_race_shared(seeds),
             lambda: unknown_starts(args.goto_seeds, args.workers),
             lambda: simi(folder, seeds),
             lambda: ideal(folder),
