@@ -10,7 +10,17 @@ import levels
 from arena.loader import load_level
 
 FT, IN = 0.3048, 0.0254
-ALL = ["asabe", "asabe-race", "asabe-race-shared", "bac-line", "bac-static", "osentoski", "simi", "ubersetzig", "vannoy"]
+ALL = [
+    "asabe",
+    "asabe-race",
+    "asabe-race-shared",
+    "bac-line",
+    "bac-static",
+    "osentoski",
+    "simi",
+    "ubersetzig",
+    "vannoy",
+]
 
 
 def flat(points):

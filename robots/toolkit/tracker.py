@@ -424,19 +424,20 @@ class HitTracker:
 
     def _mine(self, ekf: BearingEKF, e: SensorEvent, times: list[float]) -> bool:
         """Whether a pulse is this robot's own: within the EKF's gate of where its beam should
-        meet that array, and clearly nearer to it than any other pulse of that array close by
-        (`times`: those of this period; the earlier ones heard): two pulses both about where its
-        own should be are two lasers in step, and neither can be told for its own."""
+        meet that array, and clearly nearer to it than any other pulse of that array within the
+        gate (`times`: those of this period; the earlier ones heard): two pulses both about where
+        its own should be are two lasers in step, and neither can be told for its own."""
         assert e.beacon is not None
         innovation, var = ekf.hit_innovation(*self.beacons[e.beacon], self.var)
-        if abs(innovation) > min(CROWDED_GATE * math.sqrt(var), WIDEST):
+        gate = min(CROWDED_GATE * math.sqrt(var), WIDEST)
+        if abs(innovation) > gate:
             return False
         rate = float(ekf.s[4]) + self.turn_rate  # how fast the predicted beam sweeps the world
         rivals = {t for t in times if t != e.time} | {t for t, b in self.heard if b == e.beacon and t != e.time}
         for t in rivals:
             if abs(t - e.time) < self.period / 4:
                 other = wrap(innovation - rate * (t - e.time))  # that pulse's innovation
-                if other * other - innovation * innovation < SEPARATION * SEPARATION * var:
+                if abs(other) <= gate and other * other - innovation * innovation < SEPARATION * SEPARATION * var:
                     return False
         return True
 
