@@ -79,6 +79,10 @@ class Sensing:
             for name in ("wobble", "detector", "timing", "false", "light")
         }
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
+        # shared crosstalk: when each array's one line is next free to make a flank (`_flanks`),
+        # and the table's false pulses, one stream for every controller
+        self.line_low_until = [-math.inf] * len(items)
+        self.table_false = rng.stream("beacons", "false")
         p = self.params
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
@@ -137,7 +141,10 @@ class Sensing:
 
         sources = [self._light(traj) if self.kind == "light" else self._hits(traj)]
         if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
-            sources.append([self._false_returns(traj, r) for r in range(self.n)])
+            if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
+                sources.append(self._to_everyone(self._table_false_pulses(traj)))
+            else:
+                sources.append([self._false_returns(traj, r) for r in range(self.n)])
         if self._any_index:
             sources.append(self._index(traj))
         out = []
@@ -269,12 +276,10 @@ class Sensing:
         beams = zip(c.x[source].tolist(), c.y[source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
         robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
-            for r, t, label, angle, beam in zip(robots, times_, labels, angles, beams):
-                for rx in range(self.n):
-                    out[rx].append(det.Detection(rx, t, "hit", label, angle, (), r, beam))
-            for events in out:
-                events.sort(key=event_order)
-            return out
+            low = (p.get("rise_time", 0.0) - 2 * offset[source]).tolist()  # the optics' dwell, and the release
+            kept = self._flanks(times_, beacon.tolist(), low)
+            pulses = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
+            return self._to_everyone(pulses)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
         events = list(map(NEW_DETECTION, fields))
         # times never decrease within a robot; hits at one time go by their keys
@@ -284,6 +289,35 @@ class Sensing:
             start += k
             if tied:
                 out[r].sort(key=event_order)
+        return out
+
+    def _flanks(self, times: list[float], beacon: list[int], low: list[float]) -> list[bool]:
+        """Which of a batch's pulses (every robot's, `low` s long each) make a flank on their
+        array's one line. Bac: "all 20 phototransistors in the array were placed in parallel",
+        pulled up to 5 V, "producing an analog pulse ... when any of the 20 phototransistors in
+        the array was triggered"; the comparator feeds a latch that "the negative flank" sets.
+        So a sweep that reaches an array while another laser still holds its line low makes no
+        flank of its own: it is lost, and the earlier pulse's time stands. How long the line
+        stays low is ours: the optics' time above threshold plus the phototransistor's rise
+        time to let go (`rise_time`). State carries across batches: a pulse at a period's end
+        can hide one at the next period's start."""
+        kept = [False] * len(times)
+        for i in sorted(range(len(times)), key=times.__getitem__):  # stable: ties keep robot order
+            b = beacon[i]
+            if times[i] >= self.line_low_until[b]:
+                kept[i] = True
+                self.line_low_until[b] = times[i] + low[i]
+        return kept
+
+    def _to_everyone(self, pulses: list[tuple]) -> list[list[det.Detection]]:
+        """Every controller gets every pulse (robot, time, label, angle, beam): an array's
+        output says which array fired, not whose laser it was."""
+        out: list[list[det.Detection]] = [[] for _ in range(self.n)]
+        for r, t, label, angle, beam in pulses:
+            for rx in range(self.n):
+                out[rx].append(det.Detection(rx, t, "hit", label, angle, (), r, beam))
+        for events in out:
+            events.sort(key=event_order)
         return out
 
     def _fluctuation(self, c: Crossings, sensitivity: np.ndarray) -> np.ndarray:
@@ -327,6 +361,19 @@ class Sensing:
                 t = float(det.step_time(np.array([t]), phase, self.omega[r : r + 1], steps, float(traj.t[0]))[0])
             events.append(det.Detection(r, float(t), "hit", None, angle, source=-1))
         return events
+
+    def _table_false_pulses(self, traj: Trajectory) -> list[tuple]:
+        """Shared crosstalk's false pulses (robot -1, time, label, no angle, no beam): a
+        Poisson process in time at `false_rate` for the whole table, as one robot alone
+        would see them, each on an array drawn uniformly."""
+        g = self.table_false
+        t0, t1 = traj.t[0], traj.t[-1]
+        count = g.poisson(self.params["false_rate"] * (t1 - t0))
+        if not count:
+            return []
+        times = det.counter_clock(np.sort(g.uniform(t0, t1, size=count)), self.params).tolist()
+        labels = g.integers(len(self.ids), size=count).tolist()
+        return [(-1, t, self.ids[b], None, None) for t, b in zip(times, labels)]
 
     # ---- index switch ---------------------------------------------------------------------
 

@@ -10,7 +10,17 @@ import levels
 from arena.loader import load_level
 
 FT, IN = 0.3048, 0.0254
-ALL = ["asabe", "asabe-race", "bac-line", "bac-static", "osentoski", "simi", "ubersetzig", "vannoy"]
+ALL = [
+    "asabe",
+    "asabe-race",
+    "asabe-race-shared",
+    "bac-line",
+    "bac-static",
+    "osentoski",
+    "simi",
+    "ubersetzig",
+    "vannoy",
+]
 
 
 def flat(points):
@@ -22,7 +32,7 @@ def load(name):
     return load_level(levels.path(name))
 
 
-def test_eight_builtin_levels_listed_with_default_controller():
+def test_nine_builtin_levels_listed_with_default_controller():
     assert levels.names() == ALL
     proc = run_cli("levels")
     assert proc.returncode == 0, proc.stderr
@@ -64,7 +74,7 @@ def test_ubersetzig_targets_on_one_wall():
     assert lv.beacons.params["quantization"] == 200 and lv.beacons.params["false_rate"] == 0
 
 
-@pytest.mark.parametrize("name", ["asabe", "bac-static", "bac-line", "asabe-race"])
+@pytest.mark.parametrize("name", ["asabe", "bac-static", "bac-line", "asabe-race", "asabe-race-shared"])
 def test_bac_table_four_corner_arrays(name):
     lv = load(name)
     assert lv.field.size == pytest.approx((1.83, 1.22))
@@ -121,6 +131,14 @@ def test_asabe_race_four_robots_own_paths():
     lv = load("asabe-race")
     assert len(lv.robots) == 4 and lv.task.kind == "race"
     assert len({r.path for r in lv.robots}) == 4
+
+
+def test_asabe_race_shared_is_the_race_on_bacs_arrays():
+    # the same race but for the crosstalk: Bac's arrays do not tell the lasers apart
+    coded, shared = load("asabe-race"), load("asabe-race-shared")
+    assert (coded.beacons.crosstalk, shared.beacons.crosstalk) == ("coded", "shared")
+    assert shared.robots == coded.robots and shared.beacons.params == coded.beacons.params
+    assert shared.beacons.items == coded.beacons.items and shared.task == coded.task
 
 
 @pytest.mark.parametrize("name", ALL)

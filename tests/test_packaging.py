@@ -23,7 +23,7 @@ def test_console_script_and_module_agree(tmp_path):
     a = subprocess.run([str(script), "levels"], capture_output=True, text=True, cwd=tmp_path)
     b = run_cli("levels", cwd=tmp_path)
     assert a.returncode == b.returncode == 0
-    assert a.stdout == b.stdout and len(a.stdout.splitlines()) == 8
+    assert a.stdout == b.stdout and len(a.stdout.splitlines()) == len(levels.names())
 
 
 def test_robots_imports_nothing_from_arena_or_referee():

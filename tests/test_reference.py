@@ -158,7 +158,13 @@ def test_bac_race_keeps_every_robot_localized_while_they_block_each_others_beams
     assert max(rms) < 0.060 and statistics.median(rms) < 0.030, rms
 
 
-@pytest.mark.parametrize("level", levels.names())
+# With perfect hardware every laser spins at exactly its nominal rate, so on a table whose arrays
+# latch every robot's pulse two lasers in step at an array stay in step for good: telling whose
+# pulse is whose is then the association's problem, not the hardware's (test_shared_crosstalk.py)
+EXACT = [name for name in levels.names() if name != "asabe-race-shared"]
+
+
+@pytest.mark.parametrize("level", EXACT)
 def test_every_default_reference_is_exact_with_perfect_hardware(level):
     # with --ideal, a fused estimate propagated to the tick has nothing left to be wrong about;
     # only the estimate at t = 0, before any event, is the announced start, off by its spread

@@ -2,7 +2,9 @@
 
 `Bac` (ref:bac) is the paper's guidance on a fused pose: the toolkit's HitTracker (an EKF of
 every labelled pulse and the commanded wheels, with Bac's revolution checks to restart it)
-gives the pose at every control tick, heading included. The robot has no heading sensor and
+gives the pose at every control tick, heading included. On a table whose arrays latch every
+robot's pulse (shared crosstalk, as Bac's hardware would with several robots) the tracker tells
+its own pulses from the others' by when they come (docs/toolkit.md). The robot has no heading sensor and
 the laser no index, so a robot whose heading is not known (not announced, or a localize
 trial's new pose) first drives a few centimetres straight and takes its heading from its
 consecutive positions, as the paper did ("by evaluating two consecutive positions"). Guidance as the paper's: a 0.05 rad

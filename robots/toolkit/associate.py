@@ -10,12 +10,16 @@ that cyclic order, and `hypotheses` the pose each gives by the circle method whe
 returns: Vannoy's "three possible scenarios that make sense", for a robot that keeps those
 where it may be and tells them apart by moving. `by_prediction` associates each return with the beacon whose predicted bearing from a
 prior pose is nearest, within a gate.
+`one_laser` is for labelled pulses from several lasers at once (Bac's arrays, shared by every
+robot on the table): the sets of one pulse per array that one laser, standing near a prior
+position, could have made in its last turn.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import product
 
 from robots.toolkit.solvers import circles
 
@@ -134,4 +138,52 @@ def hypotheses(
         ]
         if max(abs(e) for e in errors) <= residual:
             out.append((fix.x, fix.y, fix.heading))
+    return out
+
+
+def one_laser(
+    hits: list[tuple[float, str]],
+    beacons: dict[str, tuple[float, float]],
+    prior: tuple[float, float],
+    radius: float,
+    rate: float,
+    slack: float = 0.01,
+    noise: float = 0.01,
+) -> list[list[tuple[float, str]]]:
+    """Every set of labelled pulses (time, beacon) that one laser turning at `rate` (rad/s,
+    signed) could have made in the turn that ends with the last of `hits`, standing within
+    `radius` (m) of `prior`: the last pulse, and at most one earlier pulse per other beacon.
+
+    Seen from where the laser stands, each of its pulses says where its beam points at the
+    end of the turn: the bearing of that pulse's beacon, less the angle the beam has turned
+    since (rate x elapsed time). For one laser they all agree; another laser's pulses, made
+    from elsewhere and at other times, do not. Seen from `prior` rather than the true spot
+    they agree within radius / distance for each beacon, and within `slack` x rate x elapsed
+    time for a rate off its nominal value by that share, and `noise` (rad) for the pulses'
+    own errors: a pulse further off than that is some other laser's. Sets of at least three
+    pulses, the largest first."""
+    end, closing = hits[-1]
+    period = TWO_PI / abs(rate)
+
+    def beam_at_end(t: float, b: str) -> float:
+        bx, by = beacons[b]
+        return math.atan2(by - prior[1], bx - prior[0]) - rate * (t - end)
+
+    def reach(b: str) -> float:  # how far a pulse of b may point from where the prior says
+        return radius / max(math.dist(beacons[b], prior), 1e-3)
+
+    anchor = beam_at_end(end, closing)
+    options: dict[str, list[tuple[float, str] | None]] = {b: [None] for b in beacons if b != closing}
+    for t, b in hits[:-1]:
+        if b == closing or not end - period * (1 - slack) < t < end:
+            continue
+        tolerance = reach(b) + reach(closing) + slack * abs(rate) * (end - t) + noise
+        if abs(math.remainder(beam_at_end(t, b) - anchor, TWO_PI)) <= tolerance:
+            options[b].append((t, b))
+    out = []
+    for chosen in product(*options.values()):
+        pulses = sorted([h for h in chosen if h is not None]) + [(end, closing)]
+        if len(pulses) >= 3:
+            out.append(pulses)
+    out.sort(key=len, reverse=True)
     return out

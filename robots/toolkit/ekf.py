@@ -6,7 +6,8 @@ controller commanded, and the laser phase advances at the estimated rate (so slo
 is tracked). A hit of beacon i says the beam pointed at it: heading + phase = bearing to i.
 An index click says phase = 0. An encoder-latched angle says bearing - heading = angle.
 Each update is gated: an innovation beyond `gate` standard deviations is rejected (a merged
-pulse, another robot's laser, a false return).
+pulse, another robot's laser, a false return); `hit_innovation` tells what a hit would say
+before it is taken (to choose among pulses that several lasers made).
 """
 
 from __future__ import annotations
@@ -108,6 +109,15 @@ class BearingEKF:
     def hit(self, bx: float, by: float, var: float, gate: float = 3.0) -> bool:
         """The beam points at beacon (bx, by) now. Returns whether the update was accepted."""
         return self._pointing(bx, by, self.s[3], 1.0, var, gate)
+
+    def hit_innovation(self, bx: float, by: float, var: float) -> tuple[float, float]:
+        """What a hit of beacon (bx, by) now would say, without taking it: the innovation (rad,
+        the bearing less the beam's predicted angle) and its variance, for a hit noise `var`."""
+        x, y, h, phase, _ = self.s.tolist()
+        dx, dy = bx - x, by - y
+        d2 = max(dx * dx + dy * dy, 1e-8)
+        H = np.array([-dy / d2, dx / d2, 1.0, 1.0, 0.0])
+        return wrap(math.atan2(dy, dx) - h - phase), float(H @ self.P @ H) + var
 
     def index(self, var: float, gate: float = 3.0) -> bool:
         """The laser points straight ahead now: phase = 0 (mod 2 pi)."""
