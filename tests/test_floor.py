@@ -1,17 +1,21 @@
-"""The floor (arena.floor): a tilt that leans each robot so its beam leaves beside its base,
-checked against geometry worked out here, and gone when ideal."""
+"""The floor (arena.floor): a tilt that leans each robot so its beam leaves beside its base, and
+the tiles trials are measured by; each checked against geometry worked out here, and gone when ideal."""
 
 import math
 
 import numpy as np
 import pytest
-from helpers import ONE, TABLE, edited, hits, sense
+from helpers import ONE, TABLE, edited, hits, sense, variant
 
+import levels
 from arena import floor
 from arena.level import Pose
-from arena.loader import parse_level
+from arena.loader import load_level, parse_level
+from arena.placement import starts, trial_poses
 from arena.rng import RandomTree
 from arena.world import World
+from referee.match.loop import Match
+from referee.sandbox.teams import resolve
 
 IN = 0.0254
 
@@ -89,3 +93,63 @@ def test_a_laser_at_the_base_does_not_lean():
     (events,), _ = sense(World(level), 1.0, ideal=False)
     for b in level.beacons.items:
         assert hits(events, b.id)[0].time == pytest.approx(base[b.id], abs=1e-7)
+
+
+def grid_by_hand(seed: int, spacing: float, angle: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The real grid's steps per unit of nominal x and y, from the match's four uniform draws."""
+    u = 2 * RandomTree(seed).stream("floor", "tiles").random(4) - 1
+    sx, sy, ax, ay = 1 + spacing * u[0], 1 + spacing * u[1], angle * u[2], angle * u[3]
+    return (sx * math.cos(ax), sx * math.sin(ax)), (-sy * math.sin(ay), sy * math.cos(ay))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_trials_stand_on_the_drawn_tile_grid_laid_out_from_the_true_start(seed):
+    """Each trial's true position is the robot's true start plus its tile value's offset from the
+    origin tile, laid out along the real grid (each pitch and each set of lines off by the drawn
+    error), then set down by hand within the placement's spread; ideal, the grid is square and
+    true, and each trial moves by exactly that error's share of its offset."""
+    level = load_level(levels.path("simi"))
+    tiles, spread = level.floor.tiles, level.robots[0].placement.position
+    ex, ey = grid_by_hand(seed, tiles.spacing_error, tiles.angle_error)
+    assert ex != (1.0, 0.0) and ey != (0.0, 1.0)
+    real = Match(level, [resolve("ref:idle")], seed=seed, isolate=False)
+    ideal = Match(level, [resolve("ref:idle")], seed=seed, ideal=True, isolate=False)
+    (start,) = real.starts
+    assert ideal.starts == real.starts  # the hand placement of the start is the task's, kept when ideal
+    for (p,), (q,) in zip(real.trial_poses[1:], ideal.trial_poses[1:]):
+        tile = min(
+            level.task.trials.positions,
+            key=lambda t: math.dist(t, (q.x - start.x + tiles.origin[0], q.y - start.y + tiles.origin[1])),
+        )
+        dx, dy = tile[0] - tiles.origin[0], tile[1] - tiles.origin[1]
+        on_grid = (start.x + dx * ex[0] + dy * ey[0], start.y + dx * ex[1] + dy * ey[1])
+        assert math.dist((p.x, p.y), on_grid) <= spread + 1e-12
+        assert math.dist((q.x, q.y), (start.x + dx, start.y + dy)) <= spread + 1e-12
+        # the same hand placement on both grids: the difference is the grid's error alone
+        error = (dx * (ex[0] - 1) + dy * ey[0], dx * ex[1] + dy * (ey[1] - 1))
+        assert (p.x - q.x, p.y - q.y) == pytest.approx(error, abs=1e-12)
+        assert p.heading == q.heading
+
+
+def test_the_grid_error_stays_within_its_bounds():
+    level = load_level(levels.path("simi"))
+    tiles = level.floor.tiles
+    origin = Pose(*tiles.origin)
+    for seed in range(200):
+        g = floor.grid(level.floor, RandomTree(seed), ideal=False)
+        step = g.place(origin, Pose(tiles.origin[0] + 1.0, tiles.origin[1]))
+        across = g.place(origin, Pose(tiles.origin[0], tiles.origin[1] + 1.0))
+        assert abs(math.hypot(step.x - origin.x, step.y - origin.y) - 1) <= tiles.spacing_error + 1e-12
+        assert abs(math.atan2(step.y - origin.y, step.x - origin.x)) <= tiles.angle_error + 1e-12
+        assert abs(math.atan2(-(across.x - origin.x), across.y - origin.y)) <= tiles.angle_error + 1e-12
+        assert g.place(origin, origin) == origin
+
+
+def test_trial_poses_without_tiles_are_unchanged():
+    """A level without tiles lays its trials out at their listed positions, as before."""
+    level = variant("simi", floor=None)
+    tree = RandomTree(7)
+    first = starts(level, tree)
+    for (p,) in trial_poses(level, tree, first)[1:]:
+        near = min(level.task.trials.positions, key=lambda q: math.dist(q, (p.x, p.y)))
+        assert math.dist(near, (p.x, p.y)) <= level.robots[0].placement.position + 1e-12
