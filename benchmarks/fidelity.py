@@ -3,11 +3,12 @@
 Every row runs the built-in level of a seed with its default hardware error (or `--ideal` where
 the row says so), reads what happened from the match's replay (events, estimates, true poses),
 and compares one figure with the seed's, quoted, inside a pass band. The goto references are
-also run from starts anywhere in their level's region over 30 seeds (in worker processes). The table is printed and
+also run from starts anywhere in their level's region over 30 seeds (in worker processes), and
+Simi's two procedures over 20 seeds (median and 5-95 %). The table is printed and
 written as Markdown to docs/fidelity.md (`--out` to change). Exit status 0; `--strict` makes a
 failed row exit 1.
 
-    python benchmarks/fidelity.py [--seeds 3] [--out docs/fidelity.md] [--strict]
+    python benchmarks/fidelity.py [--seeds 3] [--simi-seeds 20] [--out docs/fidelity.md] [--strict]
 """
 
 from __future__ import annotations
@@ -360,71 +361,179 @@ SIMI_POSITIONS = [
 ]
 # five of them, each turned through the seed's 45, 90, -45 and -90 degrees for the heading error
 SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.465, -82.116), (81.465, -58.116)]
+SIMI_TILE = (57.46535, -58.11582)  # the start's tile: "the initial optical solution position"
+TRIAL_TIME = 3.0  # s at each pose: about 90 laser turns
+
+
+@dataclass(frozen=True)
+class SimiFigures:
+    """One seed's Simi figures, in inches and degrees: the worst x and y map errors over the
+    Appendix F positions relative to the start solution (the thesis's "difference between the
+    tile values and the optical values") and absolute (optical minus true); the start's own
+    error (optical minus true); how many positions got a fix; the worst heading error over the
+    turned trials, relative to the start solution and the nominal turn, and absolute."""
+
+    relative: tuple[float, float]
+    absolute: tuple[float, float]
+    start: tuple[float, float]
+    fixed: int
+    heading: float
+    heading_absolute: float
+
+
+Pose3 = tuple[float, float, float]
+
+
+def trial_fixes(rep: Replay, slot: int = 0) -> list[tuple[Pose3 | None, Pose3]]:
+    """(estimate, true pose) at the end of each trial: the solution the controller settled on
+    before the robot was carried on (None if it gave none in that trial), and where it stood."""
+    ends = [*rep.moves, rep.duration]
+    out: list[tuple[Pose3 | None, Pose3]] = []
+    for begin, end in zip([0.0, *rep.moves], ends):
+        mine = [e for e in rep.estimates if e["r"] == slot and begin < e["t"] <= end]
+        estimate = (mine[-1]["e"][0], mine[-1]["e"][1], mine[-1]["e"][2]) if mine else None
+        out.append((estimate, truth_at(rep, end, slot)))
+    return out
+
+
+def simi_tours(positions: list[tuple[float, float]], headings: list[float]) -> Level:
+    """The simi level as one tour of the experimenter's: the start, then each listed position once
+    (in a secret order) at one of `headings`, TRIAL_TIME at each, the robot not told its start (the
+    thesis computed each optical solution from the detectors alone)."""
+    trials = {"count": len(positions) + 1, "positions": [list(p) for p in positions], "headings": headings}
+    return variant(
+        "simi",
+        time_limit=TRIAL_TIME * (len(positions) + 1),
+        task={"kind": "localize", "trials": trials},
+        robot={"start_known": False},
+    )
+
+
+def tile_of(true: tuple[float, ...], start: tuple[float, ...], tiles: list[tuple[float, float]]) -> tuple[float, float]:
+    """The tile value a trial was carried to: the listed one nearest the true move from the start."""
+    x, y = (true[0] - start[0]) / IN + SIMI_TILE[0], (true[1] - start[1]) / IN + SIMI_TILE[1]
+    return min(tiles, key=lambda p: math.dist(p, (x, y)))
+
+
+def simi_seed(seed: int, folder: Path) -> SimiFigures:
+    """The thesis's two procedures on one floor (the seed's): the map over the 40 positions of
+    Appendix F, each "difference between the tile values and the optical values" with the tiles laid
+    out from the start's optical solution; then five positions each turned through +-45 and +-90 deg
+    (each position four times, at turns drawn from those), the heading error against the start's
+    optical heading plus the nominal turn."""
+    (e0, t0), *rest = trial_fixes(play(simi_tours(SIMI_POSITIONS, [0]), ["ref:simi"], seed, folder))
+    assert e0 is not None, "no solution at the start"
+    relative, absolute = [0.0, 0.0], [0.0, 0.0]
+    for est, true in rest:
+        if est is None:
+            continue
+        tile = tile_of(true, t0, SIMI_POSITIONS)
+        for axis in (0, 1):
+            moved = (est[axis] - e0[axis]) / IN - (tile[axis] - SIMI_TILE[axis])
+            relative[axis] = max(relative[axis], abs(moved))
+            absolute[axis] = max(absolute[axis], abs(est[axis] - true[axis]) / IN)
+    turns = [45.0, 90.0, -45.0, -90.0]
+    (h0, _), *turned = trial_fixes(play(simi_tours(SIMI_TURNS * 4, turns), ["ref:simi"], seed, folder))
+    assert h0 is not None, "no solution at the start"
+    heading = heading_absolute = 0.0
+    for est, true in turned:
+        if est is None:
+            heading = heading_absolute = math.inf  # a turned position without a solution fails the row
+            continue
+        turn = math.radians(min(turns, key=lambda a: abs(math.remainder(math.radians(a) - true[2], math.tau))))
+        heading = max(heading, abs(math.degrees(math.remainder(est[2] - h0[2] - turn, math.tau))))
+        heading_absolute = max(heading_absolute, abs(math.degrees(math.remainder(est[2] - true[2], math.tau))))
+    return SimiFigures(
+        relative=(relative[0], relative[1]),
+        absolute=(absolute[0], absolute[1]),
+        start=((e0[0] - t0[0]) / IN, (e0[1] - t0[1]) / IN),
+        fixed=sum(est is not None for est, _ in rest),
+        heading=heading,
+        heading_absolute=heading_absolute,
+    )
+
+
+def spread(values: list[float], unit: str, digits: int = 3) -> str:
+    """Median and 5-95 % range of one figure over the seeds."""
+    lo, hi = percentiles(values)
+    return f"median {statistics.median(values):.{digits}f} {unit} (5-95 %: {lo:.{digits}f}-{hi:.{digits}f})"
+
+
+def percentiles(values: list[float]) -> tuple[float, float]:
+    """The 5th and 95th percentiles (inclusive method: from the values' own range)."""
+    if len(values) < 2:
+        return values[0], values[0]
+    cuts = statistics.quantiles(values, n=20, method="inclusive")
+    return cuts[0], cuts[-1]
+
+
+def within(values: list[float], lo: float, hi: float) -> bool:
+    """Whether the median and the 5-95 % range of `values` lie in [lo, hi]."""
+    p5, p95 = percentiles(values)
+    return lo <= p5 and p95 <= hi and lo <= statistics.median(values) <= hi
 
 
 def simi(folder: Path, seeds: list[int]) -> list[Row]:
-    # each position's optical solution as the thesis computed it: from the detectors alone, the
-    # robot not told where it stands (an announced exact pose would be a prior to lean on)
-    blind = {"start_known": False}
-    worst_pos, fixed, worst_hdg, start = [], [], [], []
-    for seed in seeds:
-        start.append(
-            1000
-            * play(exactly_at("simi", robot=blind), ["ref:simi"], seed, folder).result["robots"][0]["localization"][
-                "position_max"
-            ]
-        )
-        pos, got = 0.0, 0
-        for x, y in SIMI_POSITIONS:
-            level = exactly_at("simi", time_limit=3, robot={"start": [x, y, 0], **blind})
-            r = play(level, ["ref:simi"], seed, folder).result["robots"][0]["localization"]
-            if r["fraction"] > 0:
-                got += 1
-                pos = max(pos, r["position_max"])
-        hdg = 0.0
-        for x, y in SIMI_TURNS:
-            for turn in (45, 90, -45, -90):
-                r = play(
-                    exactly_at("simi", time_limit=3, robot={"start": [x, y, turn], **blind}), ["ref:simi"], seed, folder
-                ).result["robots"][0]["localization"]
-                if r["fraction"] > 0:
-                    hdg = max(hdg, r["heading_max"])
-        worst_pos.append(1000 * pos)
-        fixed.append(got)
-        worst_hdg.append(math.degrees(hdg))
+    """Simi's rows: `simi_seed`'s figures over `seeds`, each as its median and 5-95 % range (one
+    floor is one draw of the tiles and the tilt: a figure is known only over many)."""
+    figures = [simi_seed(seed, folder) for seed in seeds]
     n = len(SIMI_POSITIONS)
+    rel_x, rel_y = [f.relative[0] for f in figures], [f.relative[1] for f in figures]
+    abs_x, abs_y = [f.absolute[0] for f in figures], [f.absolute[1] for f in figures]
+    start_x, start_y = [abs(f.start[0]) for f in figures], [abs(f.start[1]) for f in figures]
+    heading, heading_abs = [f.heading for f in figures], [f.heading_absolute for f in figures]
+    over = f"{len(seeds)} seeds"
     return [
         Row(
-            "Simi: the robot set down exactly at the measured start, worst position error",
-            f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"',
-            "0.298 in = 7.6 mm",
-            fmt_range(start, "mm"),
-            "2.5-15 mm",
-            all(2.5 <= v <= 15 for v in start),
+            f"Simi: the start, optical minus true, x / y ({over})",
+            f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the '
+            'y-direction" (optical minus tape-measured)',
+            "0.032 / 0.298 in",
+            f"x {spread(start_x, 'in')}; y {spread(start_y, 'in')}",
+            "95 % of each axis <= 0.6 in",
+            percentiles(start_x)[1] <= 0.6 and percentiles(start_y)[1] <= 0.6,
         ),
         Row(
             "Simi: positions of Appendix F that get a fix",
             f"{SIMI}: Appendix F, 40 tile positions",
             f"{n} of {n}",
-            " / ".join(str(k) for k in fixed) + f" of {n}",
+            f"{min(f.fixed for f in figures)}-{max(f.fixed for f in figures)} of {n} ({over})",
             f"all {n}",
-            all(k == n for k in fixed),
+            all(f.fixed == n for f in figures),
         ),
         Row(
-            "Simi: worst position error over the 40 positions",
-            f'{SIMI}: "errors of up to 0.259 inches for position variables"',
-            "0.259 in = 6.6 mm",
-            fmt_range(worst_pos, "mm"),
-            "2.5-15 mm",
-            all(2.5 <= v <= 15 for v in worst_pos),
+            f"Simi map: worst x / y error over the 40 positions, relative to the start solution ({over})",
+            f'{SIMI}: "The maximum amount of difference between the tile values and the optical values was '
+            '0.188 inches in the x-direction and 0.259 inches in the y-direction"',
+            "0.188 / 0.259 in",
+            f"x {spread(rel_x, 'in')}; y {spread(rel_y, 'in')}",
+            "0.13-0.39 in, median and 5-95 % of each axis",
+            within(rel_x, 0.13, 0.39) and within(rel_y, 0.13, 0.39),
         ),
         Row(
-            "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg",
+            f"Simi map: worst x / y error over the 40 positions, absolute: optical minus true ({over})",
+            f"{SIMI}: not measured (the thesis had no truth but the tiles)",
+            "-",
+            f"x {spread(abs_x, 'in')}; y {spread(abs_y, 'in')}",
+            "95 % of each axis <= 0.39 in",
+            percentiles(abs_x)[1] <= 0.39 and percentiles(abs_y)[1] <= 0.39,
+        ),
+        Row(
+            f"Simi: worst heading error, 5 positions turned by +-45 and +-90 deg, against the start "
+            f"solution and the nominal turn ({over})",
             f'{SIMI}: "The maximum error was found to be 0.8 degrees"',
             "0.8 deg",
-            fmt_range(worst_hdg, "deg", 2),
-            "0.27-2.4 deg (x3)",
-            all(0.27 <= v <= 2.4 for v in worst_hdg),
+            spread(heading, "deg", 2),
+            "0.27-2.4 deg (x3), median and 5-95 %",
+            within(heading, 0.27, 2.4),
+        ),
+        Row(
+            f"Simi: worst heading error of the same turns, absolute: optical minus true ({over})",
+            f"{SIMI}: not measured",
+            "-",
+            spread(heading_abs, "deg", 2),
+            "95 % <= 0.8 deg",
+            percentiles(heading_abs)[1] <= 0.8,
         ),
     ]
 
@@ -497,8 +606,9 @@ def markdown(rows: list[Row], seeds: list[int], seconds: float, goto_seeds: int)
         "",
         "Made by `make fidelity` (`python benchmarks/fidelity.py`): each seed's experiment re-run on its",
         f"built-in level with the default hardware error, seeds {', '.join(map(str, seeds))} (figures per seed,",
-        f"separated by /; the unknown-start rows over {goto_seeds} seeds), in {seconds:.0f} s. Do not edit by hand:",
-        "run it again. An experiment the seed made at one pose sets the robot down exactly there; the",
+        f"separated by /; the unknown-start rows over {goto_seeds} seeds; Simi's as a median and 5-95 % over the",
+        f"seeds they name), in {seconds:.0f} s. Do not edit by hand: run it again. An experiment the seed made at",
+        "one pose sets the robot down exactly there; the",
         "level's own matches draw the start within its spread (docs/levels.md). How the references",
         "fare against blind driving and not sensing at all, level by level: docs/baselines.md.",
         "",
@@ -519,6 +629,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "docs" / "fidelity.md"))
     ap.add_argument("--strict", action="store_true", help="exit 1 if a row fails its band")
     ap.add_argument("--goto-seeds", type=int, default=30, help="seeds of the unknown-start rows (default 30)")
+    ap.add_argument("--simi-seeds", type=int, default=20, help="seeds of the Simi rows (default 20)")
     ap.add_argument("--workers", type=int, default=2, help="worker processes of the unknown-start rows (default 2)")
     args = ap.parse_args(argv)
     seeds = list(range(1, args.seeds + 1))
@@ -533,7 +644,7 @@ def main(argv: list[str] | None = None) -> int:
             lambda: asabe(folder, seeds),
             lambda: asabe_race(folder, seeds),
             lambda: unknown_starts(args.goto_seeds, args.workers),
-            lambda: simi(folder, seeds),
+            lambda: simi(folder, list(range(1, args.simi_seeds + 1))),
             lambda: ideal(folder),
         ):
             for r in part():
