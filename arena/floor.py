@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from arena import kernels
 from arena.level import Floor, Pose, Tiles
 from arena.rng import RandomTree
 
@@ -33,18 +34,12 @@ class Tilt:
         # height amplitude: var(dz/dx) = amp^2 (2 / N) sum E[kx^2] E[sin^2] = (amp / length)^2
         self.amp = rms * length * math.sqrt(2.0 / WAVES)
 
-    def slope(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The floor's gradient (dz/dx, dz/dy) at the points (x, y), any shape."""
-        s = -self.amp * np.sin(np.multiply.outer(x, self.k[:, 0]) + np.multiply.outer(y, self.k[:, 1]) + self.phase)
-        return s @ self.k[:, 0], s @ self.k[:, 1]
-
     def lean(self, x: np.ndarray, y: np.ndarray, height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Where a point `height` above the base at (x, y) stands off it, horizontally: a body set
-        square on the floor stands along the floor's normal (-gx, -gy, 1) / |.|, so its top
-        leans downhill by height x sin(tilt)."""
-        gx, gy = self.slope(x, y)
-        scale = height / np.sqrt(1.0 + gx * gx + gy * gy)
-        return -gx * scale, -gy * scale
+        """Where a point `height` (per robot) above the base at (x, y) (steps, robots) stands off
+        it, horizontally: a body set square on the floor stands along the floor's normal
+        (-gx, -gy, 1) / |.|, (gx, gy) its slope there, so its top leans downhill by height x
+        sin(tilt) (compiled: arena.kernels.lean)."""
+        return kernels.lean(x, y, self.k, self.phase, self.amp, height)
 
 
 def tilt(floor: Floor, tree: RandomTree, ideal: bool) -> Tilt | None:
