@@ -95,6 +95,9 @@ class Laser:
     # how far the beam passes beside the spin axis (m, + = to the beam's left): a laser module
     # clamped beside a motor shaft is never exactly on it; a team is not told (0 when ideal)
     beam_offset: float = 0.0
+    # how high above the robot's base the beam leaves (m): where a tilted floor leans the robot,
+    # the beam's origin stands that height x the tilt off the base (arena.floor)
+    height: float = 0.0
 
     @property
     def period(self) -> float:
@@ -189,6 +192,30 @@ class Trials:
 
 
 @dataclass(frozen=True)
+class Tiles:
+    """The floor tiles an experimenter carried a robot by, trial to trial (Simi's "12 inch
+    translations"): a trial's nominal position is a tile value, a point of a square grid whose
+    tile `origin` is where the robot started; the real grid's pitch along each axis is off by up
+    to `spacing_error` (a fraction) and each set of its lines is turned up to `angle_error` (rad)
+    from its axis, both drawn per match (arena.floor)."""
+
+    origin: tuple[float, float]
+    spacing_error: float = 0.0
+    angle_error: float = 0.0
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The floor under the robots: its tilt, a smooth random height field whose slope along each
+    axis (dz/dx, dz/dy) has RMS `tilt`, with correlation length `tilt_length` (m), drawn per
+    match; and the `tiles` trials are measured by, if any (arena.floor)."""
+
+    tilt: float = 0.0
+    tilt_length: float = 1.0
+    tiles: Tiles | None = None
+
+
+@dataclass(frozen=True)
 class Task:
     """What the robots must do; `path` per robot lives on RobotSlot (shared path copied there)."""
 
@@ -260,6 +287,7 @@ class Level:
     default_controller: str
     limits: ControllerLimits = ControllerLimits()
     rules: Rules = Rules()
+    floor: Floor = Floor()
     text: str = ""  # the file's text, so a replay can carry its level whole
 
     def __deepcopy__(self, memo: dict) -> Level:

@@ -28,6 +28,7 @@ from arena.level import (
     ControllerLimits,
     DriveErrors,
     Field,
+    Floor,
     Laser,
     Level,
     Obstacle,
@@ -36,6 +37,7 @@ from arena.level import (
     RobotSlot,
     Rules,
     Task,
+    Tiles,
     Trials,
 )
 from arena.robot_models import ROBOT_MODELS
@@ -391,6 +393,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
             "default_controller",
             "limits",
             "rules",
+            "floor",
         ),
     )
 
@@ -421,9 +424,16 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
 
     obstacles = tuple(_obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) if top.has("obstacles") else ()
     beacons = _beacons(ctx, top.sub("beacons", ("kind", "radius", "params", "items", "crosstalk")), fld)
-    default_laser = _laser(top.sub("laser", ("angular_velocity", "index", "beam_offset")))
+    default_laser = _laser(top.sub("laser", LASER_KEYS))
     task_map = top.sub("task", ("kind", "radius", "path", "goal", "trials"))
     task, shared_path = _task(ctx, task_map, fld)
+    floor = Floor()
+    if top.has("floor"):
+        floor_map = top.sub("floor", ("tilt", "tilt_length", "tiles"))
+        floor = _floor(floor_map, fld)
+        if floor.tiles is not None and not task.trials.positions:
+            line = floor_map.raw("tiles").line
+            raise ctx.fail(line, "floor.tiles", "tiles lay out listed trial positions, and the task lists none")
 
     robot_nodes = top.seq("robots")
     if not robot_nodes:
@@ -469,6 +479,7 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         default_controller=default_controller,
         limits=_limits(top.sub("limits", LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
         rules=_rules(top.sub("rules", RULE_KEYS)) if top.has("rules") else Rules(),
+        floor=floor,
         text=text,
     )
     problem = level_checks.level_problem(level, contest=base is not None)
@@ -657,12 +668,45 @@ def _facing(ctx: _Ctx, b: _Map, at: tuple[float, float], center: tuple[float, fl
     return math.atan2(target[1] - at[1], target[0] - at[0])
 
 
+LASER_KEYS = ("angular_velocity", "index", "beam_offset", "height")
+
+
 def _laser(m: _Map) -> Laser:
     w = m.req("angular_velocity", _number)
     if w == 0:
         raise m.ctx.fail(m.raw("angular_velocity").line, m.key("angular_velocity"), "must not be zero")
     return Laser(
-        angular_velocity=w, index=m.opt("index", _flag, False), beam_offset=m.opt("beam_offset", _length_signed, 0.0)
+        angular_velocity=w,
+        index=m.opt("index", _flag, False),
+        beam_offset=m.opt("beam_offset", _length_signed, 0.0),
+        height=m.opt("height", _nonnegative, 0.0) * m.ctx.scale,
+    )
+
+
+def _floor(m: _Map, fld: Field) -> Floor:
+    """The floor's tilt (RMS slope per axis in degrees, below 45; its correlation length) and
+    the tiles trials are measured by."""
+    tilt = m.opt("tilt", _nonnegative, 0.0)
+    if tilt >= 45:
+        raise m.ctx.fail(m.raw("tilt").line, m.key("tilt"), f"must be below 45 degrees, got {tilt:g}")
+    tiles = None
+    if m.has("tiles"):
+        t = m.sub("tiles", ("origin", "spacing_error", "angle_error"))
+        origin = t.req("origin", _point)
+        _inside(m.ctx, fld, origin, t.raw("origin").line, t.key("origin"), "origin")
+        spacing = t.opt("spacing_error", _nonnegative, 0.0)
+        if spacing >= 0.5:
+            raise m.ctx.fail(t.raw("spacing_error").line, t.key("spacing_error"), f"must be below 0.5, got {spacing:g}")
+        angle = t.opt("angle_error", _nonnegative, 0.0)
+        if angle >= 45:
+            raise m.ctx.fail(
+                t.raw("angle_error").line, t.key("angle_error"), f"must be below 45 degrees, got {angle:g}"
+            )
+        tiles = Tiles(origin=origin, spacing_error=spacing, angle_error=math.radians(angle))
+    return Floor(
+        tilt=math.tan(math.radians(tilt)),
+        tilt_length=m.opt("tilt_length", _length, 1.0),
+        tiles=tiles,
     )
 
 
@@ -795,7 +839,7 @@ def _robot(
                 raise ctx.fail(
                     line, m.key("start"), f"the {model_name} footprint at this start pose reaches outside the field"
                 )
-    laser = _laser(m.sub("laser", ("angular_velocity", "index", "beam_offset"))) if m.has("laser") else default_laser
+    laser = _laser(m.sub("laser", LASER_KEYS)) if m.has("laser") else default_laser
     path = shared_path
     if m.has("path"):
         if task.kind not in ("waypoints", "race"):

@@ -4,6 +4,9 @@ A level gives a nominal start and a `Placement` (docs/levels.md): a hand placeme
 stated distance and angle of the nominal pose, or anywhere in a region. The true pose is drawn
 from the match's random tree (so, in a graded match, from its secret), never from anything a
 controller sees; `--ideal` keeps it, since it is the task's uncertainty, not the hardware's.
+A level whose floor has tiles (arena.floor) lays each trial's position out on the match's real
+tile grid from where the robot started, as an experimenter carried it tile by tile, before the
+hand placement; `--ideal` makes that grid perfect.
 A draw whose body would leave the field or overlap an obstacle, a beacon or a robot already
 set down is drawn again, up to `ATTEMPTS` times, and then falls back to the nominal pose.
 """
@@ -14,6 +17,7 @@ import math
 
 import numpy as np
 
+from arena.floor import Grid
 from arena.level import Level, Placement, Pose
 from arena.level_checks import body_problem, footprint
 from arena.rng import RandomTree
@@ -65,12 +69,15 @@ def starts(level: Level, tree: RandomTree) -> tuple[Pose, ...]:
     return tuple(out)
 
 
-def trial_poses(level: Level, tree: RandomTree, first: tuple[Pose, ...]) -> tuple[tuple[Pose, ...], ...]:
+def trial_poses(
+    level: Level, tree: RandomTree, first: tuple[Pose, ...], tiles: Grid | None = None
+) -> tuple[tuple[Pose, ...], ...]:
     """Every trial's true pose of every robot: `poses[trial][slot]`. The first trial is the
     start (`first`); each later trial's nominal pose is one of the task's trial positions, taken
     in a shuffled order (shuffled again each time all have been used), or a point of its
-    region, with one of its headings (any heading when it lists none), and the robot is set
-    down around it by its placement."""
+    region, with one of its headings (any heading when it lists none), laid out on the `tiles`
+    grid from the robot's start if there is one, and the robot is set down around it by its
+    placement."""
     trials = level.task.trials
     out = [first]
     if trials.count <= 1:
@@ -84,6 +91,8 @@ def trial_poses(level: Level, tree: RandomTree, first: tuple[Pose, ...]) -> tupl
             pose = first[r.slot]  # if no draw fits (a level whose trial positions leave no room)
             for _ in range(ATTEMPTS):
                 nominal = _trial_nominal(trials.positions, trials.region, trials.headings, rng, orders[r.slot])
+                if tiles is not None:
+                    nominal = tiles.place(first[r.slot], nominal)
                 drawn = nominal if r.placement.exact else draw(nominal, r.placement, rng)
                 if _fits(level, r.slot, drawn, bodies):
                     pose = drawn

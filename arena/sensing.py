@@ -3,7 +3,8 @@
 `record()` runs after every physics step and only stores each robot's pose (cheap);
 `flush()` runs at each control tick and turns the steps since the last tick into
 detections, all at once (compiled loops, arena.kernels): laser phases (with speed wobble and the lag when the
-body turns), exact crossing times (arena.laser), occlusion by other robots' silhouettes at
+body turns), where each beam leaves (the body's position, leaned by the floor's tilt: arena.floor),
+exact crossing times (arena.laser), occlusion by other robots' silhouettes at
 the crossing instant and by obstacles, the detector model of the level's beacon kind (its
 optics set when each pulse fires, or whether it does), index clicks, and the random errors.
 """
@@ -20,7 +21,7 @@ import numpy as np
 import pymunk
 
 from arena import detectors as det
-from arena import kernels
+from arena import floor, kernels
 from arena.angles import TWO_PI, wrap_angle
 from arena.laser import Crossings, Trajectory, find_crossings, find_phase_marks
 from arena.rng import RandomTree
@@ -64,6 +65,10 @@ class Sensing:
         self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
         self._offsets = self.beam_offset if self.beam_offset.any() else None  # None: every beam on its axis
         self.direction = np.sign(self.omega)
+        # a tilted floor leans each robot: its beam leaves `laser.height` above its base, off it
+        height = np.array([r.laser.height for r in robots])
+        self.tilt = floor.tilt(level.floor, rng, ideal) if height.any() else None
+        self.height = height
         self.index = np.array([r.laser.index for r in robots])
         self._any_index = bool(self.index.any())
         # what each robot puts in the laser plane: a circle at its centre (mast, laser housing)
@@ -138,8 +143,9 @@ class Sensing:
         traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=poses[:, :, 2], phi=self._phases(poses[:, :, 2]))
         self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
         self.phi = traj.phi[-1].copy()
+        lasers = traj if self.tilt is None else self._leaned(traj)
 
-        sources = [self._light(traj) if self.kind == "light" else self._hits(traj)]
+        sources = [self._light(traj, lasers) if self.kind == "light" else self._hits(traj, lasers)]
         if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(traj)))
@@ -157,6 +163,13 @@ class Sensing:
             merged.sort(key=event_order)  # stable: what the sources yield in order stays so
             out.append(merged)
         return out
+
+    def _leaned(self, traj: Trajectory) -> Trajectory:
+        """Where the beams leave, step by step: each body's position, leaned by the floor's tilt
+        there (arena.floor); the body itself (`traj`) is what the score and other beams see."""
+        assert self.tilt is not None
+        dx, dy = self.tilt.lean(traj.x, traj.y, self.height)
+        return Trajectory(t=traj.t, x=traj.x + dx, y=traj.y + dy, h=traj.h, phi=traj.phi)
 
     def _ramp(self, steps: int) -> np.ndarray:
         """Step-end times of a batch of `steps` steps from its start (cached per length)."""
@@ -233,9 +246,11 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _hits(self, traj: Trajectory) -> list[list[det.Detection]]:
+    def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[det.Detection]]:
+        """The beacons' pulses: the crossings of the beams leaving from `lasers`, blocked by the
+        bodies of `traj`, through the detector model."""
         out: list[list[det.Detection]] = [[] for _ in range(self.n)]
-        c = find_crossings(traj, self.bx, self.by, self._offsets)
+        c = find_crossings(lasers, self.bx, self.by, self._offsets)
         if not len(c):
             return out
         p = self.params
@@ -388,16 +403,17 @@ class Sensing:
 
     # ---- lights and a sampled turret -------------------------------------------------------
 
-    def _light(self, traj: Trajectory) -> list[list[det.Detection]]:
-        """Osentoski's turret: N brightness samples per turn at relative angles 2 pi k / N; a
-        full turn of samples is one `scan` event at the time of its last sample."""
+    def _light(self, traj: Trajectory, lasers: Trajectory) -> list[list[det.Detection]]:
+        """Osentoski's turret: N brightness samples per turn at relative angles 2 pi k / N, taken
+        where the turret stands (`lasers`); a full turn of samples is one `scan` event at the time
+        of its last sample."""
         out: list[list[det.Detection]] = [[] for _ in range(self.n)]
         p = self.params
         per_turn = int(p["samples_per_turn"])
         robot, step, s, t, mark = find_phase_marks(traj, per_turn, self.direction)
         if not len(robot):
             return out
-        x, y, h = traj.pose_at(step, s, robot)
+        x, y, h = lasers.pose_at(step, s, robot)
         k = mark % per_turn
         beam = h + TWO_PI * k / per_turn
         if p["servo_jitter"] > 0:

@@ -300,35 +300,81 @@ SIMI_POSITIONS = [
 ]
 # five of them, each turned through the seed's 45, 90, -45 and -90 degrees for the heading error
 SIMI_TURNS = [(57.46535, -58.11582), (45.465, -34.116), (93.465, -34.116), (69.465, -82.116), (81.465, -58.116)]
-# each position's optical solution as the thesis computed it: from the detectors alone, the robot
-# not told where it stands (an announced exact pose would be a prior to lean on)
-UNTOLD = {"start_known": False}
+SIMI_TILE = SIMI_POSITIONS[0]  # the start's tile: "the initial optical solution position"
+TRIAL_TIME = 3.0  # s at each pose: about 90 laser turns
+Pose3 = tuple[float, float, float]
+
+
+def trial_fixes(rep: Replay, slot: int = 0) -> list[tuple[Pose3 | None, Pose3]]:
+    """(estimate, true pose) at the end of each trial: the solution the controller settled on
+    before the robot was carried on (None if it gave none in that trial), and where it stood."""
+    out: list[tuple[Pose3 | None, Pose3]] = []
+    for begin, end in zip([0.0, *rep.moves], [*rep.moves, rep.duration]):
+        mine = [e["e"] for e in rep.estimates if e["r"] == slot and begin < e["t"] <= end]
+        out.append(((mine[-1][0], mine[-1][1], mine[-1][2]) if mine else None, truth_at(rep, end, slot)))
+    return out
+
+
+def simi_tour(scale: Scale, positions: list[tuple[float, float]], headings: list[float]) -> Level:
+    """The simi level as one tour of the experimenter's: the start, then each listed tile once (in
+    a secret order, on the floor's real tiles) at one of `headings`, TRIAL_TIME at each; the robot
+    told nothing (the thesis computed each optical solution from the detectors alone)."""
+    trials = {"count": len(positions) + 1, "positions": [list(p) for p in positions], "headings": headings}
+    return variant(
+        "simi",
+        scale,
+        {"start_known": False},
+        time_limit=TRIAL_TIME * (len(positions) + 1),
+        task={"kind": "localize", "trials": trials},
+    )
+
+
+def tile_of(true: Pose3, start: Pose3) -> tuple[float, float]:
+    """The tile a trial was carried to: the listed one nearest the true move from the start."""
+    x, y = (true[0] - start[0]) / IN + SIMI_TILE[0], (true[1] - start[1]) / IN + SIMI_TILE[1]
+    return min(SIMI_POSITIONS, key=lambda p: math.dist(p, (x, y)))
 
 
 def simi(seed: int, scale: Scale = ()) -> dict[str, float]:
-    """Chapter 4: the robot at the measured start, then at the 40 tile positions (3 s each) and at
-    five of them turned by +-45 and +-90 deg: the worst position error at the start (mm), over
-    the 40 (mm) and how many got a fix, and the worst heading error over the turned ones (deg)."""
-    start = play(exactly_at("simi", scale, UNTOLD), ["ref:simi"], seed).result["robots"][0]["localization"]
-    worst, fixed = 0.0, 0
-    for x, y in SIMI_POSITIONS:
-        level = exactly_at("simi", scale, {"start": [x, y, 0], **UNTOLD}, time_limit=3)
-        loc = play(level, ["ref:simi"], seed).result["robots"][0]["localization"]
-        if loc["fraction"] > 0:
-            fixed += 1
-            worst = max(worst, loc["position_max"])
-    heading = 0.0
-    for x, y in SIMI_TURNS:
-        for turn in (45, 90, -45, -90):
-            level = exactly_at("simi", scale, {"start": [x, y, turn], **UNTOLD}, time_limit=3)
-            loc = play(level, ["ref:simi"], seed).result["robots"][0]["localization"]
-            if loc["fraction"] > 0:
-                heading = max(heading, loc["heading_max"])
+    """Chapter 4 on one floor (the seed's tiles and tilt), the thesis's two procedures. The map:
+    the start, then the 40 positions of Appendix F, each "difference between the tile values and
+    the optical values" with the tiles laid out from the start's optical solution (relative), and
+    optical minus true (absolute), worst per axis (in); how many got a fix; the start's own error.
+    The turns: five positions each "rotated 45°, 90°, -45°, and -90°" (four visits each, turns
+    drawn from those), the worst heading error against the start's optical heading plus the
+    nominal turn, and against the truth (deg). A turned position with no solution scores inf."""
+    (e0, t0), *rest = trial_fixes(play(simi_tour(scale, SIMI_POSITIONS[1:], [0]), ["ref:simi"], seed))
+    if e0 is None:
+        return dict.fromkeys(("start_x", "start_y", "rel_x", "rel_y", "abs_x", "abs_y", "heading", "heading_abs"), math.inf) | {"fixed": 0}
+    rel, absolute = [0.0, 0.0], [0.0, 0.0]
+    for est, true in rest:
+        if est is None:
+            continue
+        tile = tile_of(true, t0)
+        for axis in (0, 1):
+            moved = (est[axis] - e0[axis]) / IN - (tile[axis] - SIMI_TILE[axis])
+            rel[axis] = max(rel[axis], abs(moved))
+            absolute[axis] = max(absolute[axis], abs(est[axis] - true[axis]) / IN)
+    turns = [45.0, 90.0, -45.0, -90.0]
+    (h0, _), *turned = trial_fixes(play(simi_tour(scale, SIMI_TURNS * 4, turns), ["ref:simi"], seed))
+    heading = heading_abs = 0.0 if h0 is not None else math.inf
+    for est, true in turned:
+        if est is None or h0 is None:
+            heading = heading_abs = math.inf
+            continue
+        turn = math.radians(min(turns, key=lambda a: abs(math.remainder(math.radians(a) - true[2], math.tau))))
+        heading = max(heading, abs(math.degrees(math.remainder(est[2] - h0[2] - turn, math.tau))))
+        heading_abs = max(heading_abs, abs(math.degrees(math.remainder(est[2] - true[2], math.tau))))
     return {
-        "start_mm": 1000 * start["position_max"],
-        "fixed": fixed,
-        "worst_mm": 1000 * worst,
-        "heading_deg": math.degrees(heading),
+        "start_x": abs(e0[0] - t0[0]) / IN,
+        "start_y": abs(e0[1] - t0[1]) / IN,
+        "fixed": 1 + sum(est is not None for est, _ in rest),
+        "rel_x": rel[0],
+        "rel_y": rel[1],
+        "abs_x": absolute[0],
+        "abs_y": absolute[1],
+        "heading": heading,
+        "heading_abs": heading_abs,
     }
 
 
@@ -427,10 +473,15 @@ ROWS = [
     Row("shared.finished", "shared_race", "finished", "asabe-race-shared: four ref:bac robots, every array latching every robot's pulse, seeds on which all reach every waypoint", f'{BAC}: "all 20 phototransistors in the array were placed in parallel" (ours: four robots on one table)', "-", 0.9, 1, "", 2),
     Row("shared.worst", "shared_race", "worst_mm", "asabe-race-shared: the same, worst robot's position RMS", "ours: references tell their own pulses from the others'", "-", 0, 60, "mm"),
     Row("shared.median", "shared_race", "median_mm", "asabe-race-shared: the same, median robot's position RMS", "ours: references tell their own pulses from the others'", "-", 0, 30, "mm"),
-    Row("simi.start", "simi", "start_mm", "Simi: the robot set down exactly at the measured start, worst position error", f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"', "0.298 in = 7.6 mm", 2.5, 15, "mm"),
+    Row("simi.start_x", "simi", "start_x", "Simi: the start's optical solution, told nothing, off the true start in x", f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction" (against a tape-measured start)', "0.032 in", 0, 0.6, "in", 3),
+    Row("simi.start_y", "simi", "start_y", "Simi: the same in y", f'{SIMI}: "a difference in values of 0.032 inches in the x-direction and 0.298 inches in the y-direction"', "0.298 in", 0, 0.6, "in", 3),
     Row("simi.fixed", "simi", "fixed", "Simi: positions of Appendix F that get a fix, of 40", f"{SIMI}: Appendix F, 40 tile positions", "40 of 40", 40, 40, "", 0),
-    Row("simi.worst", "simi", "worst_mm", "Simi: worst position error over the 40 positions", f'{SIMI}: "errors of up to 0.259 inches for position variables"', "0.259 in = 6.6 mm", 2.5, 15, "mm"),
-    Row("simi.heading", "simi", "heading_deg", "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg", f'{SIMI}: "The maximum error was found to be 0.8 degrees"', "0.8 deg", 0.27, 2.4, "deg", 2),
+    Row("simi.rel_x", "simi", "rel_x", "Simi map: worst x error over the 40 positions, relative to the start's solution (the tiles laid out from it)", f'{SIMI}: "The maximum amount of difference between the tile values and the optical values was 0.188 inches in the x-direction and 0.259 inches in the y-direction"', "0.188 in", 0.13, 0.39, "in", 3),
+    Row("simi.rel_y", "simi", "rel_y", "Simi map: the same in y", f'{SIMI}: "... 0.188 inches in the x-direction and 0.259 inches in the y-direction"', "0.259 in", 0.13, 0.39, "in", 3),
+    Row("simi.abs_x", "simi", "abs_x", "Simi map: worst x error over the 40 positions, absolute (optical minus true)", f"{SIMI}: not measured (the thesis had no truth but the tiles)", "-", 0, 0.39, "in", 3),
+    Row("simi.abs_y", "simi", "abs_y", "Simi map: the same in y", f"{SIMI}: not measured", "-", 0, 0.39, "in", 3),
+    Row("simi.heading", "simi", "heading", "Simi: worst heading error, 5 positions turned by +-45 and +-90 deg, against the start's solution and the nominal turn", f'{SIMI}: "The maximum error was found to be 0.8 degrees"', "0.8 deg", 0.27, 2.4, "deg", 2),
+    Row("simi.heading_abs", "simi", "heading_abs", "Simi: worst heading error of the same turns, absolute (optical minus true)", f"{SIMI}: not measured (the turns were the hand's)", "-", 0, 0.8, "deg", 2),
     Row("vannoy.reached", "vannoy_start", "reached", "vannoy: ref:vannoy from a start anywhere in the level's region, seeds on which it reaches the charger", f'{VANNOY}: "Point R represents the exact position of the robot, which is unknown in the beginning"', "-", 29 / 30, 1, "", 2, 30),
     Row("vannoy.rms", "vannoy_start", "rms_mm", "vannoy: ref:vannoy from a start anywhere in the region, position RMS", f"{VANNOY}: (no figure; ours)", "-", 0, 100, "mm", 1, 30),
     Row("ubersetzig.reached", "ubersetzig_start", "reached", "ubersetzig: ref:ubersetzig from a start anywhere in the level's region, seeds on which it reaches the goal", f'{UBERSETZIG}: the robot is localized from one scan anywhere in "0 < rx < 127, -127 < ry < +127"', "-", 29 / 30, 1, "", 2, 30),
@@ -513,8 +564,15 @@ SENSITIVE = [
     Sensitive("bac-static", "beacons.params.wobble", "bac.static_std_x"),
     Sensitive("bac-static", "beacons.params.beam_diameter", "bac.static_std_x"),
     Sensitive("asabe", "beacons.params.spin_time", "asabe.rms"),
-    Sensitive("simi", "beacons.params.light_noise", "simi.worst"),
-    Sensitive("simi", "beacons.params.trigger_fraction", "simi.worst"),
+    Sensitive("simi", "beacons.params.light_noise", "simi.rel_y"),
+    Sensitive("simi", "beacons.params.trigger_fraction", "simi.rel_y"),
+    Sensitive("simi", "beacons.params.beam_divergence", "simi.rel_y"),
+    Sensitive("simi", "floor.tilt", "simi.rel_y"),
+    Sensitive("simi", "floor.tilt_length", "simi.rel_y"),
+    Sensitive("simi", "laser.height", "simi.rel_y"),
+    Sensitive("simi", "floor.tiles.spacing_error", "simi.rel_y"),
+    Sensitive("simi", "floor.tiles.angle_error", "simi.rel_y"),
+    Sensitive("simi", "robots.0.placement.heading", "simi.heading"),
     Sensitive("vannoy", "beacons.params.timing_noise", "vannoy.example"),
     Sensitive("vannoy", "beacons.params.wobble", "vannoy.example"),
     Sensitive("vannoy", "beacons.params.max_incidence", "vannoy.rms"),

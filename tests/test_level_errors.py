@@ -134,6 +134,35 @@ CASES = [
         "trials:",
     ),
     (
+        "tiles without trial positions",
+        "default_controller:",
+        "floor:\n  tiles: {origin: [1.0, 0.5]}\ndefault_controller:",
+        "floor.tiles",
+        "tiles:",
+    ),
+    (
+        "a floor steeper than 45 degrees",
+        "default_controller:",
+        "floor: {tilt: 50}\ndefault_controller:",
+        "floor.tilt",
+        "floor:",
+    ),
+    (
+        "tiles off square by 45 degrees",
+        "  kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]\n",
+        "  kind: localize\n  trials: {count: 2, positions: [[1.0, 0.5]]}\n"
+        "floor:\n  tiles: {origin: [0.5, 0.5], angle_error: 45}\n",
+        "floor.tiles.angle_error",
+        "tiles:",
+    ),
+    (
+        "negative laser height",
+        "angular_velocity: 20.0\n",
+        "angular_velocity: 20.0\n  height: -0.1\n",
+        "laser.height",
+        "height:",
+    ),
+    (
         "zero position scale",
         "default_controller:",
         "rules: {position_scale: 0}\ndefault_controller:",

@@ -17,7 +17,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from arena import placement
+from arena import floor, placement
 from arena.angles import wrap
 from arena.detectors import Detection
 from arena.level import ControllerLimits, Level, Pose
@@ -121,7 +121,8 @@ class Match:
         # where the robots really stand, trial by trial (the first trial is the start): drawn
         # even when ideal, since that is the task's uncertainty, not the hardware's
         self.starts: tuple[Pose, ...] = placement.starts(level, tree)
-        self.trial_poses = placement.trial_poses(level, tree, self.starts)
+        tiles = floor.grid(level.floor, tree, ideal)  # the experimenter's tiles: perfect when ideal
+        self.trial_poses = placement.trial_poses(level, tree, self.starts, tiles)
         self.trial = 0
         self.world = World(level, None if ideal else tree, self.starts)
         self.sensing = Sensing(self.world, tree, ideal)
