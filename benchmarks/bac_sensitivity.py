@@ -31,8 +31,20 @@ from arena.loader import parse_level
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import fidelity
 
-# Bac's parameters that are ours (docs/sensors.md), and `gain`: array C's trim
-OURS = ("rise_time", "trigger_fraction", "acceptance", "light_noise", "gain", "false_rate", "wobble")
+# Bac's parameters that are ours or sized by us (docs/sensors.md), `gain` being array C's trim
+OURS = (
+    "rise_time",
+    "trigger_fraction",
+    "acceptance",
+    "light_noise",
+    "gain",
+    "false_rate",
+    "wobble",
+    "beam_diameter",
+    "beam_divergence",
+    "timing_noise",
+    "spin_time",
+)
 TRIMMED = "C"  # the array whose trim `gain` sets
 
 
@@ -44,7 +56,8 @@ class Figures:
     erroneous: float  # % of all measurements, at Table 1's point
     std_x: float  # mm, the paper's method at Table 1's point
     std_y: float
-    asabe_rms: float  # mm, ref:bac on asabe
+    asabe_rms: float  # mm, ref:bac on asabe (nan: it never had an estimate)
+    asabe_reached: float  # waypoints of 33 ref:bac reached on asabe
 
 
 def bac_level(name: str, overrides: dict[str, float], exact: bool = False) -> Level:
@@ -68,30 +81,27 @@ def static_figures(overrides: dict[str, float], seed: int, folder: Path) -> tupl
     rep = fidelity.play(level, ["ref:bac-seed"], seed, folder)
     m = fidelity.table1(rep, [b.id for b in level.beacons.items], level.robots[0].laser.angular_velocity)
     errs = fidelity.errors(rep, after=2.0)
+    shares = (100 * m.three / m.correct if m.correct else math.nan, 100 * m.erroneous / max(1, m.total))
+    if not errs:  # no fix at all
+        return (*shares, math.nan, math.nan)
     mx, my = statistics.median(e[1] for e in errs), statistics.median(e[2] for e in errs)
     correct = [e for e in errs if math.hypot(e[1] - mx, e[2] - my) < 0.01]
-    return (
-        100 * m.three / max(1, m.correct),
-        100 * m.erroneous / max(1, m.total),
-        1000 * statistics.pstdev(e[1] for e in correct),
-        1000 * statistics.pstdev(e[2] for e in correct),
-    )
+    return (*shares, 1000 * statistics.pstdev(e[1] for e in correct), 1000 * statistics.pstdev(e[2] for e in correct))
 
 
-def asabe_rms(overrides: dict[str, float], seed: int, folder: Path) -> float:
-    """ref:bac's position RMS (mm) on asabe."""
-    rep = fidelity.play(bac_level("asabe", overrides), ["ref:bac"], seed, folder)
-    return 1000 * rep.result["robots"][0]["localization"]["position_rms"]
+def asabe_figures(overrides: dict[str, float], seed: int, folder: Path) -> tuple[float, float]:
+    """ref:bac on asabe: its position RMS (mm; nan without any estimate) and waypoints reached."""
+    robot = fidelity.play(bac_level("asabe", overrides), ["ref:bac"], seed, folder).result["robots"][0]
+    rms = robot["localization"]["position_rms"]
+    return (math.nan if rms is None else 1000 * rms), robot["task"]["reached"]
 
 
 def figures(overrides: dict[str, float], seeds: tuple[int, ...] = (1, 2)) -> Figures:
     """The headline figures with these parameter `overrides`, averaged over `seeds`."""
     with tempfile.TemporaryDirectory(prefix="laserarena-sensitivity-") as d:
         folder = Path(d)
-        static = [static_figures(overrides, s, folder) for s in seeds]
-        rms = [asabe_rms(overrides, s, folder) for s in seeds]
-    mean = [statistics.fmean(column) for column in zip(*static)]
-    return Figures(*mean, statistics.fmean(rms))
+        runs = [(*static_figures(overrides, s, folder), *asabe_figures(overrides, s, folder)) for s in seeds]
+    return Figures(*(statistics.fmean(column) for column in zip(*runs)))
 
 
 def nominal(name: str) -> float:
@@ -109,16 +119,17 @@ def _row(job: tuple[str, float, tuple[int, ...]]) -> tuple[str, float, Figures]:
 
 def markdown(rows: list[tuple[str, float, Figures]], seeds: tuple[int, ...]) -> str:
     lines = [
-        "| parameter | value | three arrays at Table 1's point | erroneous | static std x / y | asabe RMS |",
+        "| parameter | value | three arrays at Table 1's point | erroneous | static std x / y | asabe: RMS, waypoints |",
         "|---|---|---|---|---|---|",
     ]
     for name, factor, f in rows:
         value = "levels' own" if not name else f"x{factor:g} = {nominal(name) * factor:.4g}"
         lines.append(
             f"| {name or '-'} | {value} | {f.three:.1f} % | {f.erroneous:.1f} % | "
-            f"{f.std_x:.2f} / {f.std_y:.2f} mm | {f.asabe_rms:.2f} mm |"
+            f"{f.std_x:.2f} / {f.std_y:.2f} mm | {f.asabe_rms:.2f} mm, {f.asabe_reached:.1f} of 33 |"
         )
-    return "\n".join(lines) + f"\n\n(seeds {', '.join(map(str, seeds))}, means; Table 1: 56 %, 0.4 %, 1.7 / 1.7 mm)\n"
+    note = f"(seeds {', '.join(map(str, seeds))}, means; Table 1: 56 %, 0.4 %, 1.7 / 1.7 mm; nan: no fix at all)"
+    return "\n".join(lines) + "\n\n" + note + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
