@@ -19,6 +19,8 @@ from arena import kernels
 from arena.angles import TWO_PI
 from arena.laser import Crossings
 
+_erf = np.vectorize(math.erf, otypes=[float])  # the error function, elementwise
+
 # Parameters that are noise or failure sources, and their values in ideal mode.
 IDEAL_OVERRIDES: dict[str, float] = {
     "timing_noise": 0.0,
@@ -116,8 +118,11 @@ def flash_limit(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return p["near_incidence"] + slope * (d - p["near_range"])
 
 
-def sensitivity(kind: str, c: Crossings, inc: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
-    """The detector's response at this incidence, relative to head-on (0..1).
+def sensitivity(
+    kind: str, c: Crossings, inc: np.ndarray, p: Mapping[str, float], gain: np.ndarray | None = None
+) -> np.ndarray:
+    """The detector's response at this incidence, relative to a nominal detector head-on, times
+    each beacon's `gain` (none: every detector nominal).
 
     A sensor array's phototransistors fall off as S = 2^-(incidence / acceptance)^2. Simi's
     collector loses light with incidence ("a reduction in the laser beam intensity due to
@@ -130,9 +135,41 @@ def sensitivity(kind: str, c: Crossings, inc: np.ndarray, p: Mapping[str, float]
         a = p.get("aperture", 0.0) * np.cos(limit)
         with np.errstate(divide="ignore", invalid="ignore"):
             s_limit = np.minimum(1.0, p["trigger_fraction"] / np.where(w > a, a / w, 1.0))
-            return np.where(limit > 0, s_limit ** ((inc / limit) ** 2), 0.0)
+            out = np.where(limit > 0, s_limit ** ((inc / limit) ** 2), 0.0)
+    else:
+        out = array_response(inc, p)
+    return out if gain is None else out * gain[c.beacon]
+
+
+def array_response(inc: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+    """A nominal sensor array's response at this incidence, relative to head-on:
+    2^-(incidence / acceptance)^2 (1 without an acceptance)."""
     acc = p.get("acceptance", math.inf)
-    return np.exp2(-((inc / acc) ** 2)) if math.isfinite(acc) else np.ones(len(inc))
+    return np.exp2(-((inc / acc) ** 2)) if math.isfinite(acc) else np.ones(np.shape(inc))
+
+
+def array_fire_chance(
+    distance: np.ndarray, speed: np.ndarray, inc: np.ndarray, gain: float, p: Mapping[str, float]
+) -> np.ndarray:
+    """The chance that one sweep of a sensor array of this `gain` fires, at this range, beam
+    speed across it (|beam rate| x range) and incidence: what `optics` asks of the response S x f
+    (f the sweep's light factor, log-normal with std `light_noise` of its log), in closed form.
+
+    The light must reach the threshold at all, S f min(1, a / w) >= eta, and stay above it for
+    `rise_time`, (w + a - 2 eta w / (S f)) / v >= rise: so f >= need / S with need = eta w /
+    min(w, a) or 2 eta w / (w + a - v rise), the larger (never, if v rise >= w + a), and the
+    chance is Phi(ln(S / need) / light_noise); with no light noise, 1 or 0."""
+    w = spot_width(distance, p)
+    a = p.get("aperture", 0.0) * np.cos(inc)
+    eta, sigma = p.get("trigger_fraction", 0.0), p.get("light_noise", 0.0)
+    s = gain * array_response(inc, p)
+    room = w + a - speed * p.get("rise_time", 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        need = np.where(room > 0, np.maximum(eta * w / np.minimum(w, a), 2 * eta * w / room), np.inf)
+        margin = np.log(s / need)
+    if not sigma > 0:
+        return (margin >= 0).astype(float)
+    return 0.5 * (1.0 + _erf(margin / (sigma * math.sqrt(2.0))))
 
 
 def spot_width(distance: np.ndarray, p: Mapping[str, float]) -> np.ndarray:

@@ -61,12 +61,14 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class Beacon:
-    """One fixed beacon; `facing` is the direction its detector or reflector faces (rad)."""
+    """One fixed beacon; `facing` is the direction its detector or reflector faces (rad), `gain`
+    its detector's response relative to the kind's nominal one (a hand-trimmed array)."""
 
     id: str
     x: float
     y: float
     facing: float
+    gain: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -66,6 +66,7 @@ OPTICS_PARAMS: dict[str, tuple[str, float]] = {
     "acceptance": ("angle", math.inf),  # incidence at which the detector's response halves
     "light_noise": ("number", 0.0),  # std of ln(light reaching the detector), sweep to sweep
 }
+OPTICS_KINDS = ("sensor_array", "flash_detector")  # the kinds whose detectors see a finite beam
 BEACON_PARAMS: dict[str, dict[str, tuple[str, float]]] = {
     "reflector": {
         "range": ("length", math.inf),
@@ -630,14 +631,18 @@ def _beacons(ctx: _Ctx, m: _Map, fld: Field) -> Beacons:
                 params[name] = pm.req(name, _nonnegative)
     items: list[Beacon] = []
     for node, key in m.seq("items"):
-        b = _Map(ctx, node, key, ("id", "at", "facing"))
+        b = _Map(ctx, node, key, ("id", "at", "facing", "gain"))
         bid = str(b.req("id", _scalar_id))
         if any(o.id == bid for o in items):
             raise ctx.fail(b.raw("id").line, b.key("id"), f"duplicate beacon id {bid!r}")
         at = b.req("at", _point)
         _inside(ctx, fld, at, b.raw("at").line, b.key("at"), "beacon")
         facing = _facing(ctx, b, at, fld.center)
-        items.append(Beacon(bid, at[0], at[1], facing))
+        if b.has("gain") and kind not in OPTICS_KINDS:
+            raise ctx.fail(
+                b.raw("gain").line, b.key("gain"), "a gain applies to sensor_array and flash_detector beacons"
+            )
+        items.append(Beacon(bid, at[0], at[1], facing, b.opt("gain", _positive, 1.0)))
     if not items:
         raise ctx.fail(m.raw("items").line, m.key("items"), "at least one beacon is required")
     radius = m.opt("radius", _length, DEFAULT_BEACON_RADIUS)

@@ -58,6 +58,9 @@ class Sensing:
         self.bx = np.array([b.x for b in items]) + spread * np.cos(angle)
         self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
         self.facing = np.array([b.facing for b in items])
+        # each detector's response relative to the nominal one (Bac's hand-trimmed arrays); none when ideal
+        gains = np.array([b.gain for b in items])
+        self.gain = None if ideal or (gains == 1.0).all() else gains
         self.beacon_radius = level.beacons.radius
         robots = level.robots
         self.n = len(robots)
@@ -261,7 +264,7 @@ class Sensing:
         offset, detected = _NONE, keep
         if self.kind != "reflector" and len(c):  # finite beam and detector widths
             inc = det.incidence(c, self.facing)
-            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p)), p)
+            ok, offset = det.optics(c, inc, self._fluctuation(c, det.sensitivity(self.kind, c, inc, p, self.gain)), p)
             detected = ok if keep is None else ok & keep
         if len(offset) != len(c):
             offset = np.zeros(len(c))

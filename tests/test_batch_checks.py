@@ -108,14 +108,18 @@ def test_waypoints_reached(tmp_path, monkeypatch, spec):
 
 
 def test_robots_finishing_end_the_match_at_the_step(tmp_path, monkeypatch):
-    # two short paths, each finished mid-period; two robots whose one waypoint is their start
+    # two short paths, each finished mid-period; two robots whose one waypoint is their start,
+    # parked off robot 0's line to array B and robot 1's to O (with one of them hidden a robot
+    # there sees two arrays alone: C, trimmed low, is too weak that far, and gives it no fix)
     level = variant(
         "asabe-race",
         time_limit=60,
         robots__0__path=[[0.5, 0.25], [0.6, 0.25]],
         robots__1__path=[[1.35, 0.97], [1.25, 0.97]],
-        robots__2__path=[[0.60, 0.45]],
-        robots__3__path=[[1.23, 0.77]],
+        robots__2__start=[0.60, 0.55, 0],
+        robots__2__path=[[0.60, 0.55]],
+        robots__3__start=[1.23, 0.67, 180],
+        robots__3__path=[[1.23, 0.67]],
     )
     result = same_both_ways(level, [resolve("ref:bac")] * 2 + [resolve("ref:idle")] * 2, tmp_path, monkeypatch)
     assert result.end_reason == "task_complete" and result.end_time < 30

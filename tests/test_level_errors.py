@@ -33,6 +33,14 @@ CASES = [
     ("zero laser", "angular_velocity: 20.0", "angular_velocity: 0", "laser.angular_velocity", "angular_velocity"),
     ("duplicate beacon", "{id: B, at: [2, 1]}", "{id: A, at: [2, 1]}", "beacons.items[2].id", "{id: A, at: [2, 1]}"),
     ("waypoint outside", "[1.5, 0.5]]", "[2.5, 0.5]]", "task.path[1]", "path:"),
+    ("zero gain", "{id: B, at: [2, 1]}", "{id: B, at: [2, 1], gain: 0}", "beacons.items[2].gain", "gain: 0"),
+    (
+        "gain of a reflector",
+        "kind: sensor_array\n  items:\n    - {id: O, at: [0, 0]}\n    - {id: A, at: [2, 0]}\n    - {id: B, at: [2, 1]}",
+        "kind: reflector\n  items:\n    - {id: O, at: [0, 0]}\n    - {id: A, at: [2, 0]}\n    - {id: B, at: [2, 1], gain: 0.5}",
+        "beacons.items[2].gain",
+        "gain: 0.5",
+    ),
     (
         "unknown param",
         "  kind: sensor_array\n",

@@ -38,7 +38,7 @@ from referee.errors import ReplayError
 from referee.records.canonical import DECIMALS, dumps
 
 FORMAT, VERSION = "laserarena-replay", 1
-BEHAVIOUR = 9  # bump when a change alters simulation results (the golden-replay test says so)
+BEHAVIOUR = 10  # bump when a change alters simulation results (the golden-replay test says so)
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
 MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
 
