@@ -378,6 +378,8 @@ class Sensing:
                 angle = float(det.quantize_angle(phase, steps)[0])
                 t = float(det.step_time(np.array([t]), phase, self.omega[r : r + 1], steps, float(traj.t[0]))[0])
             events.append(det.Detection(r, float(t), "hit", None, angle, source=-1))
+        if self.params["quantization"]:
+            events.sort(key=event_order)  # two returns at one step: its time, rounded either way
         return events
 
     def _table_false_pulses(self, traj: Trajectory) -> list[tuple]:

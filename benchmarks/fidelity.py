@@ -403,7 +403,9 @@ def simi(seed: int, scale: Scale = ()) -> dict[str, float]:
     nominal turn, and against the truth (deg). A turned position with no solution scores inf."""
     (e0, t0), *rest = trial_fixes(play(simi_tour(scale, SIMI_POSITIONS[1:], [0]), ["ref:simi"], seed))
     if e0 is None:
-        return dict.fromkeys(("start_x", "start_y", "rel_x", "rel_y", "abs_x", "abs_y", "heading", "heading_abs"), math.inf) | {"fixed": 0}
+        return dict.fromkeys(
+            ("start_x", "start_y", "rel_x", "rel_y", "abs_x", "abs_y", "heading", "heading_abs"), math.inf
+        ) | {"fixed": 0}
     rel, absolute = [0.0, 0.0], [0.0, 0.0]
     for est, true in rest:
         if est is None:
@@ -722,7 +724,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
     for o in outcomes:
         r = o.row
         lines.append(
-            f"| {r.title} | {r.source} | {r.published} | {o.shown()} | {o.band()} | "
+            f"| `{r.key}`: {r.title} | {r.source} | {r.published} | {o.shown()} | {o.band()} | "
             f"{o.outside} of {len(o.values)} | {'yes' if o.ok else '**no**'} |"
         )
     lines += [
@@ -731,7 +733,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
         "",
         'Each parameter whose level comment says "ours" (the list below gives the reason for its',
         f"value), halved and doubled, and the median over seeds 1-{s_seeds} of the figure it moves most",
-        "(the row named; its median at the level's own value is in the table above).",
+        '(the row of the table above named by its key; "as set" is that row\'s median).',
         "",
         "| level | parameter | value | figure | at half | as set | at twice |",
         "|---|---|---|---|---|---|---|",
@@ -745,7 +747,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
         d = o.row.digits
         half, twice = (sensitivity[(s.key, s.level, f)] for f in FACTORS)
         lines.append(
-            f"| {s.level} | `{s.key.rsplit('.', 1)[-1]}` | {value:g} | {o.row.title} ({o.row.unit or 'value'}) | "
+            f"| {s.level} | `{s.key.rsplit('.', 1)[-1]}` | {value:g} | `{o.row.key}` ({o.row.unit or 'value'}) | "
             f"{half:.{d}f} | {o.centre:.{d}f} | {twice:.{d}f} |"
         )
     lines += [
