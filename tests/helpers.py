@@ -18,6 +18,7 @@ from arena.loader import parse_level
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
+from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, StartInfo, TaskInfo
 
 # A small valid level; tests derive variants of it with `variant`.
 MINI_LEVEL = """\
@@ -178,3 +179,23 @@ def hits(events, beacon=None):
 
 
 TWO = ONE + "\n  - {model: boe-bot, start: [0.95, 0.75, 0]}"
+
+
+# Bac's table: the four corner arrays (m), for the toolkit's tests of a controller's side
+ARRAYS = {"O": (0.0, 0.0), "A": (1.83, 0.0), "B": (1.83, 1.22), "C": (0.0, 1.22)}
+
+
+def table_brief(start: StartInfo | None = None, omega: float = 81.0) -> Brief:
+    """The brief of a boe-bot on Bac's table, its laser at `omega` rad/s, a localize task."""
+    return Brief(
+        slot=0,
+        field=(0.0, 0.0, 1.83, 1.22),
+        beacon_kind="sensor_array",
+        beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()),
+        laser=LaserInfo(omega, False),
+        robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
+        task=TaskInfo("localize", 0.05),
+        control_period=0.2,
+        time_limit=10.0,
+        start=start,
+    )

@@ -6,36 +6,20 @@ they come (robots.toolkit: `one_laser`, the HitTracker), down to a short race th
 import math
 
 import pytest
-from helpers import variant
+from helpers import ARRAYS, table_brief, variant
 
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import World
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
-from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, StartInfo, TaskInfo
+from robots.api import SensorEvent, StartInfo
 from robots.toolkit.associate import one_laser
 from robots.toolkit.tracker import HitTracker
 
-ARRAYS = {"O": (0.0, 0.0), "A": (1.83, 0.0), "B": (1.83, 1.22), "C": (0.0, 1.22)}
 OMEGA = 81.0
 PERIOD = 2 * math.pi / OMEGA
 OWN, OTHERS = (0.7, 0.5, 0.3), [(1.2, 0.8, 2.0), (0.4, 0.9, 4.4), (1.4, 0.35, 5.5)]
-
-
-def table_brief(start: StartInfo | None) -> Brief:
-    return Brief(
-        slot=0,
-        field=(0.0, 0.0, 1.83, 1.22),
-        beacon_kind="sensor_array",
-        beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()),
-        laser=LaserInfo(OMEGA, False),
-        robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
-        task=TaskInfo("localize", 0.05),
-        control_period=0.2,
-        time_limit=10.0,
-        start=start,
-    )
 
 
 def laser_pulses(x: float, y: float, beam0: float, seconds: float) -> list[SensorEvent]:

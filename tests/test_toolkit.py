@@ -5,8 +5,9 @@ import dataclasses
 import math
 
 import pytest
+from helpers import ARRAYS, table_brief
 
-from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, SensorEvent, StartInfo, TaskInfo
+from robots.api import SensorEvent, StartInfo, TaskInfo
 from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible, wrap
 from robots.toolkit.ekf import BearingEKF
@@ -94,24 +95,6 @@ def test_heading_change_of_a_trapezoid_spin():
     w.command(0.1, 0.1, top=0.17)
     w.advance(1.0)
     assert heading_change(w, [(0.0, 0.1, 0.1)], top=0.17) == 0.0
-
-
-ARRAYS = {"O": (0.0, 0.0), "A": (1.83, 0.0), "B": (1.83, 1.22), "C": (0.0, 1.22)}
-
-
-def table_brief(start=None, omega=81.0):
-    return Brief(
-        slot=0,
-        field=(0.0, 0.0, 1.83, 1.22),
-        beacon_kind="sensor_array",
-        beacons=tuple(BeaconInfo(k, *p) for k, p in ARRAYS.items()),
-        laser=LaserInfo(omega, False),
-        robot=RobotInfo("boe-bot", 0.105, 0.095, 0.105, 0.17, 0.5),
-        task=TaskInfo("localize", 0.05),
-        control_period=0.2,
-        time_limit=10.0,
-        start=start,
-    )
 
 
 def standing_hits(x, y, beam0, omega, turns, skip=()):
