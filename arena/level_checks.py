@@ -7,13 +7,9 @@ Each check returns a `Problem` (the dotted key it concerns and a one-line messag
 
 from __future__ import annotations
 
-import importlib.machinery
-import importlib.util
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from importlib import metadata
-from pathlib import Path
 
 import yaml
 
@@ -183,52 +179,6 @@ def beacon_count_problem(level: Level) -> Problem | None:
             f"{have} {level.beacons.kind} beacon(s); a position fix from bearings needs at least {need}",
         )
     return None
-
-
-def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
-    """Whether a default controller spec names something that exists, found WITHOUT running any
-    of its code: `ref:NAME` among the reference controllers, `FILE.py[:Class]` relative to the
-    level's folder `base`, `module:Class` by the import system's finders, or an installed
-    controller's entry point. Returns (the spec with a file made absolute, problem or None)."""
-    from robots.controllers import REFERENCE
-    from robots.loading import ENTRY_POINT_GROUP, is_file_spec
-
-    if spec.startswith("ref:"):
-        if spec[4:] not in REFERENCE:
-            return spec, f"no reference controller {spec[4:]!r} (have: {', '.join(sorted(REFERENCE))})"
-        return spec, None
-    if is_file_spec(spec):
-        path, _, rest = spec.partition(".py")
-        file = Path(path + ".py")
-        file = file if file.is_absolute() else base / file
-        if not file.is_file():
-            return spec, f"no such file {file} (a controller file is found relative to the level file)"
-        return str(file.resolve()) + rest, None
-    if ":" not in spec:
-        if not any(ep.name == spec for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)):
-            return spec, (
-                f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
-                f"controller (entry point group {ENTRY_POINT_GROUP})"
-            )
-        return spec, None
-    module, _, cls = spec.partition(":")
-    if not cls or not module or not _module_exists(module):
-        return spec, f"no importable module {module!r}" if module else "expected module:Class"
-    return spec, None
-
-
-def _module_exists(name: str) -> bool:
-    """Find a dotted module with the import system's finders, executing no package's __init__."""
-    parts = name.split(".")
-    try:
-        spec = importlib.util.find_spec(parts[0])  # a top-level name: finders only, nothing runs
-        for i in range(1, len(parts)):
-            if spec is None or spec.submodule_search_locations is None:
-                return False
-            spec = importlib.machinery.PathFinder.find_spec(".".join(parts[: i + 1]), spec.submodule_search_locations)
-    except (ImportError, ValueError):
-        return False
-    return spec is not None
 
 
 def level_problem(level: Level, contest: bool = True) -> Problem | None:

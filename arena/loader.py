@@ -324,19 +324,25 @@ def _points(ctx: _Ctx, node: _Node, key: str) -> tuple[tuple[float, float], ...]
 # ---- the level ------------------------------------------------------------------------------
 
 
-def find_level(name: str) -> Level:
+# whether a level's default controller exists: (spec, level folder) -> (spec with a file made
+# absolute, problem or None). The referee knows what a controller is (referee.sandbox.teams);
+# the physical world does not, so a caller who wants the check passes it in.
+ControllerCheck = Callable[[str, Path], tuple[str, str | None]]
+
+
+def find_level(name: str, controllers: ControllerCheck | None = None) -> Level:
     """Load a level by path, or by built-in name (`asabe`); `LevelError` if there is neither."""
     p = Path(name)
     if p.is_file():
-        return load_level(p)
+        return load_level(p, controllers=controllers)
     if name in levels.names():
-        return load_level(levels.path(name), display=f"levels/{name}.yaml")
+        return load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controllers)
     if p.suffix in (".yaml", ".yml") or p.parent != Path("."):
-        return load_level(p)  # reports the unreadable file
+        return load_level(p, controllers=controllers)  # reports the unreadable file
     raise LevelError(name, None, "", "no such level file or built-in level (see `laserarena levels`)")
 
 
-def load_level(path: str | Path, display: str | None = None) -> Level:
+def load_level(path: str | Path, display: str | None = None, controllers: ControllerCheck | None = None) -> Level:
     """Read, parse and validate a level file; raise `LevelError` on any problem."""
     source = display or str(path)
     try:
@@ -344,17 +350,19 @@ def load_level(path: str | Path, display: str | None = None) -> Level:
             data = f.read(MAX_LEVEL_BYTES + 1)  # no more: parse_level refuses a longer file
     except OSError as e:
         raise LevelError(source, None, "(file)", f"cannot read: {e.strerror or e}") from None
-    return parse_level(data, source, base=Path(path).resolve().parent)
+    return parse_level(data, source, base=Path(path).resolve().parent, controllers=controllers)
 
 
 MAX_LEVEL_BYTES = level_checks.MAX_BYTES
 
 
-def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
+def parse_level(
+    data: bytes, source: str, base: Path | None = None, controllers: ControllerCheck | None = None
+) -> Level:
     """Parse and validate level YAML bytes; `source` names the file in errors. With `base`, the
     level file's folder, the checks that concern a contest rather than the physics run too:
-    the default controller must exist (a file found relative to `base`) and there must be
-    enough beacons for a fix. A replay's level text is parsed without `base` (its controller
+    there must be enough beacons for a fix, and, given `controllers`, the default controller
+    must exist (a file found relative to `base`). A replay's level text is parsed without `base` (its controller
     may live elsewhere), as are test fixtures that simulate, say, two lights."""
     ctx = _Ctx(source)
     problem = level_checks.text_problem(data)
@@ -457,8 +465,8 @@ def parse_level(data: bytes, source: str, base: Path | None = None) -> Level:
         raise ctx.fail(task_map.node.line, "task.kind", "a race needs at least two robots")
 
     default_controller = top.req("default_controller", _text)
-    if base is not None:
-        default_controller, why = level_checks.controller_problem(default_controller, base)
+    if base is not None and controllers is not None:
+        default_controller, why = controllers(default_controller, base)
         if why:
             raise ctx.fail(top.raw("default_controller").line, "default_controller", f"{default_controller}: {why}")
     level = Level(

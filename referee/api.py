@@ -26,7 +26,7 @@ from arena.loader import find_level, load_level
 from referee.errors import TeamError, UserError
 from referee.records.results import MatchResult
 from referee.sandbox.process import isolation_unavailable
-from referee.sandbox.teams import Team, resolve
+from referee.sandbox.teams import Team, controller_problem, resolve
 from robots.api import Controller
 
 
@@ -159,9 +159,9 @@ def _level(level: str | Path | Level) -> Level:
     if isinstance(level, Level):
         return level
     if isinstance(level, Path):
-        return load_level(level)
+        return load_level(level, controllers=controller_problem)
     if isinstance(level, str):
-        return find_level(level)
+        return find_level(level, controllers=controller_problem)
     raise UserError(f"level must be a name, a path or a Level, got {type(level).__name__}")
 
 
@@ -299,7 +299,7 @@ def contest_levels(levels: Levels) -> list[tuple[Level, Path]]:
     for name in names:
         if not isinstance(name, (str, Path)):
             raise UserError(f"a contest level is a name or a path, got {type(name).__name__}")
-        lv = find_level(str(name))
+        lv = find_level(str(name), controllers=controller_problem)
         path = Path(name) if Path(name).is_file() else built_in.path(str(name))
         found.append((lv, path.resolve()))
     return found

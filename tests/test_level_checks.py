@@ -5,12 +5,18 @@ nesting and size limits, and rate messages that blame the key that is really wro
 
 import math
 import sys
+from functools import partial
 
 import pytest
 import yaml
 from helpers import MINI_LEVEL, run_cli
 
-from arena.loader import LevelError, load_level
+from arena.loader import LevelError
+from arena.loader import load_level as load_bare
+from referee.sandbox.teams import controller_problem
+
+# as the referee loads a level: its default controller checked too
+load_level = partial(load_bare, controllers=controller_problem)
 
 
 def base() -> dict:
@@ -224,3 +230,10 @@ def test_rate_messages_name_the_key_that_is_wrong(tmp_path):
     d["record_rate"] = 25
     lv = load_level(write(tmp_path, d))
     assert (lv.physics_rate, lv.record_rate, lv.steps_per_control) == (250, 25, 50)
+
+
+def test_the_physical_world_leaves_controllers_to_the_referee(tmp_path):
+    # arena's loader knows nothing of teams: without the referee's check any name passes
+    path = write(tmp_path, with_controller("ref:nobody"))
+    assert load_bare(path).default_controller == "ref:nobody"
+    assert error(path).key == "default_controller"

@@ -24,14 +24,14 @@ from referee.errors import EXIT_BAD_INPUT, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
 from referee.records.results import MatchResult
-from referee.sandbox.teams import fill_slots
+from referee.sandbox.teams import controller_problem, fill_slots
 from referee.terminal import safe
 from referee.version import __version__
 
 
 def cmd_levels(args: argparse.Namespace) -> int:
     for name in levels.names():
-        lv = load_level(levels.path(name), display=f"levels/{name}.yaml")
+        lv = load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controller_problem)
         print(
             f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
             f"default {lv.default_controller:<20} {lv.description}"
@@ -41,7 +41,7 @@ def cmd_levels(args: argparse.Namespace) -> int:
 
 def cmd_check(args: argparse.Namespace) -> int:
     for name in args.level:
-        lv = find_level(name)
+        lv = find_level(name, controllers=controller_problem)
         print(
             f"{name}: ok ({lv.name}: {len(lv.robots)} robot(s), {len(lv.beacons.items)} "
             f"{lv.beacons.kind} beacons, {lv.task.kind} task)"
@@ -50,7 +50,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    level = find_level(args.level)
+    level = find_level(args.level, controllers=controller_problem)
     teams = fill_slots(level, args.team)
     if args.seed is not None and args.seed < 0:
         raise UserError(f"--seed {args.seed}: a seed is a whole number >= 0")
@@ -275,9 +275,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_map(args: argparse.Namespace) -> int:
     from referee.media import accuracy_map as am
 
-    maps = [am.compute(find_level(args.level), cells=args.cells)]
+    maps = [am.compute(find_level(args.level, controllers=controller_problem), cells=args.cells)]
     if args.compare:
-        maps.append(am.compute(find_level(args.compare), cells=args.cells))
+        maps.append(am.compute(find_level(args.compare, controllers=controller_problem), cells=args.cells))
     am.draw(maps, Path(args.out))
     for m in maps:
         finite = m.error[m.error == m.error]

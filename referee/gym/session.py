@@ -22,7 +22,7 @@ from referee.match.estimates import tick_quality
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.records.results import MatchResult
-from referee.sandbox.teams import Team, fill_slots
+from referee.sandbox.teams import Team, controller_problem, fill_slots
 from robots.api import Command
 from robots.controllers.idle import Idle
 
@@ -47,7 +47,7 @@ def load(level: str | Path | Level) -> Level:
         return level
     from arena.loader import find_level
 
-    return find_level(str(level))
+    return find_level(str(level), controllers=controller_problem)
 
 
 class AgentSession:

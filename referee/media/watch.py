@@ -123,9 +123,9 @@ def watch(
     else:
         from arena.loader import find_level
         from referee.match.loop import Match
-        from referee.sandbox.teams import fill_slots
+        from referee.sandbox.teams import controller_problem, fill_slots
 
-        level = find_level(target)
+        level = find_level(target, controllers=controller_problem)
         resolved = fill_slots(level, teams)
         recorder = MemoryRecorder(
             level, level.text, level.seed if seed is None else seed, False, [(t.label, t.spec) for t in resolved]

@@ -16,13 +16,14 @@ import importlib.machinery
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 
 from arena.level import Level
 from referee.errors import TeamError
 from robots.api import Controller
 from robots.controllers import REFERENCE
-from robots.loading import LoadError, entry_point, is_file_spec
+from robots.loading import ENTRY_POINT_GROUP, LoadError, entry_point, is_file_spec
 
 MAX_FILES = 2000  # what a team may ship: a package larger than this is refused in one line
 MAX_BYTES = 64 << 20
@@ -150,6 +151,43 @@ def _package_dir(spec: str) -> tuple[Path, str] | None:
     if not path.resolve().name.isidentifier():
         raise TeamError(f"team {spec}: the package folder's name {path.resolve().name!r} is not a Python name")
     return path, cls
+
+
+def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
+    """Whether a level's default controller spec names something that exists, found WITHOUT running any
+    of its code: `ref:NAME` among the reference controllers, `FILE.py[:Class]` relative to the
+    level's folder `base`, `module:Class` by the import system's finders, or an installed
+    controller's entry point. Returns (the spec with a file made absolute, problem or None)."""
+    if spec.startswith("ref:"):
+        if spec[4:] not in REFERENCE:
+            return spec, f"no reference controller {spec[4:]!r} (have: {', '.join(sorted(REFERENCE))})"
+        return spec, None
+    if is_file_spec(spec):
+        path, _, rest = spec.partition(".py")
+        file = Path(path + ".py")
+        file = file if file.is_absolute() else base / file
+        if not file.is_file():
+            return spec, f"no such file {file} (a controller file is found relative to the level file)"
+        return str(file.resolve()) + rest, None
+    if ":" not in spec:
+        if not any(ep.name == spec for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)):
+            return spec, (
+                f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
+                f"controller (entry point group {ENTRY_POINT_GROUP})"
+            )
+        return spec, None
+    module, _, cls = spec.partition(":")
+    if not cls or not module or not _importable(module):
+        return spec, f"no importable module {module!r}" if module else "expected module:Class"
+    return spec, None
+
+
+def _importable(name: str) -> bool:
+    """Whether `find_module` finds a dotted module (a malformed name is not one)."""
+    try:
+        return find_module(name) is not None
+    except (ImportError, ValueError):
+        return False
 
 
 def resolve(spec: str) -> Team:
