@@ -61,10 +61,13 @@ def set_down(
 
 
 def starts(level: Level, tree: RandomTree) -> tuple[Pose, ...]:
-    """Every robot's true start, in slot order (each from its own stream)."""
+    """Every robot's true start, in slot order (each from its own stream), clear of the robots
+    set down before it and of those set down exactly at their starts (they do not move over)."""
     out: list[Pose] = []
+    exact = {r.slot: footprint(r.model, r.start) for r in level.robots if r.placement.exact}
     for r in level.robots:
         bodies = [footprint(level.robots[k].model, p) for k, p in enumerate(out)]
+        bodies += [body for k, body in exact.items() if k > r.slot]
         out.append(set_down(level, r.slot, r.start, tree.stream("robot", r.slot, "start"), bodies))
     return tuple(out)
 
@@ -119,7 +122,7 @@ def _trial_nominal(
             order.extend(rng.permutation(len(positions)).tolist())
         x, y = positions[order.pop()]
     if headings:
-        heading = headings[min(int(u[1] * len(headings)), len(headings) - 1)]
+        heading = headings[min(int(u[2] * len(headings)), len(headings) - 1)]  # not u[1]: a region's y
     else:
         heading = math.pi * (2 * u[2] - 1)
     return Pose(x, y, heading)

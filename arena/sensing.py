@@ -126,6 +126,7 @@ class Sensing:
             raise RuntimeError("robots may be moved only at a control tick, after the flush")
         self._last = self.world.state
         self.body_rate[:] = 0.0
+        self.scans.clear()  # a turret's turn begun before the move is no scan of where it now stands
 
     def flush(self) -> list[list[det.Detection]]:
         """Detections per robot for the steps recorded since the last flush, in event order
@@ -300,12 +301,14 @@ class Sensing:
             return self._to_everyone(pulses)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
         events = list(map(NEW_DETECTION, fields))
-        # times never decrease within a robot; hits at one time go by their keys
+        # times never decrease within a robot; hits at one time go by their keys (a stepped head's
+        # times, moved back to their steps, may reorder two returns of one step: sorted too)
+        stepped = self.kind == "reflector" and bool(steps)
         start = 0
         for r, (k, tied) in enumerate(zip(counts, tied_.tolist())):
             out[r] = events[start : start + k]
             start += k
-            if tied:
+            if tied or stepped:
                 out[r].sort(key=event_order)
         return out
 

@@ -100,12 +100,17 @@ def play(level: Level, teams: list[str], seed: int, ideal: bool = False) -> Repl
     return recorder.replay
 
 
-def truth_at(rep: Replay, t: float, slot: int = 0) -> tuple[float, float, float]:
-    """The true pose of `slot` at time `t`, interpolated between recorded frames but never across
-    a trial's move (as the viewer and `laserarena plot` take it); past the last frame (a match
-    that ended between two), the last."""
-    pose = error_series.truth_at(rep.frames, [f[0] for f in rep.frames], slot, t, rep.moves)
-    return pose if pose is not None else tuple(rep.frames[-1][1][slot])
+def truth(rep: Replay, slot: int = 0) -> Callable[[float], tuple[float, float, float]]:
+    """`slot`'s true pose as a function of time: interpolated between recorded frames but never
+    across a trial's move (as the viewer and `laserarena plot` take it); past the last frame (a
+    match that ended between two), the last."""
+    times, moves, last = [f[0] for f in rep.frames], rep.moves, tuple(rep.frames[-1][1][slot])
+
+    def at(t: float) -> tuple[float, float, float]:
+        pose = error_series.truth_at(rep.frames, times, slot, t, moves)
+        return pose if pose is not None else last
+
+    return at
 
 
 def errors(rep: Replay, slot: int = 0, after: float = 0.0) -> list[tuple[float, float, float]]:
@@ -113,11 +118,11 @@ def errors(rep: Replay, slot: int = 0, after: float = 0.0) -> list[tuple[float, 
     match or its trial began (a trial's move falls on a control tick: the frames around it are
     two poses, so no estimate within `after` of it is taken)."""
     out = []
-    begins = [0.0, *rep.moves]
+    begins, at = [0.0, *rep.moves], truth(rep, slot)
     for e in rep.estimates:
         began = max(b for b in begins if b < e["t"] or b == 0.0)
         if e["r"] == slot and e["t"] >= began + after:
-            x, y, _ = truth_at(rep, e["t"], slot)
+            x, y, _ = at(e["t"])
             out.append((e["t"], e["e"][0] - x, e["e"][1] - y))
     return out
 
@@ -128,10 +133,11 @@ def rms(values: list[float]) -> float:
 
 def heading_rms_after(rep: Replay, after: float, slot: int = 0) -> float:
     """RMS heading error (deg) of the estimates `slot` reported after `after` seconds."""
+    at = truth(rep, slot)
     return math.degrees(
         rms(
             [
-                math.remainder(e["e"][2] - truth_at(rep, e["t"], slot)[2], math.tau)
+                math.remainder(e["e"][2] - at(e["t"])[2], math.tau)
                 for e in rep.estimates
                 if e["r"] == slot and e["t"] > after
             ]
@@ -253,9 +259,9 @@ def bac_line(seed: int, scale: Scale = ()) -> dict[str, float]:
     its fixes from the true path over the first 0.9 m travelled (the seed's 40 readings), mm."""
     rep = play(variant("bac-line", scale), ["ref:bac-seed"], seed)
     x0, y0, _ = rep.frames[0][1][0]
-    dev = []
+    dev, at = [], truth(rep)
     for e in rep.estimates:
-        x, y, _ = truth_at(rep, e["t"])
+        x, y, _ = at(e["t"])
         if e["t"] >= 1.0 and math.hypot(x - x0, y - y0) <= 0.9:
             dev.append(e["e"][1] - y)
     return {"std_y_mm": 1000 * statistics.pstdev(dev), "readings": len(dev)}
@@ -283,11 +289,12 @@ def asabe(seed: int, scale: Scale = ()) -> dict[str, float]:
     return {
         "reached": laser["task"]["reached"],
         "finished": float(laser["task"]["finished"] is not None),
-        "rms_mm": 1000 * laser["localization"]["position_rms"],
+        "rms_mm": 1000 * (laser["localization"]["position_rms"] or math.inf),
         "heading_after_deg": heading_rms_after(rep, 5.0),
-        "ratio": laser["localization"]["position_rms"] / blind["localization"]["position_rms"],
+        "ratio": (laser["localization"]["position_rms"] or math.inf)
+        / (blind["localization"]["position_rms"] or math.inf),
         "beats_blind": float(laser["score"]["total"] > blind["score"]["total"]),
-        "drift_mm": 1000 * exact["localization"]["position_rms"],
+        "drift_mm": 1000 * (exact["localization"]["position_rms"] or math.inf),
         "merged_percent": merged_percent(rep, [b.id for b in level.beacons.items]),
     }
 
@@ -297,7 +304,7 @@ def asabe_race(seed: int, scale: Scale = ()) -> dict[str, float]:
     the median of the four."""
     level = variant("asabe-race", scale)
     rms_ = [
-        1000 * r["localization"]["position_rms"]
+        1000 * (r["localization"]["position_rms"] or math.inf)
         for r in play(level, ["ref:bac"] * len(level.robots), seed).result["robots"]
     ]
     return {"worst_mm": max(rms_), "median_mm": statistics.median(rms_)}
@@ -367,9 +374,10 @@ def trial_fixes(rep: Replay, slot: int = 0) -> list[tuple[Pose3 | None, Pose3]]:
     """(estimate, true pose) at the end of each trial: the solution the controller settled on
     before the robot was carried on (None if it gave none in that trial), and where it stood."""
     out: list[tuple[Pose3 | None, Pose3]] = []
+    at = truth(rep, slot)
     for begin, end in zip([0.0, *rep.moves], [*rep.moves, rep.duration]):
         mine = [e["e"] for e in rep.estimates if e["r"] == slot and begin < e["t"] <= end]
-        out.append(((mine[-1][0], mine[-1][1], mine[-1][2]) if mine else None, truth_at(rep, end, slot)))
+        out.append(((mine[-1][0], mine[-1][1], mine[-1][2]) if mine else None, at(end)))
     return out
 
 
@@ -798,9 +806,9 @@ def main(argv: list[str] | None = None) -> int:
     if min(args.seeds, args.workers, args.sensitivity_seeds) < 1:
         ap.error("--seeds, --sensitivity-seeds and --workers must be at least 1")
     start = time.perf_counter()
-    seeds_of = {r.experiment: max(r.seeds or args.seeds, 1) for r in ROWS}
+    seeds_of: dict[str, int] = {}
     for r in ROWS:
-        seeds_of[r.experiment] = max(seeds_of[r.experiment], r.seeds or args.seeds)
+        seeds_of[r.experiment] = max(seeds_of.get(r.experiment, 1), r.seeds or args.seeds)
     jobs = [(e, seed, ()) for e, n in sorted(seeds_of.items()) for seed in range(1, n + 1)]
     jobs += sensitivity_jobs(args.sensitivity_seeds)
     figures: dict[tuple[str, int, Scale], dict[str, float]] = {}

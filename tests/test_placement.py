@@ -176,3 +176,29 @@ def test_verify_reproduces_a_match_with_trials(tmp_path):
     assert [(r["n"], r["t"]) for r in rep.trials] == [(k, pytest.approx(0.3 * k)) for k in range(1, 10)]
     proc = run_cli("verify", str(tmp_path / "y.replay"))
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_a_robot_drawn_first_keeps_clear_of_a_later_one_set_down_exactly():
+    # robot 0 anywhere in a patch around robot 3's start; robot 3 set down exactly there, after it
+    text = edited(
+        "asabe-race",
+        {"robots.0.placement": {"region": [[1.03, 0.57], [1.43, 0.97]], "heading": 180}, "robots.3.placement": None},
+    )
+    level = parse_level(text.encode(), "exact-later.yaml")
+    for seed in range(40):
+        first = starts(level, RandomTree(seed))
+        assert first[3] == level.robots[3].start
+        body0, body3 = (footprint(level.robots[k].model, first[k]) for k in (0, 3))
+        assert math.dist(np.mean(body0, axis=0), np.mean(body3, axis=0)) > 0.09
+
+
+def test_a_region_trials_heading_says_nothing_of_where_it_stands():
+    # trials anywhere in a region, facing one of two headings: the heading is drawn apart from y
+    text = edited("osentoski", {"task.trials.headings": [0, 180], "robots.0.placement": None})
+    level = parse_level(text.encode(), "headed.yaml")
+    (y0, y1) = level.task.trials.region[1], level.task.trials.region[3]
+    pairs = set()
+    for seed in range(30):
+        for (p,) in trial_poses(level, RandomTree(seed), starts(level, RandomTree(seed)))[1:]:
+            pairs.add((p.y > (y0 + y1) / 2, round(math.cos(p.heading))))
+    assert pairs == {(False, 1), (False, -1), (True, 1), (True, -1)}

@@ -121,3 +121,18 @@ def test_cli_plot_writes_the_png_and_bad_input_is_one_line(replay, tmp_path):
     for args in (["plot", str(tmp_path / "bad.replay")], ["plot", str(path), "--out", str(tmp_path / "no" / "e.png")]):
         proc = run_cli(*args)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+def test_the_truth_is_never_interpolated_across_a_move_even_one_on_a_frame():
+    from referee.media.error_series import truth_at
+
+    # frames at 0, 1 and 2 s; the robot carried from (0, 0) to (3, 3) at 1 s, the frame at 1 s
+    # still showing where it was, the next where it was put
+    frames = [(0.0, [[0.0, 0.0, 0.0]]), (1.0, [[0.0, 0.0, 0.0]]), (2.0, [[3.0, 3.0, 0.0]])]
+    times = [f[0] for f in frames]
+    assert truth_at(frames, times, 0, 1.0, [1.0]) == (0.0, 0.0, 0.0)
+    assert truth_at(frames, times, 0, 1.25, [1.0]) == (3.0, 3.0, 0.0)  # not (0.75, 0.75): after the move
+    assert truth_at(frames, times, 0, 1.25, []) == (0.75, 0.75, 0.0)  # no move: the drive between frames
+    # a move between two frames: before it the earlier frame, after it the later one
+    assert truth_at(frames, times, 0, 1.4, [1.5]) == (0.0, 0.0, 0.0)
+    assert truth_at(frames, times, 0, 1.6, [1.5]) == (3.0, 3.0, 0.0)

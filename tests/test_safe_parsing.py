@@ -108,6 +108,7 @@ def test_an_alias_bomb_in_a_replay_header_is_refused_by_verify_and_render(tmp_pa
             "nested too deeply",
         ),
         (lambda lines: [lines[0], b'{"k":"f","t":"x","p":[]}\n'], "frame"),
+        (lambda lines: [*lines[:2], b'{"k":"trial","n":1}\n', *lines[2:]], "trial"),
         (lambda lines: [lines[0], b'"' + b"x" * (9 << 20) + b'"\n'], "over"),
     ],
 )

@@ -3,7 +3,7 @@ source) while sorting only where its sources could break that order: checked aga
 plain sort of the same events, on batches built to hold ties and mixed sources."""
 
 import pytest
-from helpers import variant
+from helpers import exact_starts, variant
 
 from arena.rng import RandomTree
 from arena.sensing import Sensing, event_order
@@ -52,3 +52,31 @@ def test_every_robot_gets_its_events_in_event_order(case):
         assert ties  # the sort of tied hits ran
     if case in ("shared", "reflector", "quantized"):
         assert mixed  # batches mixed hits with false returns or index clicks
+
+
+def test_a_turret_scan_after_a_move_holds_no_sample_from_before_it():
+    # osentoski's turret turns once in 2 s; the robot is carried 0.5 s into a turn: the first
+    # scan after the move must be a whole turn sensed where it now stands, so it ends at least
+    # a turn after the move
+    from arena.level import Pose
+
+    level = variant("osentoski", "levels/osentoski.yaml", **exact_starts("osentoski"))
+    world = World(level)
+    sensing = Sensing(world, RandomTree(4))
+    period = level.robots[0].laser.period
+    control = level.steps_per_control
+    moved_at, first_after = None, None
+    for k in range(round(3 * period * level.physics_rate)):
+        world.step()
+        sensing.record()
+        if (k + 1) % control:
+            continue
+        scans = [e for e in sensing.flush()[0] if e.kind == "scan"]
+        if moved_at is not None and scans and first_after is None:
+            first_after = scans[0].time
+        if moved_at is None and world.time >= period + 0.5:
+            world.place(0, Pose(1.8, 0.5, 1.0))
+            sensing.moved()
+            moved_at = world.time
+    assert moved_at is not None and first_after is not None
+    assert first_after >= moved_at + period - 1e-6

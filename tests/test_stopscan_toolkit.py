@@ -94,6 +94,16 @@ def test_turn_window_from_a_click_and_latched_angles():
     assert rev is not None and rev.hits == ((1.25, None),)
 
 
+def test_turn_window_keeps_labelled_returns_of_beacons_close_together():
+    # labelled detectors 10 deg apart, seen at A, B, C, then A again a turn later: A's repeat
+    # drops A's old pulse only, so the window ending at it keeps B, C and A
+    period = 1.0
+    w = TurnWindow(1.0, period)
+    for t, b, a in ((0.10, "A", 0.0), (0.128, "B", 0.17), (0.5, "C", 2.5), (1.10, "A", 0.0)):
+        rev = w.feed(SensorEvent(t, "hit", b, a))
+    assert rev is not None and [beacon for _, beacon in rev.hits] == ["B", "C", "A"]
+
+
 def test_pose_algebra_round_trips():
     a, b = (1.0, 2.0, 0.3), (1.5, 1.2, -2.0)
     assert compose(a, between(a, b)) == pytest.approx(b)

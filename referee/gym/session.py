@@ -18,7 +18,6 @@ import numpy as np
 
 from arena.level import Level
 from referee.gym.observation import ObservationEncoder
-from referee.match.estimates import tick_quality
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.records.results import MatchResult
@@ -141,15 +140,11 @@ class AgentSession:
             a = np.asarray(actions[slot], dtype=np.float64)
             top = self.level.robots[slot].model.max_wheel_speed
             left, right = (float(np.clip(v, -1.0, 1.0)) * top for v in a[:2])
-            estimate = None
-            if self.report_estimate:
-                estimate = self.estimate(a)
-                truth = m.world.pose(slot)
-                loc[slot] = self._localization(
-                    math.hypot(estimate[0] - truth.x, estimate[1] - truth.y),
-                    abs(math.remainder(estimate[2] - truth.heading, 2 * math.pi)),
-                )
+            estimate = self.estimate(a) if self.report_estimate else None
+            before = m.estimates[slot].quality_sum
             m.answer(slot, Command(left, right, estimate))
+            if estimate is not None:  # the tick's quality, as the referee scored it
+                loc[slot] = self._localization(m.estimates[slot].quality_sum - before)
             self.encoders[slot].command = (left, right)
         m.advance()
         terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
@@ -170,15 +165,11 @@ class AgentSession:
             self.done[slot] = terminated[slot]
         return Step(observations, rewards, terminated, truncated, infos)
 
-    def _localization(self, position_error: float, heading_error: float) -> float:
-        """One tick's share of the localization points (docs/rules.md) for an estimate this far off."""
+    def _localization(self, quality: float) -> float:
+        """One tick's share of the localization points (docs/rules.md) for an estimate of this
+        tick quality."""
         points = LOCALIZE_TASK_POINTS if self.level.task.kind == "localize" else LOCALIZATION_POINTS
-        rules = self.level.rules
-        return (
-            points
-            / self.total_ticks
-            * tick_quality(position_error, heading_error, rules.position_scale, rules.heading_scale)
-        )
+        return points / self.total_ticks * quality
 
     def _potential(self, slot: int) -> float:
         """Task points reached so far plus the fraction of the current leg covered (shaping)."""

@@ -32,7 +32,7 @@ def truth_at(
         return tuple(frames[i][1][slot])
     (t0, p0), (t1, p1) = frames[i - 1], frames[i]
     for move in moves:
-        if t0 < move <= t1 + 1e-9:  # carried between the two frames: no motion joins them
+        if t0 - 1e-9 <= move <= t1 + 1e-9:  # carried between (or at) the two frames: no motion joins them
             return tuple((p0 if t <= move + 1e-9 else p1)[slot])
     a, b = p0[slot], p1[slot]
     w = (t - t0) / (t1 - t0)
@@ -58,13 +58,7 @@ class ErrorTrack:
     heading: list[float] = field(default_factory=list)
     done: int = 0  # estimate records taken in
     frame_times: list[float] = field(default_factory=list)
-    squares: list[float] = field(default_factory=list)  # running sum of squared position errors
     qualities: list[float] = field(default_factory=list)  # running sum of tick qualities
-
-    def rms_until(self, t: float) -> float | None:
-        """RMS position error (m) of the estimates reported up to time `t`, None if none."""
-        n = self.until(t)
-        return math.sqrt(self.squares[n - 1] / n) if n else None
 
     def quality_sum_until(self, t: float) -> float:
         """The sum of the tick qualities of the estimates reported up to time `t`."""
@@ -84,7 +78,6 @@ class ErrorTrack:
                 self.times.append(rec["t"])
                 self.position.append(d)
                 self.heading.append(h)
-                self.squares.append((self.squares[-1] if self.squares else 0.0) + d * d)
                 q = tick_quality(d, h, self.position_scale, self.heading_scale)
                 self.qualities.append((self.qualities[-1] if self.qualities else 0.0) + q)
             self.done += 1
@@ -94,9 +87,9 @@ class ErrorTrack:
         return bisect.bisect_right(self.times, t + 1e-9)
 
 
-def tracks(rep: Replay, position_scale: float = 0.01, heading_scale: float = 0.05) -> list[ErrorTrack]:
-    """Every robot's error track over the whole replay, its qualities on these scales (m, rad)."""
-    out = [ErrorTrack(slot, position_scale, heading_scale) for slot in range(len(rep.frames[0][1]))]
+def tracks(rep: Replay) -> list[ErrorTrack]:
+    """Every robot's error track over the whole replay (its qualities on the default scales)."""
+    out = [ErrorTrack(slot) for slot in range(len(rep.frames[0][1]))]
     for track in out:
         track.extend(rep)
     return out

@@ -79,6 +79,12 @@ class _Frame(msgspec.Struct):
     p: Annotated[list[tuple[float, float, float]], msgspec.Meta(max_length=64)]
 
 
+class _Trial(msgspec.Struct):
+    k: str
+    t: Annotated[float, msgspec.Meta(ge=0, le=1e7)]
+    n: Annotated[int, msgspec.Meta(ge=1)]
+
+
 _FIXED = f"%.{DECIMALS}f"
 
 
@@ -488,7 +494,6 @@ def load(path: str | Path) -> Replay:
         "dbg": rep.debug,
         "foul": rep.fouls,
         "fault": rep.faults,
-        "trial": rep.trials,
     }
     for rec in it:
         k = rec.get("k")
@@ -502,6 +507,12 @@ def load(path: str | Path) -> Replay:
             rep.frames.append((frame.t, rec["p"]))
         elif k == "result":
             rep.result = rec.get("result")
+        elif k == "trial":
+            try:
+                msgspec.convert(rec, _Trial)  # its time is read as a number (`Replay.moves`)
+            except msgspec.ValidationError as e:
+                raise ReplayError(f"{path}: a damaged trial record ({e})") from None
+            rep.trials.append(rec)
         elif k in lists:
             lists[k].append(rec)
     if not rep.frames:

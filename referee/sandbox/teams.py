@@ -16,14 +16,13 @@ import importlib.machinery
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from importlib import metadata
 from pathlib import Path
 
 from arena.level import Level
 from referee.errors import TeamError
 from robots.api import Controller
 from robots.controllers import REFERENCE
-from robots.loading import ENTRY_POINT_GROUP, LoadError, entry_point, is_file_spec
+from robots.loading import LoadError, entry_point, is_file_spec
 
 MAX_FILES = 2000  # what a team may ship: a package larger than this is refused in one line
 MAX_BYTES = 64 << 20
@@ -170,11 +169,10 @@ def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
             return spec, f"no such file {file} (a controller file is found relative to the level file)"
         return str(file.resolve()) + rest, None
     if ":" not in spec:
-        if not any(ep.name == spec for ep in metadata.entry_points(group=ENTRY_POINT_GROUP)):
-            return spec, (
-                f"expected ref:NAME, FILE.py[:Class], module:Class or the name of an installed "
-                f"controller (entry point group {ENTRY_POINT_GROUP})"
-            )
+        try:
+            entry_point(spec)
+        except LoadError as e:
+            return spec, str(e).removeprefix(f"team {spec}: ")
         return spec, None
     module, _, cls = spec.partition(":")
     if not cls or not module or not _importable(module):

@@ -44,7 +44,7 @@ class Best(Controller):
             if len(rel) != len(self.beacons) or len(self.beacons) != 3:
                 continue
             f = self.brief.field
-            start = self.brief.start
+            start = self.tracker.start  # the announced start, until a trial carries the robot away
             pose = self.tracker.pose or (start.pose if start and start.region is None else None)
             ref = pose[:2] if pose else ((f[0] + f[2]) / 2, (f[1] + f[3]) / 2)
             assoc = by_sectors([a % (2 * math.pi) for a in rel], self.beacons, ref)

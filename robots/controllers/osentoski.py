@@ -13,6 +13,7 @@ the reported pose is the median of its fixes since the trial began.
 from __future__ import annotations
 
 import math
+from statistics import median
 
 from robots.api import Brief, Command, Controller, Observation
 from robots.toolkit.solvers import law_of_sines
@@ -111,12 +112,6 @@ class Osentoski(Controller):
         a shaking servo or a merging pair of lights made wrong is outvoted, not averaged in."""
         self.fixes.append(fix)
         h0 = self.fixes[0][2]
-        xs, ys = sorted(f[0] for f in self.fixes), sorted(f[1] for f in self.fixes)
-        hs = sorted(math.remainder(f[2] - h0, 2 * math.pi) for f in self.fixes)
-        self.pose = (_median(xs), _median(ys), math.remainder(h0 + _median(hs), 2 * math.pi))
-
-
-def _median(ordered: list[float]) -> float:
-    """The median of sorted values."""
-    n = len(ordered)
-    return ordered[n // 2] if n % 2 else (ordered[n // 2 - 1] + ordered[n // 2]) / 2
+        xs, ys = [f[0] for f in self.fixes], [f[1] for f in self.fixes]
+        hs = [math.remainder(f[2] - h0, 2 * math.pi) for f in self.fixes]
+        self.pose = (median(xs), median(ys), math.remainder(h0 + median(hs), 2 * math.pi))

@@ -161,7 +161,10 @@ class TurnWindow:
             old
             for old in window
             if not any(
-                new.kind == old.kind and abs(new.time - old.time - self.period) <= self.tolerance for new in window
+                new.kind == old.kind
+                and new.beacon == old.beacon  # a labelled return is repeated by its own beacon only
+                and abs(new.time - old.time - self.period) <= self.tolerance
+                for new in window
             )
         ]
         clicks = [old.time for old in self.events if old.kind == "index"]

@@ -74,7 +74,7 @@
     if (Math.abs(times[i] - t) <= 1e-9 || i === 0) return frames[i][1][slot];
     const [t0, p0] = frames[i - 1], [t1, p1] = frames[i], a = p0[slot], b = p1[slot];
     for (const move of moves) {
-      if (t0 < move && move <= t1 + 1e-9) return t <= move + 1e-9 ? a : b;
+      if (t0 - 1e-9 <= move && move <= t1 + 1e-9) return t <= move + 1e-9 ? a : b;
     }
     const w = (t - t0) / (t1 - t0), dh = remainder(b[2] - a[2], TAU);
     return [a[0] + w * (b[0] - a[0]), a[1] + w * (b[1] - a[1]), remainder(a[2] + w * dh, TAU)];
