@@ -1,8 +1,11 @@
-"""The controller process: `python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES] [--max-procs N]`.
+"""The controller process: `python -m robots.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]`.
 
-Started by the referee as a fresh interpreter. It sets its own resource limits before any
-team code loads, keeps the protocol on private copies of stdin and stdout, and sends
-everything the team prints to stderr (the team's log). Then it loads the team's class and
+Started by the referee as a fresh interpreter whose import path holds the standard library and
+`robots` only. It joins the slot's control groups (`--join`: descriptors of their
+`cgroup.procs` the referee opened), sets its own resource limits, then appends the team's folder (`--path`) to
+the import path, after the standard library's (a team's `resource.py` or `robots` package
+replaces nothing of ours), keeps the protocol on private copies of stdin and stdout, and sends
+everything the team prints to stderr (the team's log, a pipe the referee reads and caps). Then it loads the team's class and
 says `loaded` (a process that ends before that failed to load: a `load` fault), and answers
 the referee's messages until `stop` or end of input. A team exception is reported
 as a `fault` message (the traceback goes to the team's log) and the process ends.
@@ -11,7 +14,6 @@ as a `fault` message (the traceback goes to the team's log) and the process ends
 from __future__ import annotations
 
 import os
-import signal
 import sys
 import traceback
 from collections.abc import Callable
@@ -77,10 +79,6 @@ def _guarded(out, where: str, call: Callable[..., Any], *args: object) -> tuple[
     return False, None
 
 
-def _flooded(signum: int, frame: object) -> None:
-    os._exit(128 + signal.SIGXFSZ)  # the shell's (and bwrap's) word for "killed by SIGXFSZ"
-
-
 def _limit(name: str, value: int, what: str) -> bool:
     """Set resource limit `name` to `value`; where this system has no such limit (Windows has
     no `resource`, macOS refuses RLIMIT_AS) say so in one line of the team's log and go on."""
@@ -98,24 +96,28 @@ def _limit(name: str, value: int, what: str) -> bool:
         return False
 
 
-OPTIONS = ("--memory", "--log-cap", "--max-procs")
-USAGE = "usage: python -m robots.runner SPEC [--memory BYTES] [--log-cap BYTES] [--max-procs N]"
+OPTIONS = ("--memory", "--max-procs")
+USAGE = "usage: python -m robots.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]"
+TEXT_OPTIONS = ("--path", "--join")
 
 
-def options(argv: list[str]) -> tuple[str, dict[str, int]]:
-    """SPEC and the limits from the command line: `--memory` (address space, bytes), `--log-cap`
-    (bytes the team may write), `--max-procs` (processes and threads of this user at once, only
-    for a uid of its own); each 0 (none) when absent. Read by hand: building argparse's parser
-    was a sixth of the CPU of a controller forked from the template. SystemExit, with the
-    usage, on bad input."""
-    spec, limits, args = None, dict.fromkeys(OPTIONS, 0), list(argv)
+def options(argv: list[str]) -> tuple[str, dict[str, str], dict[str, int]]:
+    """SPEC, the text options (`--path`: the team's folder; `--join`: descriptors to join,
+    comma-separated) and the limits from the command line: `--memory` (address space, bytes), `--max-procs` (processes and threads of this user
+    at once, only for a uid of its own); each 0 (none) when absent. Read by hand: building
+    argparse's parser was a sixth of the CPU of a controller forked from the template.
+    SystemExit, with the usage, on bad input."""
+    spec, text, limits, args = None, dict[str, str](), dict.fromkeys(OPTIONS, 0), list(argv)
     while args:
         arg = args.pop(0)
         name, equals, value = arg.partition("=")
-        if name in OPTIONS:
+        if name in (*OPTIONS, *TEXT_OPTIONS):
             if not equals and not args:
                 raise SystemExit(f"{USAGE}\nrobots.runner: {name} needs a value")
             value = value if equals else args.pop(0)
+            if name in TEXT_OPTIONS:
+                text[name] = value
+                continue
             try:
                 limits[name] = int(value)
             except ValueError:
@@ -126,12 +128,23 @@ def options(argv: list[str]) -> tuple[str, dict[str, int]]:
             raise SystemExit(f"{USAGE}\nrobots.runner: unexpected argument {arg!r}")
     if spec is None:
         raise SystemExit(f"{USAGE}\nrobots.runner: the controller's SPEC is missing")
-    return spec, limits
+    return spec, text, limits
+
+
+def _join(fds: str) -> None:
+    """Join the control groups whose `cgroup.procs` are open as `fds`, then close them: all this
+    process and its children hold is counted there from now on. OSError if the kernel refuses."""
+    for fd in (int(f) for f in fds.split(",")):
+        os.write(fd, b"0")
+        os.close(fd)
 
 
 def main(argv: list[str] | None = None) -> int:
-    spec, limits = options(sys.argv[1:] if argv is None else argv)
-    memory, log_cap, max_procs = (limits[name] for name in OPTIONS)
+    spec, text, limits = options(sys.argv[1:] if argv is None else argv)
+    memory, max_procs = (limits[name] for name in OPTIONS)
+    path = text.get("--path")
+    if "--join" in text:
+        _join(text["--join"])
     # whatever the referee's own limits allow: no core dump (the host's core_pattern may hand it
     # to a handler writing to the host's disk), no real-time priority (a busy loop would starve
     # the referee and the other controllers)
@@ -141,11 +154,8 @@ def main(argv: list[str] | None = None) -> int:
         _limit("RLIMIT_NPROC", max_procs, "process count")
     if memory:
         _limit("RLIMIT_AS", memory, "memory")
-    if log_cap and _limit("RLIMIT_FSIZE", log_cap, "output size"):
-        # writing past it raises SIGXFSZ: the referee reports an output flood. CPython ignores
-        # it by default, and a PID namespace's init (this process, in a sandbox) ignores it at
-        # its default action: end as if killed by it
-        signal.signal(signal.SIGXFSZ, _flooded)
+    if path:  # last: the standard library and `robots` come first, whatever the team names its modules
+        sys.path.append(path)
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
     try:

@@ -1,17 +1,25 @@
-"""The seccomp filter every sandboxed controller runs under: a few system calls denied.
+"""The seccomp filter every sandboxed controller runs under: the calls a controller never needs
+and that reach past its slot's bounds are denied.
 
 - the kernel's keyrings (add_key, request_key, keyctl fail with ENOSYS, as on a kernel built
   without keys): a uid's keyrings outlive its processes, so a key a controller left there
   would reach the next controller given that uid, or fill its quota;
-- fallocate (EOPNOTSUPP: the C library then writes instead, within the file-size limit): its
-  log is the referee's file, open for writing, and fallocate's KEEP_SIZE reserves the host's
-  disk blocks without the file growing, past any file-size limit.
+- fallocate (EOPNOTSUPP: the C library then writes instead): it reserves disk blocks past
+  any file-size limit;
+- io_uring (ENOSYS, as on a kernel built without it): a ring submits calls (fallocate among
+  them) that this filter would never see;
+- namespaces and mounts (EPERM): unshare, setns, clone with a CLONE_NEW* flag, and every call
+  that mounts, unmounts or changes root. In a user namespace of its own a controller could
+  mount a tmpfs and fill memory no limit of its slot sees. clone3 fails with ENOSYS (its flags
+  lie in memory the filter cannot read), on which the C library falls back to clone;
+- bpf, perf_event_open and userfaultfd (EPERM): kernel interfaces that time other processes
+  or stall the kernel, and that no controller uses.
 
 Every call made through another architecture's numbering (a 32-bit entry into the kernel,
 x32), which the filter cannot read, fails with ENOSYS. The template installs the filter in each
 forked controller; a spawned sandbox gets the same program through bwrap's `--seccomp`
 (referee/sandbox/kernel.py). docs/decisions/0024-seccomp-filter-not-an-allowlist.md says why
-no more.
+a denylist.
 """
 
 from __future__ import annotations
@@ -22,35 +30,82 @@ import os
 import platform
 import struct
 
-# per architecture: seccomp's AUDIT_ARCH_* value and the denied calls' numbers with their errors
-KEYS = (errno.ENOSYS,) * 3
-DENIED = {
-    "x86_64": (0xC000003E, dict(zip((248, 249, 250, 285), (*KEYS, errno.EOPNOTSUPP)))),
-    "aarch64": (0xC00000B7, dict(zip((217, 218, 219, 47), (*KEYS, errno.EOPNOTSUPP)))),
+CLONE_NEW = 0x7E020000  # CLONE_NEWNS | NEWCGROUP | NEWUTS | NEWIPC | NEWUSER | NEWPID | NEWNET
+
+# the calls' numbers per architecture (x86-64, then arm64's generic table)
+CALLS = {
+    "add_key": (248, 217),
+    "request_key": (249, 218),
+    "keyctl": (250, 219),
+    "fallocate": (285, 47),
+    "io_uring_setup": (425, 425),
+    "io_uring_enter": (426, 426),
+    "io_uring_register": (427, 427),
+    "unshare": (272, 97),
+    "setns": (308, 268),
+    "clone3": (435, 435),
+    "mount": (165, 40),
+    "umount2": (166, 39),
+    "pivot_root": (155, 41),
+    "chroot": (161, 51),
+    "open_tree": (428, 428),
+    "move_mount": (429, 429),
+    "fsopen": (430, 430),
+    "fsconfig": (431, 431),
+    "fsmount": (432, 432),
+    "fspick": (433, 433),
+    "mount_setattr": (442, 442),
+    "bpf": (321, 280),
+    "perf_event_open": (298, 241),
+    "userfaultfd": (323, 282),
+    "clone": (56, 220),
 }
+ERRORS = {
+    **dict.fromkeys(("add_key", "request_key", "keyctl", "io_uring_setup", "io_uring_enter"), errno.ENOSYS),
+    **dict.fromkeys(("io_uring_register", "clone3"), errno.ENOSYS),
+    "fallocate": errno.EOPNOTSUPP,
+}  # every other denied call: EPERM
+ARCHES = {"x86_64": (0xC000003E, 0), "aarch64": (0xC00000B7, 1)}  # AUDIT_ARCH_*, column of CALLS
 PR_SET_SECCOMP, SECCOMP_MODE_FILTER, SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO = 22, 2, 0x7FFF0000, 0x00050000
-BPF_LD_ABS_W, BPF_JEQ, BPF_JGE, BPF_RET = 0x20, 0x15, 0x35, 0x06
+BPF_LD_ABS_W, BPF_JEQ, BPF_JGE, BPF_JSET, BPF_RET = 0x20, 0x15, 0x35, 0x45, 0x06
 X32_SYSCALL_BIT = 0x40000000
+ARG0_LOW = 16  # offset of the low 32 bits of seccomp_data.args[0] (little-endian: both arches)
 INSTRUCTION = struct.Struct("=HBBI")  # struct sock_filter: code, jt, jf, k
+
+
+def _ret(error: int | None) -> tuple[int, int, int, int]:
+    return (BPF_RET, 0, 0, SECCOMP_RET_ALLOW if error is None else SECCOMP_RET_ERRNO | error)
 
 
 def program() -> bytes | None:
     """The filter as the kernel's sock_filter array, or None on an architecture whose call
     numbers we do not know (its controllers run unfiltered)."""
-    known = DENIED.get(platform.machine())
+    known = ARCHES.get(platform.machine())
     if known is None:
         return None
-    arch, calls = known
-    foreign = 5 + 2 * len(calls)  # the index of the last RET: a call of another numbering
+    arch, column = known
+    denied = {name: numbers[column] for name, numbers in CALLS.items() if name != "clone"}
+    clone = CALLS["clone"][column]
+    # layout: arch check, x32 check, one (JEQ, RET) pair per denied call, the clone check (JEQ,
+    # load flags, JSET, RET EPERM), allow, and the foreign-numbering RET at the end
+    foreign = 4 + 2 * len(denied) + 4 + 1  # the index of the last RET
     ops = [
         (BPF_LD_ABS_W, 0, 0, 4),  # seccomp_data.arch
         (BPF_JEQ, 0, foreign - 2, arch),
         (BPF_LD_ABS_W, 0, 0, 0),  # seccomp_data.nr
         (BPF_JGE, foreign - 4, 0, X32_SYSCALL_BIT),
     ]
-    for nr, error in calls.items():  # this call: its error; else skip that RET
-        ops += [(BPF_JEQ, 0, 1, nr), (BPF_RET, 0, 0, SECCOMP_RET_ERRNO | error)]
-    ops += [(BPF_RET, 0, 0, SECCOMP_RET_ALLOW), (BPF_RET, 0, 0, SECCOMP_RET_ERRNO | errno.ENOSYS)]
+    for name, nr in denied.items():  # this call: its error; else skip that RET
+        ops += [(BPF_JEQ, 0, 1, nr), _ret(ERRORS.get(name, errno.EPERM))]
+    ops += [
+        (BPF_JEQ, 0, 3, clone),  # not clone: allow
+        (BPF_LD_ABS_W, 0, 0, ARG0_LOW),  # clone's flags
+        (BPF_JSET, 0, 1, CLONE_NEW),
+        _ret(errno.EPERM),
+        _ret(None),
+        _ret(errno.ENOSYS),
+    ]
+    assert len(ops) == foreign + 1
     return b"".join(INSTRUCTION.pack(*op) for op in ops)
 
 

@@ -10,7 +10,8 @@ never reads anything of a team: the forked child reads its configuration from th
 The child (the slot's monitor) gives itself new mount, PID, network, IPC, UTS and cgroup
 namespaces, mounts its private /tmp, /dev/shm and /dev/pts, copies its team's files (one
 memfd) to a read-only /team, makes every other mount read-only, and forks the controller:
-the init of the new PID namespace. That process mounts its own /proc, takes its pipes as fds
+the init of the new PID namespace. That process joins the slot's control groups (through
+descriptors of their `cgroup.procs` the referee opened), mounts its own /proc, takes its pipes as fds
 0-2 and closes every other descriptor, leaves root for the slot's uid with no capabilities
 and no-new-privs, puts itself under robots/seccomp.py's filter, and runs `robots.runner.main`, which sets the limits before team code loads.
 The monitor waits for it, kills it on the referee's word or when the referee's end of the
@@ -144,10 +145,13 @@ def _drop_privileges(uid: int) -> None:
     _prctl(PR_SET_DUMPABLE, 1)  # as after an exec: its own processes may inspect each other
 
 
-def _controller(config: dict[str, Any], stdio: list[int]) -> None:
-    """The slot's init: its /proc, its descriptors, its uid, then the runner. Never returns."""
+def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> None:
+    """The slot's init: its control groups, its /proc, its descriptors, its uid, then the
+    runner. Never returns."""
     code = 1
     try:
+        for fd in groups:  # joined while still root: all it and its children hold is counted there
+            os.write(fd, b"0")
         os.setsid()
         _mount("proc", "/proc", "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC)
         for name in PROC_READ_ONLY:
@@ -191,7 +195,7 @@ def _monitor(slot: socket.socket) -> None:
                     os.close(int(name))
                 except OSError:
                     pass  # the listing's own descriptor, closed meanwhile
-        *stdio, bundle = fds
+        stdio, bundle, groups = fds[:3], fds[3], fds[4:]
         flags = CLONE_NEWNS | CLONE_NEWPID | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
         _check(_libc.unshare(flags), "unshare")
         _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
@@ -207,8 +211,8 @@ def _monitor(slot: socket.socket) -> None:
         pid = os.fork()
         if pid == 0:
             slot.close()
-            _controller(config, stdio)
-        for fd in stdio:
+            _controller(config, stdio, groups)
+        for fd in (*stdio, *groups):
             os.close(fd)
         status, cpu = _watch(slot, pid)
     except BaseException as e:

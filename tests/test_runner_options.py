@@ -10,11 +10,13 @@ from robots.runner import options
 
 
 def test_spec_and_limits():
-    assert options(["ref:idle"]) == ("ref:idle", {"--memory": 0, "--log-cap": 0, "--max-procs": 0})
-    spec, limits = options(["/team/a=b.py", "--memory", "1073741824", "--log-cap=1048576", "--max-procs", "64"])
-    assert spec == "/team/a=b.py"
-    assert limits == {"--memory": 1 << 30, "--log-cap": 1 << 20, "--max-procs": 64}
-    assert options(["--memory", "5", "ref:idle"]) == ("ref:idle", {"--memory": 5, "--log-cap": 0, "--max-procs": 0})
+    assert options(["ref:idle"]) == ("ref:idle", {}, {"--memory": 0, "--max-procs": 0})
+    spec, text, limits = options(
+        ["/team/a=b.py", "--memory", "1073741824", "--path=/team", "--max-procs", "64", "--join", "12,13"]
+    )
+    assert (spec, text) == ("/team/a=b.py", {"--path": "/team", "--join": "12,13"})
+    assert limits == {"--memory": 1 << 30, "--max-procs": 64}
+    assert options(["--memory", "5", "ref:idle"]) == ("ref:idle", {}, {"--memory": 5, "--max-procs": 0})
 
 
 @pytest.mark.parametrize(
@@ -23,6 +25,8 @@ def test_spec_and_limits():
         ([], "SPEC is missing"),
         (["ref:idle", "ref:best"], "unexpected argument 'ref:best'"),
         (["ref:idle", "--memory"], "--memory needs a value"),
+        (["ref:idle", "--path"], "--path needs a value"),
+        (["ref:idle", "--log-cap", "5"], "unexpected argument '--log-cap'"),
         (["ref:idle", "--memory", "lots"], "not a whole number: 'lots'"),
         (["ref:idle", "--cpu", "3"], "unexpected argument '--cpu'"),
     ],

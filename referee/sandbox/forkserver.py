@@ -129,9 +129,16 @@ class ForkServer:
         self.ready = True
         return None
 
-    def spawn(self, config: dict, files: tuple[tuple[str, Path], ...], stdio: tuple[int, int, int]) -> socket.socket:
+    def spawn(
+        self,
+        config: dict,
+        files: tuple[tuple[str, Path], ...],
+        stdio: tuple[int, int, int],
+        groups: list[int] | tuple[int, ...] = (),
+    ) -> socket.socket:
         """Fork a controller and return the socket to its monitor: `config` (uid, runner argv),
-        the team's `files` and `stdio` (the child's fds 0-2) go to the monitor, never to the template."""
+        the team's `files`, `stdio` (the child's fds 0-2) and `groups` (the `cgroup.procs` of
+        its control groups, which it joins) go to the monitor, never to the template."""
         bundle = os.memfd_create("team", 0)
         sizes = []
         for rel, source in files:
@@ -143,7 +150,7 @@ class ForkServer:
             with self.lock:
                 socket.send_fds(self.control, [b"f"], [its.fileno()])
             message = json.dumps({**config, "files": sizes}).encode()
-            socket.send_fds(mine, [message], [*stdio, bundle])
+            socket.send_fds(mine, [message], [*stdio, bundle, *groups])
         except OSError:
             mine.close()
             raise

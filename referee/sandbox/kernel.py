@@ -1,8 +1,9 @@
 """One kernel sandbox per controller: bubblewrap (`bwrap`) namespaces around `robots.runner`.
 
 Each slot gets its own PID namespace (its processes see and signal only each other, and all
-die with the namespace's init), mount namespace (a read-only view of the interpreter and of
-`robots`, its own code at /team, a private /tmp and /dev/shm in memory), network namespace
+die with the namespace's init), mount namespace (a read-only view of the interpreter's
+standard library and of the packages a controller may import, `ALLOWED`, its own code at
+/team, a private /tmp and /dev/shm in memory), network namespace
 (loopback only), IPC and UTS namespaces. As root the controller then runs as a uid of its
 own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
@@ -14,10 +15,12 @@ why bubblewrap.
 from __future__ import annotations
 
 import functools
+import importlib.util
 import os
 import re
 import select
 import shutil
+import site
 import subprocess
 import sys
 import sysconfig
@@ -30,11 +33,11 @@ import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
 
 TEAM_DIR = "/team"  # the slot's code, read-only
-LIB_DIR = "/laserarena"  # `robots`, the one package of ours a controller imports
+LIB_DIR = "/laserarena"  # the packages a controller may import besides the standard library
+ALLOWED = ("numpy", "msgspec")  # besides `robots` (and its own `.libs` folder, where a wheel has one)
 TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not disk
 ROBOTS_DIR = Path(robots.__file__).resolve().parent
 PYTHON = os.path.normpath(os.path.abspath(sys.executable))  # as the sandbox can reach it (no `..`)
-HIDDEN_PACKAGES = ("levels",)  # beside `robots` in site-packages: the level files stay out of sight
 RUNNER_ENV = {  # every controller's interpreter, sandboxed or not: deterministic hashing, one BLAS thread
     "PYTHONHASHSEED": "0",
     "PYTHONDONTWRITEBYTECODE": "1",
@@ -43,9 +46,10 @@ RUNNER_ENV = {  # every controller's interpreter, sandboxed or not: deterministi
     "OMP_NUM_THREADS": "1",
     "MKL_NUM_THREADS": "1",
 }
-SANDBOX_ENV = dict(  # the whole environment inside a sandbox: the team's code first on the path
-    RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8", PYTHONPATH=f"{TEAM_DIR}{os.pathsep}{LIB_DIR}"
+SANDBOX_ENV = dict(  # the whole environment inside a sandbox; the runner adds TEAM_DIR once its limits are set
+    RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8", PYTHONPATH=LIB_DIR
 )
+SITE_FOLDERS = ("site-packages", "dist-packages")  # where installed packages live
 SYSTEM_FILES = ("/etc/ld.so.cache", "/etc/ld.so.conf", "/etc/ld.so.conf.d", "/etc/localtime")
 
 
@@ -119,10 +123,39 @@ def _namespaces(own_user_namespace: bool) -> list[str]:
     ]
 
 
-def _hidden() -> list[str]:
-    """Our packages a controller must not see (the level files), wherever they are installed."""
-    places = {ROBOTS_DIR.parent, Path(sysconfig.get_paths()["purelib"]), Path(sysconfig.get_paths()["platlib"])}
-    return sorted(str(p / name) for p in places for name in HIDDEN_PACKAGES if (p / name).is_dir())
+def _import_roots() -> list[str]:
+    """Every folder where Python finds installed packages (site-packages and dist-packages, of
+    this interpreter, its base and the system's Pythons): each is covered by an empty folder in
+    a sandbox, so no installed package but `ALLOWED` is readable or importable there."""
+    stdlib = {os.path.realpath(sysconfig.get_paths()[key]) for key in ("stdlib", "platstdlib")}
+    prefixes = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, "/usr", "/usr/local"}
+    roots = set(site.getsitepackages()) | {site.getusersitepackages()}
+    roots |= {p for p in sys.path if Path(p).name in SITE_FOLDERS}
+    roots |= {
+        str(p) for prefix in prefixes for name in SITE_FOLDERS for p in Path(prefix).glob(f"lib*/python3*/{name}")
+    }
+    found = set()
+    for root in roots:
+        real = os.path.realpath(root)
+        if os.path.isdir(real) and not any(Path(s).is_relative_to(real) for s in stdlib):
+            found.add(real)
+    return sorted(found)
+
+
+def _allowed_packages() -> list[tuple[str, str]]:
+    """(folder on the host, its name in LIB_DIR) of each package of `ALLOWED` and of the
+    folder of shared libraries its wheel brings beside it (numpy.libs)."""
+    out = []
+    for name in ALLOWED:
+        spec = importlib.util.find_spec(name)
+        if spec is None or not spec.submodule_search_locations:
+            continue
+        folder = Path(list(spec.submodule_search_locations)[0]).resolve()
+        out.append((str(folder), name))
+        libs = folder.parent / f"{name}.libs"
+        if libs.is_dir():
+            out.append((str(libs.resolve()), libs.name))
+    return out
 
 
 def _parents(paths: list[str]) -> list[str]:
@@ -142,7 +175,8 @@ def _parents(paths: list[str]) -> list[str]:
 
 def _system_view() -> list[str]:
     """The read-only part of the file system a Python controller needs: /usr, the interpreter's
-    installation and virtual environment, `robots`; the other packages beside it stay hidden."""
+    installation and virtual environment with every import folder but the standard library
+    covered, and at LIB_DIR `robots` and the `ALLOWED` packages."""
     args = ["--ro-bind", "/usr", "/usr"]
     for top in ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32"):
         if os.path.islink(top):
@@ -155,8 +189,13 @@ def _system_view() -> list[str]:
     for root in sorted(prefixes | {str(Path(p).resolve()) for p in prefixes}):  # a venv, a pyenv build
         if root != "/usr" and not root.startswith("/usr/") and os.path.isdir(root):
             args += ["--ro-bind", root, root]
-    args += [arg for folder in _hidden() for arg in ("--tmpfs", folder)]
+    bound = [args[i + 2] for i, a in enumerate(args) if a in ("--ro-bind", "--symlink")]
+    for folder in _import_roots():
+        if any(Path(folder).is_relative_to(b) for b in bound):  # visible: covered
+            args += ["--perms", "0755", "--tmpfs", folder, "--remount-ro", folder]
     args += ["--ro-bind", str(ROBOTS_DIR), f"{LIB_DIR}/robots"]
+    for folder, name in _allowed_packages():
+        args += ["--ro-bind", folder, f"{LIB_DIR}/{name}"]
     return _parents([args[i + 2] for i, a in enumerate(args) if a.startswith("--") and "bind" in a]) + args
 
 

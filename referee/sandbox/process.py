@@ -6,7 +6,8 @@ uid or user namespace, the team's code copied in read-only). Where no sandbox ca
 degrades, with a one-line warning, to a plain process in its own session, run as `nobody` when
 the referee is root. It imports only `robots` and the team's code. The referee talks to it over
 its stdin/stdout with the messages of `robots.protocol` and waits for each answer no longer
-than the step's time allowance; whatever goes wrong becomes a typed `Fault`.
+than the step's time allowance; whatever goes wrong becomes a typed `Fault`. Its stderr is a
+pipe the referee caps (`log`); a root referee puts it in a control group of its own (`cgroup`).
 """
 
 from __future__ import annotations
@@ -27,9 +28,10 @@ from typing import IO, Any
 
 import robots
 from arena.level import ControllerLimits
-from referee.sandbox import forkserver, kernel
-from referee.sandbox.bot import TRACEBACK_BYTES, Fault, traceback_tail
+from referee.sandbox import cgroup, forkserver, kernel
+from referee.sandbox.bot import Fault, traceback_tail
 from referee.sandbox.kernel import RUNNER_ENV
+from referee.sandbox.log import TeamLog
 from referee.sandbox.privacy import (
     check_readable_by_others,
     drop_to,
@@ -66,6 +68,12 @@ ENDING_TIME = 0.5  # seconds a controller whose output has ended may take to exi
 MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
 
 
+def _joining(groups: list[int]) -> list[str]:
+    """The runner's option to join the slot's control groups first (`groups`: descriptors of
+    their `cgroup.procs`, opened here and inherited)."""
+    return ["--join", ",".join(map(str, groups))] if groups else []
+
+
 class ProcessBot:
     """A controller running in a separate process, with the InProcessBot interface.
     `slot` picks the controller's own uid (root referee); `sandboxed=False` skips the kernel
@@ -96,7 +104,8 @@ class ProcessBot:
         self.loaded = False  # the controller process has loaded the team's code
         self.folder: tempfile.TemporaryDirectory | None = None  # the team's files, without a sandbox
         self.info: int | None = None  # bwrap's info descriptor (kernel.init_pid)
-        self.log_file: IO[bytes] | None = None  # the team's output, as the controller writes it
+        self.team_log: TeamLog | None = None  # the team's output, read from its pipe
+        self.group: cgroup.SlotGroup | None = None  # the slot's control group (root referee)
         self.in_sandbox = False
         self.cpus: list[int] | None = None  # the CPUs the controller may run on (None: the referee's)
         self.told_to_end = False  # `stop` sent (`ask_to_end`)
@@ -114,19 +123,28 @@ class ProcessBot:
                     else ""
                 )
             )
-        # the team's output: a file of its own with --logs, else an unlinked one (nothing left behind)
-        stderr = open(self.log, "w+b") if self.log else tempfile.TemporaryFile()
-        limits = ["--memory", str(int(self.limits.memory)), "--log-cap", str(int(self.limits.log_bytes))]
-        self.log_file = stderr  # kept open: a fault's traceback is read back from it
-        if self.sandboxed and not reason:
-            self._spawn_sandboxed(limits, stderr)
-        else:
-            self._spawn_plain(limits, stderr)
+        # the team's output: a pipe this process reads and caps (kept in a file of its own with --logs)
+        self.team_log = TeamLog(int(self.limits.log_bytes), self.log)
+        limits = ["--memory", str(int(self.limits.memory))]
+        place = cgroup.available()
+        if not isinstance(place, str):  # everything the slot holds, its tmpfs and pipes too, within memory_mb
+            self.group = cgroup.SlotGroup(place, int(self.limits.memory), MAX_PROCS)
+        groups = self.group.procs() if self.group else []
+        try:
+            if self.sandboxed and not reason:
+                self._spawn_sandboxed(limits, self.team_log.writer, groups)
+            else:
+                self._spawn_plain(limits, self.team_log.writer, groups)
+        finally:
+            self.team_log.handed_over()
+            for fd in groups:
+                os.close(fd)
 
-    def _spawn_sandboxed(self, limits: list[str], stderr) -> None:
+    def _spawn_sandboxed(self, limits: list[str], stderr: int, groups: list[int]) -> None:
         entry = self.team.entry
         if is_file_spec(entry):
             entry = f"{kernel.TEAM_DIR}/{entry}"
+        limits = [*limits, "--path", kernel.TEAM_DIR]
         uid = slot_uid(self.slot) if switches_users() else None
         if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
             limits = [*limits, "--max-procs", str(MAX_PROCS)]
@@ -134,7 +152,7 @@ class ProcessBot:
         server = forkserver.server() if uid is not None and self.forked else None
         if server is not None:  # forked from the template, into namespaces of its own
             config = {"uid": uid, "argv": [entry, *limits], **({"cpus": self.cpus} if self.cpus else {})}
-            self.proc = self._forked(server, config, stderr)
+            self.proc = self._forked(server, config, stderr, groups)
             return
         launch = kernel.launch(
             [kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], self.team.files, kernel.SANDBOX_ENV, uid
@@ -142,25 +160,25 @@ class ProcessBot:
         self.info = launch.info
         try:
             self.proc = subprocess.Popen(
-                launch.argv,
+                [*launch.argv, *_joining(groups)],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
                 stderr=stderr,
                 env={"PATH": os.environ.get("PATH", "/usr/bin:/bin")},
                 start_new_session=True,
                 close_fds=True,
-                pass_fds=launch.pass_fds,
+                pass_fds=(*launch.pass_fds, *groups),
             )
         finally:
             for fd in launch.pass_fds:
                 os.close(fd)
 
-    def _forked(self, server: forkserver.ForkServer, config: dict, stderr) -> forkserver.Forked:
+    def _forked(self, server: forkserver.ForkServer, config: dict, stderr: int, groups: list[int]) -> forkserver.Forked:
         """A controller forked by `server`, with pipes as Popen makes them (the child's ends handed over)."""
         stdin_r, stdin_w = os.pipe()
         stdout_r, stdout_w = os.pipe()
         try:
-            monitor = server.spawn(config, self.team.files, (stdin_r, stdout_w, stderr.fileno()))
+            monitor = server.spawn(config, self.team.files, (stdin_r, stdout_w, stderr), groups)
         except BaseException:
             os.close(stdin_w)
             os.close(stdout_r)
@@ -170,7 +188,7 @@ class ProcessBot:
             os.close(stdout_w)
         return forkserver.Forked(monitor, open(stdin_w, "wb"), open(stdout_r, "rb"))
 
-    def _spawn_plain(self, limits: list[str], stderr) -> None:
+    def _spawn_plain(self, limits: list[str], stderr: int, groups: list[int]) -> None:
         user, as_user = drop_to(), dict[str, Any]()
         self.folder = tempfile.TemporaryDirectory(prefix="laserarena-team-")
         share_team_files(self.team.files, Path(self.folder.name))
@@ -183,13 +201,21 @@ class ProcessBot:
             as_user = dict(user=user.pw_uid, group=user.pw_gid, extra_groups=[])
         env = {k: v for k, v in os.environ.items() if k in ("PATH", "LANG", "LC_ALL", "TZ")}
         # the child imports the very `robots` package this referee uses, installed or not, and
-        # finds a module team in the copy of its package
-        path = os.pathsep.join(
-            [self.folder.name, ROBOTS_HOME] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
-        )
+        # finds a module team in the copy of its package (the runner adds it once its limits are set)
+        path = os.pathsep.join([ROBOTS_HOME] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p])
         env.update(RUNNER_ENV, PYTHONPATH=path)
         self.proc = subprocess.Popen(
-            [sys.executable, "-s", "-m", "robots.runner", entry, *limits],
+            [
+                sys.executable,
+                "-s",
+                "-m",
+                "robots.runner",
+                entry,
+                *limits,
+                "--path",
+                self.folder.name,
+                *_joining(groups),
+            ],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=stderr,
@@ -197,6 +223,7 @@ class ProcessBot:
             env=env,
             start_new_session=True,
             close_fds=True,
+            pass_fds=groups,
             **as_user,
         )
 
@@ -287,6 +314,8 @@ class ProcessBot:
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(message.split()) or f"in {where}"
+        elif what == "flood" or what == "crash" and self._flooded():
+            kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
         elif what == "crash":
             kind, message = self._crash(where)
         elif what == "timeout":
@@ -305,16 +334,18 @@ class ProcessBot:
         return Fault(tick, t, kind, message, traceback=tail)
 
     def _traceback(self) -> str | None:
-        """The tail of the last traceback in the team's log (read without moving the offset the
-        controller writes at), its sandbox folder left out so results stay byte-identical."""
-        if self.log_file is None or self.log_file.closed:
+        """The tail of the last traceback in the team's log, its sandbox folder left out so
+        results stay byte-identical."""
+        if self.team_log is None:
             return None
-        fd = self.log_file.fileno()
-        size = os.fstat(fd).st_size
-        text = os.pread(fd, TRACEBACK_BYTES, max(0, size - TRACEBACK_BYTES)).decode("utf-8", "replace")
+        text = self.team_log.text()
         if self.folder is not None:
             text = text.replace(self.folder.name + os.sep, "")
         return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
+
+    def _flooded(self) -> bool:
+        """Whether the controller has written more output than `log_kb` allows."""
+        return self.team_log is not None and self.team_log.flooded()
 
     def _crash(self, where: str) -> tuple[str, str]:
         """The fault kind and message once the controller's output has ended."""
@@ -322,10 +353,13 @@ class ProcessBot:
         if code is None:
             return ("protocol" if self.loaded else "load"), f"in {where}: closed its output and did not exit"
         how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}"
+        if code == -signal.SIGKILL and self.group is not None and self.group.oom_kills():
+            how = f"killed for holding more than its {self.limits.memory / 2**20:g} MiB of memory (files in memory included)"
+            return ("memory" if self.loaded else "load"), (
+                f"in {where}: {how}" if self.loaded else f"team {self.team.label}: {how}"
+            )
         if not self.loaded:
             return "load", f"team {self.team.label}: {how} while its code was loading"
-        if code == -signal.SIGXFSZ:
-            return "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
         return "crash", f"in {where}: {how}"
 
     def _ended(self) -> int | None:
@@ -339,9 +373,9 @@ class ProcessBot:
 
     def _status(self) -> int:
         """The controller's exit status as Popen gives it (negative: killed by that signal); bwrap
-        passes a signal on as 128 + its number, and the runner ends so on an output flood."""
+        passes a signal on as 128 + its number."""
         code = self._process().wait()  # ended already: its status
-        if code == 128 + signal.SIGXFSZ or self.in_sandbox and 128 < code < 128 + signal.NSIG:
+        if self.in_sandbox and 128 < code < 128 + signal.NSIG:
             return -(code - 128)
         return code
 
@@ -372,7 +406,7 @@ class ProcessBot:
                 return Fault(0, 0.0, "load", problem)
             reply = self._receive(deadline - time.monotonic())
         if isinstance(reply, dict) and reply["type"] == "ready" and self.loaded:
-            return None
+            return self._fault(0, 0.0, "flood", "setup") if self._flooded() else None
         return self._fault(
             0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault" else "protocol", "setup"
         )
@@ -423,6 +457,8 @@ class ProcessBot:
     def judge(self, obs: Observation, reply: dict | str, took: float) -> Command | Fault:
         """The second half of a step: the answer `reply` (or fault kind), `took` seconds after
         `send`, weighed against the allowances."""
+        if self._flooded():  # all it wrote before this answer (or deadline) is counted by now
+            return self._fault(obs.tick, obs.time, "flood", "step")
         if reply == "timeout":
             self.pending = obs.tick
             self.bank -= self.limits.step_deadline - self.limits.step_time
@@ -501,8 +537,12 @@ class ProcessBot:
         if self.folder is not None:
             self.folder.cleanup()
             self.folder = None
-        if self.log_file is not None:
-            self.log_file.close()
+        if self.team_log is not None:
+            self.team_log.close()
+            self.team_log = None
+        if self.group is not None:
+            self.group.close()
+            self.group = None
 
 
 def exchange(

@@ -61,6 +61,16 @@ def assert_contained(result: dict, kind: str = "exception", words: str = "contai
     return bad
 
 
+def assert_ended_for_memory(result: dict, mib: int) -> None:
+    """The hostile slot was ended by its group's memory limit (reclaim may take past a step's
+    deadline: skipped ticks may come first); the others played on."""
+    bad = result["robots"][0]
+    kinds = [f["kind"] for f in bad["faults"]]
+    assert kinds[-1] == "memory" and set(kinds[:-1]) <= {"skipped_tick"}, bad["faults"]
+    assert f"more than its {mib} MiB of memory" in bad["faults"][-1]["message"]
+    assert_others_unharmed(result)
+
+
 def sandboxed_processes(referee: int | None = None) -> list[int]:
     """Host pids of controller processes still running for the referee process `referee` (default
     this one): as root, those running as one of its slot uids; as an ordinary user, ours in a PID
