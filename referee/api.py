@@ -25,6 +25,7 @@ from arena.level import Level
 from arena.loader import find_level, load_level
 from referee.errors import TeamError, UserError
 from referee.records.results import MatchResult
+from referee.sandbox.kernel import importable_in_sandbox
 from referee.sandbox.process import isolation_unavailable
 from referee.sandbox.teams import Team, controller_problem, resolve
 from robots.api import Controller
@@ -32,9 +33,9 @@ from robots.api import Controller
 
 def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
     """Source that rebuilds the names a `__main__` class may use from its module's globals:
-    imports (modules, and classes or functions of importable modules), literal constants, and
-    the functions and classes defined in `__main__` outside the file or cell `skip` (another
-    notebook cell)."""
+    imports (modules, and classes or functions of modules a sandboxed controller can import),
+    literal constants, and the functions and classes defined in `__main__` outside the file or
+    cell `skip` (another notebook cell)."""
     lines, defined = ["from robots.api import *"], []
     for name, value in sorted(vars(module).items() if module else ()):
         if name.startswith("_"):
@@ -42,6 +43,8 @@ def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
         home = getattr(value, "__module__", None)
         qual = getattr(value, "__qualname__", None)
         if isinstance(value, types.ModuleType):
+            if not importable_in_sandbox(value.__name__):
+                continue  # the referee, a plotting library: out of a controller's reach
             lines.append(f"import {value.__name__} as {name}" if value.__name__ != name else f"import {name}")
         elif isinstance(value, (bool, int, float, str)) and ast.literal_eval(repr(value)) == value:
             lines.append(f"{name} = {value!r}")
@@ -54,6 +57,8 @@ def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
         ):
             continue
         elif home != "__main__":
+            if not importable_in_sandbox(home):
+                continue
             lines.append(f"from {home} import {qual} as {name}")
         elif (_source_file(value) or "") != skip:
             try:
@@ -80,11 +85,19 @@ def _source_file(cls: object) -> str | None:
 
 
 def _definitions(text: str) -> str:
-    """A module's definitions only: imports, functions, classes and literal constants; any
-    statement that does something (running a match, say) is left out."""
+    """A module's definitions only: imports of what a sandboxed controller can import,
+    functions, classes and literal constants; any statement that does something (running a
+    match, say) is left out."""
     kept: list[ast.stmt] = []
     for node in ast.parse(text).body:
-        if isinstance(node, (ast.Import, ast.ImportFrom, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+        if isinstance(node, ast.Import):
+            names = [alias for alias in node.names if importable_in_sandbox(alias.name)]
+            if names:
+                kept.append(node if names == node.names else ast.Import(names=names))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level or importable_in_sandbox(node.module or ""):
+                kept.append(node)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             kept.append(node)
         elif (
             isinstance(node, (ast.Assign, ast.AnnAssign))

@@ -142,6 +142,13 @@ def _import_roots() -> list[str]:
     return sorted(found)
 
 
+def importable_in_sandbox(module: str) -> bool:
+    """Whether a controller in a sandbox can import `module`: the standard library, `robots`
+    and `ALLOWED` (a team's own modules aside)."""
+    top = module.partition(".")[0]
+    return top in sys.stdlib_module_names or top in ("robots", *ALLOWED)
+
+
 def _allowed_packages() -> list[tuple[str, str]]:
     """(folder on the host, its name in LIB_DIR) of each package of `ALLOWED` and of the
     folder of shared libraries its wheel brings beside it (numpy.libs)."""

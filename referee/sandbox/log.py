@@ -27,7 +27,7 @@ class TeamLog:
     def __init__(self, cap: int, path: Path | None = None):
         self.cap, self.total, self.kept = cap, 0, 0
         self.tail = bytearray()  # the last TRACEBACK_BYTES of what was kept
-        self.file = open(path, "wb") if path else None
+        self.file = open(path, "wb", buffering=0) if path else None  # live: a team may follow it as it plays
         self._read, self.writer = os.pipe()
         self._wake, self._woken = os.pipe()
         os.set_blocking(self._read, False)
