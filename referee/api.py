@@ -151,7 +151,11 @@ def _class_team(cls: type, isolate: bool, folder: Path) -> Team:
     path.write_text(source, encoding="utf-8")
     path.chmod(0o644)
     return Team(
-        cls.__name__, f"{path}:{cls.__name__}", "sha256:" + digest, ((path.name, path),), f"{path.name}:{cls.__name__}"
+        cls.__name__,
+        f"{path}:{cls.__name__}",
+        "sha256:" + digest,
+        ((path.name, source.encode()),),
+        f"{path.name}:{cls.__name__}",
     )
 
 
@@ -368,7 +372,7 @@ def grade(
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     journal = g.Journal(db)
     jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
-    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=resolved)
     rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
     if board is not None:
         g.write_leaderboard(rows, board)
@@ -409,7 +413,8 @@ def tournament(
     start = time.perf_counter()
     heats = t.plan(found, entrants, rounds, journal.secret(secret), __version__)
     planned = time.perf_counter()
-    ran = t.play_heats(heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    read = [e.team for e in entrants]  # their files read once, when resolved
+    ran = t.play_heats(heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=read)
     played = time.perf_counter()
     outcome = t.outcome(heats, entrants, journal)
     rated = time.perf_counter()

@@ -19,15 +19,15 @@ import io
 import json
 import math
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.journal import Journal
 from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
-from referee.contest.shipping import Shipped, ship
 from referee.errors import UserError
-from referee.sandbox.teams import resolve
+from referee.sandbox.teams import Team, resolve
 from referee.terminal import safe
 
 if TYPE_CHECKING:
@@ -110,21 +110,22 @@ def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: st
     ]
 
 
-def _match_jobs(jobs: list[Job]) -> dict[tuple, MatchJob]:
+def _match_jobs(jobs: list[Job], known: Sequence[Team]) -> dict[tuple, MatchJob]:
     """Each job as data a worker can play anywhere: the level file's bytes and every slot's code
-    (the team in slot 0, the level's default controller in the others), read here once each
-    and checked against the hashes the jobs were made with."""
+    (the team in slot 0, the level's default controller in the others). The `known` teams are
+    shipped as resolved (their files read once, when the jobs were made); any other is
+    resolved here, once, and checked against the hash its jobs were made with."""
     from arena.loader import parse_level
 
     texts: dict[str, tuple[bytes, Level]] = {}
-    shipped: dict[str, Shipped] = {}
+    teams = {t.spec: t for t in known}
 
-    def team(spec: str, expected: str | None = None) -> Shipped:
-        if spec not in shipped:
-            shipped[spec] = ship(resolve(spec))
-        if expected is not None and shipped[spec].code_hash != expected:
+    def team(spec: str, expected: str | None = None) -> Team:
+        if spec not in teams:
+            teams[spec] = resolve(spec)
+        if expected is not None and teams[spec].code_hash != expected:
             raise UserError(f"{safe(spec)}: the team's code changed while grading; run grade again")
-        return shipped[spec]
+        return teams[spec]
 
     out = {}
     for job in jobs:
@@ -143,17 +144,23 @@ def _match_jobs(jobs: list[Job]) -> dict[tuple, MatchJob]:
 
 
 def grade(
-    jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | None = None, quiet: bool = False
+    jobs: list[Job],
+    journal: Journal,
+    workers: int = 1,
+    scheduler: str | None = None,
+    quiet: bool = False,
+    teams: Sequence[Team] = (),
 ) -> Journal:
     """Run every job not yet in `journal`; replays go to the journal's folder/replays. Workers
-    return each match's result and replay; only this process writes them."""
+    return each match's result and replay; only this process writes them. `teams`: the jobs'
+    teams as resolved when they were made (any other is resolved here)."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
     if not todo:
         return journal
     by_key = {j.key(): j for j in todo}
-    playable = _match_jobs(todo)
+    playable = _match_jobs(todo, teams)
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     results = run_jobs([(k, playable[k]) for k in by_key], workers, scheduler)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C

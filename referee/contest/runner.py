@@ -20,8 +20,9 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import TypeVar
 
-from referee.contest.shipping import Shipped, unship
+from referee.contest.shipping import arrived
 from referee.errors import UserError
+from referee.sandbox.teams import Team
 from referee.version import __version__
 
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
@@ -29,13 +30,14 @@ K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 
 @dataclass(frozen=True)
 class MatchJob:
-    """One match as data: the level file's name, bytes and sha256, the team of each slot, the
+    """One match as data: the level file's name, bytes and sha256, the team of each slot (its
+    code's bytes with it), the
     seed, the secret noise key (hex), ideal or not, and the software version that must run it."""
 
     level: str
     level_text: bytes
     level_hash: str
-    teams: tuple[Shipped, ...]
+    teams: tuple[Team, ...]
     seed: int
     noise_key: str
     ideal: bool
@@ -56,7 +58,7 @@ class VersionMismatch(UserError):
 
 
 def play(job: MatchJob) -> Played:
-    """Run one job (in a worker), its team files and replay in a scratch folder of its own."""
+    """Run one job (in a worker), its replay in a scratch folder of its own."""
     from arena.loader import parse_level
     from referee.match.loop import run_match
     from referee.records.canonical import dumps
@@ -69,14 +71,8 @@ def play(job: MatchJob) -> Played:
         raise UserError(f"{job.level}: the level arrived damaged")
     global _playing
     with tempfile.TemporaryDirectory(prefix="laserarena-job-") as scratch:
-        folder = Path(scratch)
-        os.chmod(folder, 0o711)  # the sandbox's user reaches the team files below, lists nothing
-        teams = []
-        for slot, shipped in enumerate(job.teams):
-            code = folder / f"slot{slot}"
-            code.mkdir(mode=0o755)
-            teams.append(unship(shipped, code))
-        replay = folder / "match.replay"
+        teams = [arrived(team) for team in job.teams]
+        replay = Path(scratch) / "match.replay"
         try:
             _playing = True
             result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)

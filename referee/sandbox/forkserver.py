@@ -129,13 +129,12 @@ class ForkServer:
         self.ready = True
         return None
 
-    def spawn(self, config: dict, files: tuple[tuple[str, Path], ...], stdio: tuple[int, int, int]) -> socket.socket:
+    def spawn(self, config: dict, files: tuple[tuple[str, bytes], ...], stdio: tuple[int, int, int]) -> socket.socket:
         """Fork a controller and return the socket to its monitor: `config` (uid, runner argv),
         the team's `files` and `stdio` (the child's fds 0-2) go to the monitor, never to the template."""
         bundle = os.memfd_create("team", 0)
         sizes = []
-        for rel, source in files:
-            data = source.read_bytes()
+        for rel, data in files:
             os.write(bundle, data)
             sizes.append((rel, len(data)))
         mine, its = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
