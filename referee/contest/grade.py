@@ -110,7 +110,7 @@ def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: st
     ]
 
 
-def _match_jobs(jobs: list[Job], known: Sequence[Team]) -> dict[tuple, MatchJob]:
+def _match_jobs(jobs: list[Job], known: Sequence[Team], unsandboxed: bool) -> dict[tuple, MatchJob]:
     """Each job as data a worker can play anywhere: the level file's bytes and every slot's code
     (the team in slot 0, the level's default controller in the others). The `known` teams are
     shipped as resolved (their files read once, when the jobs were made); any other is
@@ -138,7 +138,7 @@ def _match_jobs(jobs: list[Job], known: Sequence[Team]) -> dict[tuple, MatchJob]
         slots = len(level.robots)
         lineup = (team(job.team, job.code_hash),) + (team(level.default_controller),) * (slots - 1)
         out[job.key()] = MatchJob(
-            job.level, data, job.level_hash, lineup, job.seed, job.noise_key, job.ideal, job.software
+            job.level, data, job.level_hash, lineup, job.seed, job.noise_key, job.ideal, job.software, unsandboxed
         )
     return out
 
@@ -150,23 +150,27 @@ def grade(
     scheduler: str | None = None,
     quiet: bool = False,
     teams: Sequence[Team] = (),
+    unsandboxed: bool = False,
 ) -> Journal:
     """Run every job not yet in `journal`; replays go to the journal's folder/replays. Workers
     return each match's result and replay; only this process writes them. `teams`: the jobs'
-    teams as resolved when they were made (any other is resolved here)."""
+    teams as resolved when they were made (any other is resolved here); `unsandboxed`: the
+    organizer allows matches without a kernel sandbox (the journal then records it)."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
     if not todo:
         return journal
     by_key = {j.key(): j for j in todo}
-    playable = _match_jobs(todo, teams)
+    playable = _match_jobs(todo, teams, unsandboxed)
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     results = run_jobs([(k, playable[k]) for k in by_key], workers, scheduler)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:
             job = by_key[key]
             replay = write_replay(replay_dir, job.replay_name(), played.replay)
+            if played.unsandboxed:
+                journal.note_unsandboxed(played.unsandboxed)
             journal.record(job, played.result, str(replay), played.wall)
             progress.tick(f"{job.level} {job.team} seed {job.seed}")
     finally:
@@ -248,8 +252,8 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
     return rows
 
 
-def write_leaderboard(rows: list[dict], out: Path) -> str:
-    """Write CSV (out), JSON and Markdown beside it; return the Markdown table."""
+def write_leaderboard(rows: list[dict], out: Path, notes: Sequence[str] = ()) -> str:
+    """Write CSV (out), JSON and Markdown beside it; return the Markdown table (and `notes`)."""
     fields = list(rows[0]) if rows else ["team", "level"]
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
@@ -257,13 +261,14 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
     w.writerows(rows)
     out.write_text(buf.getvalue())
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
-    text = markdown(rows)
+    text = markdown(rows, notes)
     out.with_suffix(".md").write_text(text)
     return text
 
 
-def markdown(rows: list[dict]) -> str:
-    """The leaderboard as a Markdown table (what `laserarena grade` prints)."""
+def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
+    """The leaderboard as a Markdown table (what `laserarena grade` prints), then each of
+    `notes` (a team refused, matches played without a sandbox) on a line of its own."""
     md = [
         "| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
         "|---|---|---|---|---|---|---|---|",
@@ -275,4 +280,5 @@ def markdown(rows: list[dict]) -> str:
             f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
             f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
         )
+    md += [f"\nNote: {safe(note, 500)}" for note in notes]
     return "\n".join(md) + "\n"

@@ -21,7 +21,8 @@ from pathlib import Path
 from typing import TypeVar
 
 from referee.contest.shipping import arrived
-from referee.errors import UserError
+from referee.errors import SandboxError, UserError
+from referee.sandbox import kernel
 from referee.sandbox.teams import Team
 from referee.version import __version__
 
@@ -32,7 +33,8 @@ K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 class MatchJob:
     """One match as data: the level file's name, bytes and sha256, the team of each slot (its
     code's bytes with it), the
-    seed, the secret noise key (hex), ideal or not, and the software version that must run it."""
+    seed, the secret noise key (hex), ideal or not, the software version that must run it, and
+    whether the organizer allows it to run without a kernel sandbox (`sandbox_missing`)."""
 
     level: str
     level_text: bytes
@@ -42,15 +44,30 @@ class MatchJob:
     noise_key: str
     ideal: bool
     software: str
+    unsandboxed: bool = False
 
 
 @dataclass(frozen=True)
 class Played:
-    """A finished match: its canonical result JSON, the replay's bytes, the wall time it took."""
+    """A finished match: its canonical result JSON, the replay's bytes, the wall time it took,
+    and why its controllers ran without a kernel sandbox ("" when they ran in one)."""
 
     result: str
     replay: bytes
     wall: float
+    unsandboxed: str = ""
+
+
+def sandbox_missing(allowed: bool) -> str:
+    """Why no kernel sandbox can hold this machine's controllers ("" where one can). A contest
+    fails closed: SandboxError (one line) unless the organizer `allowed` playing without one."""
+    reason = kernel.unavailable() or ""
+    if reason and not allowed:
+        raise SandboxError(
+            f"no kernel sandbox on this machine ({reason}); fix that, or pass --unsandboxed "
+            "(unsandboxed=True in Python) to play without one, which the results then say"
+        )
+    return reason
 
 
 class VersionMismatch(UserError):
@@ -65,6 +82,7 @@ def play(job: MatchJob) -> Played:
 
     if job.software != __version__:
         raise VersionMismatch(f"a worker runs laserarena {__version__}, the client {job.software}; install the same")
+    unsandboxed = sandbox_missing(job.unsandboxed)  # asked where the match runs: a Dask worker may differ
     start = time.perf_counter()
     level = parse_level(job.level_text, job.level)
     if level.hash != job.level_hash:
@@ -81,7 +99,7 @@ def play(job: MatchJob) -> Played:
         finally:
             _playing = False
         data = replay.read_bytes()
-    return Played(dumps(result), data, time.perf_counter() - start)
+    return Played(dumps(result), data, time.perf_counter() - start, unsandboxed)
 
 
 def write_replay(folder: Path, name: str, data: bytes) -> Path:

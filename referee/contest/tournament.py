@@ -121,11 +121,13 @@ def play_heats(
     scheduler: str | None = None,
     quiet: bool = False,
     teams: Sequence[Team] = (),
+    unsandboxed: bool = False,
 ) -> int:
     """Run every heat not yet in `journal` (replays in the journal's folder/replays); return
     how many ran now. Workers return each heat's result and replay; only this process writes.
     `teams`: the heats' teams as resolved when they were planned (any other is resolved here,
-    once, and checked against the hash its heats were planned with)."""
+    once, and checked against the hash its heats were planned with); `unsandboxed`: the
+    organizer allows heats without a kernel sandbox (the journal then records it)."""
     replay_dir = replay_folder(journal.path)
     done = journal.heats_done()
     todo = [h for h in heats if h.key() not in done]
@@ -156,6 +158,7 @@ def play_heats(
                 h.noise_key,
                 h.ideal,
                 h.software,
+                unsandboxed,
             ),
         )
         for k, h in by_key.items()
@@ -166,6 +169,8 @@ def play_heats(
         for key, played in results:
             heat = by_key[key]
             replay = write_replay(replay_dir, heat.replay_name(), played.replay)
+            if played.unsandboxed:
+                journal.note_unsandboxed(played.unsandboxed)
             journal.record_heat(heat.level, key, played.result, str(replay), played.wall)
             progress.tick(f"heat {heat.number} {heat.level} seed {heat.seed}")
     finally:
