@@ -354,8 +354,9 @@ def _notes(journal: Journal, refused: list[str]) -> tuple[str, ...]:
     return (*refused, *([f"played without a kernel sandbox (--unsandboxed): {reason}"] if reason else []))
 
 
-def _warn(notes: tuple[str, ...]) -> None:
-    """The notes of a contest run from Python, on stderr (a library caller sees them too)."""
+def warn(notes: tuple[str, ...]) -> None:
+    """A contest's notes (teams refused, played unsandboxed) on stderr, where a library caller
+    or a quiet command line still sees them."""
     for note in notes:
         print(f"laserarena: warning: {safe(note, 500)}", file=sys.stderr)
 
@@ -404,7 +405,7 @@ def grade(
     is left out with a warning. Without a kernel sandbox grading is refused (SandboxError)
     unless `unsandboxed=True`, which the journal and the leaderboard then record."""
     board = leaderboard(levels, teams, seeds, workers, db, out, secret, scheduler, quiet, unsandboxed)
-    _warn(board.notes)
+    warn(board.notes)
     return list(board.rows)
 
 

@@ -139,12 +139,6 @@ def _secret(args: argparse.Namespace) -> str | None:
     return given
 
 
-def _warn(notes: tuple[str, ...]) -> None:
-    """A quiet contest's notes (teams refused, played unsandboxed): still said, on stderr."""
-    for note in notes:
-        print(f"laserarena: warning: {safe(note, 500)}", file=sys.stderr)
-
-
 def _contest_options(args: argparse.Namespace) -> dict:
     """What `grade` and `tournament` take alike from their command lines."""
     return {
@@ -173,7 +167,7 @@ def cmd_grade(args: argparse.Namespace) -> int:
     )
     rows = board.rows
     if args.quiet:
-        _warn(board.notes)
+        api.warn(board.notes)
     else:
         print(markdown([asdict(r) for r in rows], board.notes), end="")
         matches = sum(r.matches for r in rows)
@@ -198,7 +192,7 @@ def cmd_tournament(args: argparse.Namespace) -> int:
         **_contest_options(args),
     )
     if args.quiet:
-        _warn(done.notes)
+        api.warn(done.notes)
     else:
         for s in done.standings:
             print(f"{s.rank:>3}  {s.rating:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")

@@ -6,7 +6,7 @@ a killed run resumes where it stopped. A journal row is keyed by everything its 
 depends on: the team's code hash, the level file's hash, the seed, the software version and
 the noise mode (ideal or not, and which secret) -- so an edited team or level is run again
 and an old row never mixes in. Every random stream of a graded match derives from a secret
-kept in the journal (or given with --secret), never from anything a controller can read
+kept in the journal (or read from --secret-file), never from anything a controller can read
 (docs/integrity.md). Wall time goes to the journal, never into the result.
 """
 
