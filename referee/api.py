@@ -14,12 +14,14 @@ import hashlib
 import inspect
 import linecache
 import shutil
+import sys
 import tempfile
 import time
 import types
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from arena.level import Level
 from arena.loader import find_level, load_level
@@ -28,7 +30,11 @@ from referee.records.results import MatchResult
 from referee.sandbox.kernel import importable_in_sandbox
 from referee.sandbox.process import isolation_unavailable
 from referee.sandbox.teams import Team, controller_problem, resolve
+from referee.terminal import safe
 from robots.api import Controller
+
+if TYPE_CHECKING:
+    from referee.contest.journal import Journal
 
 
 def _context(module: types.ModuleType | None, skip: str | None) -> list[str]:
@@ -164,7 +170,11 @@ def _class_team(cls: type, isolate: bool, folder: Path) -> Team:
     path.write_text(source, encoding="utf-8")
     path.chmod(0o644)
     return Team(
-        cls.__name__, f"{path}:{cls.__name__}", "sha256:" + digest, ((path.name, path),), f"{path.name}:{cls.__name__}"
+        cls.__name__,
+        f"{path}:{cls.__name__}",
+        "sha256:" + digest,
+        ((path.name, source.encode()),),
+        f"{path.name}:{cls.__name__}",
     )
 
 
@@ -291,7 +301,8 @@ class HeatRow:
 class TournamentResult:
     """A tournament's standings (best first) and every robot of every heat (heat and slot
     order); `ran` heats were played by this call, the others came from the journal. Times in
-    seconds: the heats' own, scheduling and rating, and writing the report."""
+    seconds: the heats' own, scheduling and rating, and writing the report. `notes`: what the
+    report says beside the standings (teams refused, heats played without a kernel sandbox)."""
 
     standings: tuple[StandingRow, ...]
     heats: tuple[HeatRow, ...]
@@ -299,6 +310,7 @@ class TournamentResult:
     heat_seconds: float
     overhead_seconds: float
     report_seconds: float
+    notes: tuple[str, ...] = ()
 
 
 def contest_levels(levels: Levels) -> list[tuple[Level, Path]]:
@@ -318,24 +330,48 @@ def contest_levels(levels: Levels) -> list[tuple[Level, Path]]:
     return found
 
 
-def _contest_teams(teams: Teams, db: Path) -> list[Team]:
-    """Each team resolved before any match (a bad spec fails in one line). A Controller class
-    is shipped as source into `class-teams/` beside the journal, under a name from its code
-    hash, so a rerun of the same class resumes and the journal's rows name code that is kept."""
+def _contest_team(team: str | type, db: Path) -> Team:
+    """One contest team resolved (TeamError in one line). A Controller class is shipped as
+    source into `class-teams/` beside the journal, under a name from its code hash, so a rerun
+    of the same class resumes and the journal's rows name code that is kept."""
+    if isinstance(team, str):
+        return resolve(team)
+    _outputs(db, None)
+    folder = db.resolve().parent / CLASS_TEAMS
+    folder.mkdir(mode=0o755, exist_ok=True)
+    folder.chmod(0o755)  # the controller, another user, reads the shipped source
+    shipped = _class_team(team, True, folder)
+    return replace(resolve(shipped.spec), label=shipped.label)
+
+
+def _contest_teams(teams: Teams, db: Path) -> tuple[list[Team], list[str]]:
+    """Each team resolved before any match, and a one-line refusal for each that cannot be
+    (the contest goes on with the others; TeamError if none is left)."""
     if isinstance(teams, (str, type)) or not teams:
         raise UserError("teams must be a non-empty list of spec strings or Controller classes")
-    resolved = []
+    resolved, refused = [], []
     for t in teams:
-        if isinstance(t, str):
-            resolved.append(resolve(t))
-            continue
-        _outputs(db, None)
-        folder = db.resolve().parent / CLASS_TEAMS
-        folder.mkdir(mode=0o755, exist_ok=True)
-        folder.chmod(0o755)  # the controller, another user, reads the shipped source
-        shipped = _class_team(t, True, folder)
-        resolved.append(replace(resolve(shipped.spec), label=shipped.label))
-    return resolved
+        try:
+            resolved.append(_contest_team(t, db))
+        except TeamError as e:
+            refused.append(f"refused {e}")
+    if not resolved:
+        raise TeamError("; ".join(refused))
+    return resolved, refused
+
+
+def _notes(journal: Journal, refused: list[str]) -> tuple[str, ...]:
+    """What a published result must say beside its table: the teams refused, and whether any
+    match in the journal ran without a kernel sandbox."""
+    reason = journal.unsandboxed()
+    return (*refused, *([f"played without a kernel sandbox (--unsandboxed): {reason}"] if reason else []))
+
+
+def warn(notes: tuple[str, ...]) -> None:
+    """A contest's notes (teams refused, played unsandboxed) on stderr, where a library caller
+    or a quiet command line still sees them."""
+    for note in notes:
+        print(f"laserarena: warning: {safe(note, 500)}", file=sys.stderr)
 
 
 def _outputs(db: Path, out: Path | None) -> None:
@@ -351,6 +387,15 @@ def _whole(name: str, value: object) -> int:
     return value
 
 
+@dataclass(frozen=True)
+class Leaderboard:
+    """A grade's leaderboard rows and the notes a published leaderboard carries (teams
+    refused, matches played without a kernel sandbox)."""
+
+    rows: tuple[LeaderboardRow, ...]
+    notes: tuple[str, ...]
+
+
 def grade(
     levels: Levels,
     teams: Teams,
@@ -361,6 +406,7 @@ def grade(
     secret: str | None = None,
     scheduler: str | None = None,
     quiet: bool = True,
+    unsandboxed: bool = False,
 ) -> list[LeaderboardRow]:
     """Grade every team alone (slot 0) on every level for seeds 1..`seeds`, as `laserarena
     grade` does, and return the leaderboard (per level, best mean score first).
@@ -368,24 +414,48 @@ def grade(
     Every finished match is committed to the journal `db` at once; a second call with the same
     arguments resumes and runs only what is missing. `out` also writes leaderboard CSV, .json
     and .md; `secret` overrides the journal's noise secret; `scheduler` grades on a Dask
-    cluster; `quiet=False` shows the progress bar on a terminal."""
+    cluster; `quiet=False` shows the progress bar on a terminal. A team that cannot be read
+    is left out with a warning. Without a kernel sandbox grading is refused (SandboxError)
+    unless `unsandboxed=True`, which the journal and the leaderboard then record."""
+    board = leaderboard(levels, teams, seeds, workers, db, out, secret, scheduler, quiet, unsandboxed)
+    warn(board.notes)
+    return list(board.rows)
+
+
+def leaderboard(
+    levels: Levels,
+    teams: Teams,
+    seeds: int = 3,
+    workers: int = 2,
+    db: str | Path = "results.sqlite",
+    out: str | Path | None = None,
+    secret: str | None = None,
+    scheduler: str | None = None,
+    quiet: bool = True,
+    unsandboxed: bool = False,
+) -> Leaderboard:
+    """`grade`, returning its notes beside the rows instead of printing them."""
     from referee.contest import grade as g
+    from referee.contest.runner import sandbox_missing
     from referee.contest.tournament import names as tournament_names
     from referee.version import __version__
 
     found = contest_levels(levels)
     db, board = Path(db), Path(out) if out is not None else None
     _whole("seeds", seeds)
-    resolved = _contest_teams(teams, db)  # a bad spec fails here, in one line, before any match
+    if scheduler is None:  # fail closed before any match (a Dask worker asks for itself)
+        sandbox_missing(unsandboxed)
+    resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any match
     _outputs(db, board)
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     journal = g.Journal(db)
     jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
-    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=resolved, unsandboxed=unsandboxed)
     rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
+    notes = _notes(journal, refused)
     if board is not None:
-        g.write_leaderboard(rows, board)
-    return [LeaderboardRow(**r) for r in rows]
+        g.write_leaderboard(rows, board, notes)
+    return Leaderboard(tuple(LeaderboardRow(**r) for r in rows), notes)
 
 
 def tournament(
@@ -398,23 +468,29 @@ def tournament(
     secret: str | None = None,
     scheduler: str | None = None,
     quiet: bool = True,
+    unsandboxed: bool = False,
 ) -> TournamentResult:
     """Rated heats of the teams racing each other on every level, as `laserarena tournament`
     does; return the standings and every heat.
 
     Every finished heat is committed to the journal `db` at once (a second call resumes).
     `out` also writes the report folder (index.html, standings, heats.csv, replays, viewer
-    pages); `secret`, `scheduler` and `quiet` as in `grade`."""
+    pages); `secret`, `scheduler`, `quiet` and `unsandboxed` as in `grade`; the result's
+    `notes` (also in the report) name the teams refused and any heat played unsandboxed."""
     from referee.contest import report
     from referee.contest import tournament as t
     from referee.contest.journal import Journal
+    from referee.contest.runner import sandbox_missing
     from referee.media.viewer import write_viewer
     from referee.version import __version__
 
     found = contest_levels(levels)
     db, folder = Path(db), Path(out) if out is not None else None
     _whole("rounds", rounds)
-    entrants = t.entrants(_contest_teams(teams, db))  # a bad spec fails here, before any heat
+    if scheduler is None:  # fail closed before any heat (a Dask worker asks for itself)
+        sandbox_missing(unsandboxed)
+    resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any heat
+    entrants = t.entrants(resolved)
     _outputs(db, folder)
     if folder is not None and folder.exists() and not folder.is_dir():
         raise UserError(f"out {folder}: not a folder")
@@ -422,12 +498,16 @@ def tournament(
     start = time.perf_counter()
     heats = t.plan(found, entrants, rounds, journal.secret(secret), __version__)
     planned = time.perf_counter()
-    ran = t.play_heats(heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet)
+    read = [e.team for e in entrants]  # their files read once, when resolved
+    ran = t.play_heats(
+        heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=read, unsandboxed=unsandboxed
+    )
     played = time.perf_counter()
     outcome = t.outcome(heats, entrants, journal)
     rated = time.perf_counter()
+    notes = _notes(journal, refused)
     if folder is not None:
-        report.write(outcome, folder, f"Tournament: {', '.join(lv.name for lv, _ in found)}")
+        report.write(outcome, folder, f"Tournament: {', '.join(lv.name for lv, _ in found)}", notes)
         for heat in outcome.heats:
             write_viewer(folder / report.replay_file(heat), folder / report.viewer_file(heat))
     standings = tuple(
@@ -453,4 +533,5 @@ def tournament(
         sum(h.wall for h in outcome.heats),
         (planned - start) + (rated - played),
         time.perf_counter() - rated,
+        notes,
     )

@@ -3,9 +3,13 @@ from parsed data, and running the command line as a user would."""
 
 from __future__ import annotations
 
+import atexit
+import hashlib
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -83,6 +87,17 @@ def variant(source: str, name: str = "variant.yaml", **changes: Any) -> Level:
     `__` for the dots: `robots__0__start=[1, 2, 0]`)."""
     text = edited(source, {k.replace("__", "."): v for k, v in changes.items()})
     return parse_level(text.encode(), name)
+
+
+_SECRETS = Path(tempfile.mkdtemp(prefix="laserarena-test-secrets-"))
+atexit.register(shutil.rmtree, _SECRETS, True)
+
+
+def secret_file(secret: str) -> str:
+    """A file holding `secret`, for `--secret-file` (a secret never goes on a command line)."""
+    path = _SECRETS / hashlib.sha256(secret.encode()).hexdigest()[:16]
+    path.write_text(secret + "\n")
+    return str(path)
 
 
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:

@@ -11,7 +11,7 @@ import subprocess
 import sys
 
 import pytest
-from helpers import edited
+from helpers import edited, secret_file
 
 SCRIPT = """
 import sys
@@ -93,8 +93,8 @@ def test_grade_matches_the_command_line_and_resumes(shared_dir):
         "cli.sqlite",
         "--out",
         "cli.csv",
-        "--secret",
-        "s",
+        "--secret-file",
+        secret_file("s"),
         "--quiet",
     )
     cli = _rows(shared_dir / "cli.csv")
@@ -135,8 +135,8 @@ def test_tournament_matches_the_command_line_and_resumes(shared_dir):
         "cli.sqlite",
         "--out",
         "site",
-        "--secret",
-        "s",
+        "--secret-file",
+        secret_file("s"),
         "--quiet",
     )
     standings = _rows(shared_dir / "site" / "standings.csv")

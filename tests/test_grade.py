@@ -10,7 +10,7 @@ import sys
 import time
 
 import pytest
-from helpers import alive, descendants, run_cli
+from helpers import alive, descendants, run_cli, secret_file
 
 from referee.contest.grade import interval
 
@@ -23,8 +23,8 @@ ARGS = [
     "--seeds",
     "3",
     "--quiet",
-    "--secret",
-    "a shared secret",
+    "--secret-file",
+    secret_file("a shared secret"),
 ]  # one secret: journals compared across runs draw the same noise
 
 
@@ -104,15 +104,20 @@ def run_grade(folder, *args):
 
 def test_an_edited_team_is_graded_again_and_old_rows_never_mix_in(shared_dir, tmp_path):
     spec = team(shared_dir)
-    assert run_grade(tmp_path, "--team", spec, "--seeds", "2", "--secret", "s", "--workers", "1").returncode == 0
+    assert (
+        run_grade(
+            tmp_path, "--team", spec, "--seeds", "2", "--secret-file", secret_file("s"), "--workers", "1"
+        ).returncode
+        == 0
+    )
     first = rows(tmp_path / "r.sqlite")
     team(shared_dir, speed="0.025")  # the team edits its file
-    assert run_grade(tmp_path, "--team", spec, "--seeds", "2", "--secret", "s").returncode == 0
+    assert run_grade(tmp_path, "--team", spec, "--seeds", "2", "--secret-file", secret_file("s")).returncode == 0
     both = rows(tmp_path / "r.sqlite")
     assert len(first) == 2 and len(both) == 4 and len({r[1] for r in both}) == 2  # two code hashes
     fresh = tmp_path / "fresh"
     fresh.mkdir()
-    assert run_grade(fresh, "--team", spec, "--seeds", "2", "--secret", "s").returncode == 0
+    assert run_grade(fresh, "--team", spec, "--seeds", "2", "--secret-file", secret_file("s")).returncode == 0
     assert (tmp_path / "lb.csv").read_text() == (fresh / "lb.csv").read_text()  # the new code's only
     new = [r[3] for r in both if r[1] != first[0][1]]
     assert new == [r[3] for r in rows(fresh / "r.sqlite")] and new != [r[3] for r in first]
@@ -120,7 +125,9 @@ def test_an_edited_team_is_graded_again_and_old_rows_never_mix_in(shared_dir, tm
 
 def test_two_teams_whose_names_clean_up_alike_keep_their_own_replays(shared_dir, tmp_path):
     a, b = team(shared_dir, "a b.py"), team(shared_dir, "a_b.py", speed="0.025")
-    assert run_grade(tmp_path, "--team", a, "--team", b, "--seeds", "1", "--secret", "s").returncode == 0
+    assert (
+        run_grade(tmp_path, "--team", a, "--team", b, "--seeds", "1", "--secret-file", secret_file("s")).returncode == 0
+    )
     from referee.records.replay import load
 
     got = {load(r[4]).header["teams"][0]["spec"]: r[0] for r in rows(tmp_path / "r.sqlite")}
@@ -130,7 +137,16 @@ def test_two_teams_whose_names_clean_up_alike_keep_their_own_replays(shared_dir,
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
 def test_a_stopped_grade_leaves_nothing_running_and_resumes(shared_dir, tmp_path, sig):
-    args = ["--team", team(shared_dir, pause="0.01"), "--seeds", "4", "--workers", "2", "--secret", "s"]
+    args = [
+        "--team",
+        team(shared_dir, pause="0.01"),
+        "--seeds",
+        "4",
+        "--workers",
+        "2",
+        "--secret-file",
+        secret_file("s"),
+    ]
     full, stopped = tmp_path / "full", tmp_path / "stopped"
     full.mkdir(), stopped.mkdir()
     assert run_grade(full, *args).returncode == 0

@@ -14,7 +14,7 @@ import sys
 import time
 
 import pytest
-from helpers import alive, descendants
+from helpers import alive, descendants, secret_file
 
 from referee.errors import EXIT_INTERRUPTED
 
@@ -130,7 +130,19 @@ def _text(path):
         return ""
 
 
-GRADE = ["grade", "bac-line", "--team", "slow.py", "--seeds", "4", "--workers", "2", "--secret", "s", "--quiet"]
+GRADE = [
+    "grade",
+    "bac-line",
+    "--team",
+    "slow.py",
+    "--seeds",
+    "4",
+    "--workers",
+    "2",
+    "--secret-file",
+    secret_file("s"),
+    "--quiet",
+]
 
 
 def test_grade_keeps_finished_matches_and_resumes(slow):
@@ -164,8 +176,8 @@ def test_tournament_keeps_finished_heats_and_resumes(slow):
         "1",
         "--workers",
         "2",
-        "--secret",
-        "s",
+        "--secret-file",
+        secret_file("s"),
         "--db",
         "t.sqlite",
         "--out",

@@ -19,7 +19,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-from helpers import alive, descendants, edited, run_cli
+from helpers import alive, descendants, edited, run_cli, secret_file
 
 from referee.contest.ratings import Placing, bootstrap, ranks, rate
 from referee.contest.schedule import schedule
@@ -65,8 +65,8 @@ def args(folder: Path, name: str) -> list[str]:
         *team_args,
         "--rounds",
         "2",
-        "--secret",
-        SECRET,
+        "--secret-file",
+        secret_file(SECRET),
         "--db",
         str(db),
         "--out",
@@ -349,7 +349,17 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
         assert proc.returncode == 0, err
         assert heats_in(db) == 8
         # grading takes the same road: a file team graded on these workers as on this machine
-        grade = ["grade", "race.yaml", "--team", "starter.py", "--seeds", "1", "--secret", SECRET, "--quiet"]
+        grade = [
+            "grade",
+            "race.yaml",
+            "--team",
+            "starter.py",
+            "--seeds",
+            "1",
+            "--secret-file",
+            secret_file(SECRET),
+            "--quiet",
+        ]
         for name, where in (("grade-dask", ["--scheduler", address]), ("grade-local", ["--workers", "1"])):
             (contest / name).mkdir()
             out = ["--db", f"{name}/r.sqlite", "--out", f"{name}/lb.csv"]

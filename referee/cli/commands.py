@@ -119,10 +119,17 @@ def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) 
     return kept
 
 
+class _NoSecretOnTheCommandLine(argparse.Action):
+    """`--secret S`, gone: every local process can read a command line (/proc/PID/cmdline)."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> NoReturn:
+        raise UserError("--secret is gone (other processes can read a command line); use --secret-file FILE")
+
+
 def _secret(args: argparse.Namespace) -> str | None:
-    """The noise secret given by --secret or --secret-file, or None (the journal's own)."""
+    """The noise secret read from --secret-file, or None (the journal's own)."""
     if not args.secret_file:
-        return args.secret
+        return None
     try:
         given = Path(args.secret_file).read_text(encoding="utf-8").strip()
     except (OSError, UnicodeDecodeError) as e:
@@ -141,6 +148,7 @@ def _contest_options(args: argparse.Namespace) -> dict:
         "secret": _secret(args),
         "scheduler": args.scheduler,
         "quiet": args.quiet,
+        "unsandboxed": args.unsandboxed,
     }
 
 
@@ -151,14 +159,17 @@ def cmd_grade(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
     start = time.perf_counter()
-    rows = api.grade(
+    board = api.leaderboard(
         args.level,
         args.team,
         seeds=args.seeds,
         **_contest_options(args),
     )
-    if not args.quiet:
-        print(markdown([asdict(r) for r in rows]), end="")
+    rows = board.rows
+    if args.quiet:
+        api.warn(board.notes)
+    else:
+        print(markdown([asdict(r) for r in rows], board.notes), end="")
         matches = sum(r.matches for r in rows)
         print(
             f"{matches} matches in the journal {args.db}; leaderboard {args.out} (.json, .md); "
@@ -180,9 +191,13 @@ def cmd_tournament(args: argparse.Namespace) -> int:
         rounds=args.rounds,
         **_contest_options(args),
     )
-    if not args.quiet:
+    if args.quiet:
+        api.warn(done.notes)
+    else:
         for s in done.standings:
             print(f"{s.rank:>3}  {s.rating:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
+        for note in done.notes:
+            print(f"Note: {safe(note, 500)}")
         heats = len({h.heat for h in done.heats})
         print(
             f"{heats} heats ({done.ran} run now) in the journal {args.db}; report {Path(args.out) / 'index.html'}; "
@@ -305,6 +320,23 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
+def _contest_flags(s: argparse.ArgumentParser) -> None:
+    """The options `grade` and `tournament` share: the noise secret, and playing unsandboxed."""
+    s.add_argument(
+        "--secret-file",
+        metavar="FILE",
+        help="read the noise secret from FILE (default: the journal's own, made on first use); "
+        "every match's noise derives from it (docs/integrity.md)",
+    )
+    s.add_argument("--secret", nargs="?", action=_NoSecretOnTheCommandLine, help=argparse.SUPPRESS)
+    s.add_argument(
+        "--unsandboxed",
+        action="store_true",
+        help="play even where no kernel sandbox can be made (controllers then share the machine "
+        "with few limits); the journal, leaderboard and report say so",
+    )
+
+
 def parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="laserarena", description="LaserArena: spinning-laser beacon navigation contests, simulated and refereed."
@@ -357,17 +389,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
-    s.add_argument(
-        "--secret",
-        metavar="S",
-        help="the noise secret (default: the journal's own, made on first "
-        "use); every match's noise derives from it (docs/integrity.md)",
-    )
-    s.add_argument(
-        "--secret-file",
-        metavar="FILE",
-        help="read the noise secret from FILE (keeps it off the command line, which other processes can read)",
-    )
+    _contest_flags(s)
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
@@ -381,8 +403,7 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
     s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
-    s.add_argument("--secret", metavar="S", help="the noise secret (default: the journal's own)")
-    s.add_argument("--secret-file", metavar="FILE", help="read the noise secret from FILE")
+    _contest_flags(s)
     s.add_argument(
         "--out", default="tournament", help="the report folder: index.html, standings, heats, replays, viewer pages"
     )

@@ -6,7 +6,7 @@ a killed run resumes where it stopped. A journal row is keyed by everything its 
 depends on: the team's code hash, the level file's hash, the seed, the software version and
 the noise mode (ideal or not, and which secret) -- so an edited team or level is run again
 and an old row never mixes in. Every random stream of a graded match derives from a secret
-kept in the journal (or given with --secret), never from anything a controller can read
+kept in the journal (or read from --secret-file), never from anything a controller can read
 (docs/integrity.md). Wall time goes to the journal, never into the result.
 """
 
@@ -19,15 +19,15 @@ import io
 import json
 import math
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.journal import Journal
 from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
-from referee.contest.shipping import Shipped, ship
 from referee.errors import UserError
-from referee.sandbox.teams import resolve
+from referee.sandbox.teams import Team, resolve
 from referee.terminal import safe
 
 if TYPE_CHECKING:
@@ -110,21 +110,22 @@ def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: st
     ]
 
 
-def _match_jobs(jobs: list[Job]) -> dict[tuple, MatchJob]:
+def _match_jobs(jobs: list[Job], known: Sequence[Team], unsandboxed: bool) -> dict[tuple, MatchJob]:
     """Each job as data a worker can play anywhere: the level file's bytes and every slot's code
-    (the team in slot 0, the level's default controller in the others), read here once each
-    and checked against the hashes the jobs were made with."""
+    (the team in slot 0, the level's default controller in the others). The `known` teams are
+    shipped as resolved (their files read once, when the jobs were made); any other is
+    resolved here, once, and checked against the hash its jobs were made with."""
     from arena.loader import parse_level
 
     texts: dict[str, tuple[bytes, Level]] = {}
-    shipped: dict[str, Shipped] = {}
+    teams = {t.spec: t for t in known}
 
-    def team(spec: str, expected: str | None = None) -> Shipped:
-        if spec not in shipped:
-            shipped[spec] = ship(resolve(spec))
-        if expected is not None and shipped[spec].code_hash != expected:
+    def team(spec: str, expected: str | None = None) -> Team:
+        if spec not in teams:
+            teams[spec] = resolve(spec)
+        if expected is not None and teams[spec].code_hash != expected:
             raise UserError(f"{safe(spec)}: the team's code changed while grading; run grade again")
-        return shipped[spec]
+        return teams[spec]
 
     out = {}
     for job in jobs:
@@ -137,29 +138,39 @@ def _match_jobs(jobs: list[Job]) -> dict[tuple, MatchJob]:
         slots = len(level.robots)
         lineup = (team(job.team, job.code_hash),) + (team(level.default_controller),) * (slots - 1)
         out[job.key()] = MatchJob(
-            job.level, data, job.level_hash, lineup, job.seed, job.noise_key, job.ideal, job.software
+            job.level, data, job.level_hash, lineup, job.seed, job.noise_key, job.ideal, job.software, unsandboxed
         )
     return out
 
 
 def grade(
-    jobs: list[Job], journal: Journal, workers: int = 1, scheduler: str | None = None, quiet: bool = False
+    jobs: list[Job],
+    journal: Journal,
+    workers: int = 1,
+    scheduler: str | None = None,
+    quiet: bool = False,
+    teams: Sequence[Team] = (),
+    unsandboxed: bool = False,
 ) -> Journal:
     """Run every job not yet in `journal`; replays go to the journal's folder/replays. Workers
-    return each match's result and replay; only this process writes them."""
+    return each match's result and replay; only this process writes them. `teams`: the jobs'
+    teams as resolved when they were made (any other is resolved here); `unsandboxed`: the
+    organizer allows matches without a kernel sandbox (the journal then records it)."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
     if not todo:
         return journal
     by_key = {j.key(): j for j in todo}
-    playable = _match_jobs(todo)
+    playable = _match_jobs(todo, teams, unsandboxed)
     progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
     results = run_jobs([(k, playable[k]) for k in by_key], workers, scheduler)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:
             job = by_key[key]
             replay = write_replay(replay_dir, job.replay_name(), played.replay)
+            if played.unsandboxed:
+                journal.note_unsandboxed(played.unsandboxed)
             journal.record(job, played.result, str(replay), played.wall)
             progress.tick(f"{job.level} {job.team} seed {job.seed}")
     finally:
@@ -241,8 +252,8 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
     return rows
 
 
-def write_leaderboard(rows: list[dict], out: Path) -> str:
-    """Write CSV (out), JSON and Markdown beside it; return the Markdown table."""
+def write_leaderboard(rows: list[dict], out: Path, notes: Sequence[str] = ()) -> str:
+    """Write CSV (out), JSON and Markdown beside it; return the Markdown table (and `notes`)."""
     fields = list(rows[0]) if rows else ["team", "level"]
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
@@ -250,13 +261,14 @@ def write_leaderboard(rows: list[dict], out: Path) -> str:
     w.writerows(rows)
     out.write_text(buf.getvalue())
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
-    text = markdown(rows)
+    text = markdown(rows, notes)
     out.with_suffix(".md").write_text(text)
     return text
 
 
-def markdown(rows: list[dict]) -> str:
-    """The leaderboard as a Markdown table (what `laserarena grade` prints)."""
+def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
+    """The leaderboard as a Markdown table (what `laserarena grade` prints), then each of
+    `notes` (a team refused, matches played without a sandbox) on a line of its own."""
     md = [
         "| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
         "|---|---|---|---|---|---|---|---|",
@@ -268,4 +280,5 @@ def markdown(rows: list[dict]) -> str:
             f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
             f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
         )
+    md += [f"\nNote: {safe(note, 500)}" for note in notes]
     return "\n".join(md) + "\n"

@@ -117,6 +117,17 @@ class Journal:
         self.db.commit()
         return made
 
+    def note_unsandboxed(self, reason: str) -> None:
+        """Record that a match of this journal ran without a kernel sandbox, and why (for good:
+        every leaderboard or report made from it says so)."""
+        self.db.execute("INSERT OR REPLACE INTO meta VALUES ('unsandboxed', ?)", (reason,))
+        self.db.commit()
+
+    def unsandboxed(self) -> str | None:
+        """Why some match of this journal ran without a kernel sandbox, or None if none did."""
+        row = self._query("SELECT value FROM meta WHERE key='unsandboxed'")
+        return row[0][0] if row else None
+
     def done(self) -> set[tuple]:
         return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
 

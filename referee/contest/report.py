@@ -12,6 +12,7 @@ import io
 import json
 import os
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 
 from referee.contest.tournament import HeatResult, Outcome
@@ -54,9 +55,10 @@ def _csv(rows: list[list], header: list[str]) -> str:
     return buf.getvalue()
 
 
-def standings_data(outcome: Outcome) -> dict:
-    """The standings as plain data (standings.json)."""
+def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
+    """The standings as plain data (standings.json), with the tournament's `notes`."""
     return {
+        "notes": list(notes),
         "standings": [
             {
                 "rank": s.rank,
@@ -78,8 +80,9 @@ def standings_data(outcome: Outcome) -> dict:
     }
 
 
-def write(outcome: Outcome, out: Path, title: str) -> None:
-    """Write every file but the viewer pages into `out` (made if missing)."""
+def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) -> None:
+    """Write every file but the viewer pages into `out` (made if missing); `notes` (a team
+    refused, heats played without a sandbox) go into index.html and standings.json."""
     out.mkdir(parents=True, exist_ok=True)
     (out / "replays").mkdir(exist_ok=True)
     (out / "heats").mkdir(exist_ok=True)
@@ -99,7 +102,7 @@ def write(outcome: Outcome, out: Path, title: str) -> None:
         _csv(rows, ["rank", "team", "rating", "mu", "sigma", "heats", "mean_score"]), encoding="utf-8"
     )
     (out / "standings.json").write_text(
-        json.dumps(standings_data(outcome), indent=2, sort_keys=True) + "\n", encoding="utf-8"
+        json.dumps(standings_data(outcome, notes), indent=2, sort_keys=True) + "\n", encoding="utf-8"
     )
     (out / "heats.csv").write_text(_csv(heat_rows(outcome), list(HEAT_COLUMNS)), encoding="utf-8")
     wanted = {replay_file(h) for h in outcome.heats} | {viewer_file(h) for h in outcome.heats}
@@ -110,7 +113,7 @@ def write(outcome: Outcome, out: Path, title: str) -> None:
         target = out / replay_file(h)
         shutil.copyfile(h.replay, target)
         os.chmod(target, 0o644)  # published: the page and its readers need it
-    (out / "index.html").write_text(page(outcome, title), encoding="utf-8")
+    (out / "index.html").write_text(page(outcome, title, notes), encoding="utf-8")
 
 
 def _e(text: object) -> str:
@@ -172,8 +175,8 @@ small { color: #666; }
 """
 
 
-def page(outcome: Outcome, title: str) -> str:
-    """index.html: self-contained, no script, no network."""
+def page(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
+    """index.html: self-contained, no script, no network; each of `notes` in a paragraph."""
     out = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -184,6 +187,7 @@ def page(outcome: Outcome, title: str) -> str:
         "model, updated heat by heat; teams are ranked by the conservative rating mu - 3 sigma. "
         '<span class="filler">Fillers</span> (the level\'s default controller in a slot no team '
         "fills) are never rated.</p>",
+        *(f'<p class="note"><strong>Note:</strong> {_e(note)}</p>' for note in notes),
         "<h2>Standings</h2>",
         "<table><tr><th>rank</th><th>team</th><th>rating</th><th>mu</th><th>sigma</th><th>heats</th>"
         "<th>mean score</th></tr>",

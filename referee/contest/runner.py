@@ -20,8 +20,10 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import TypeVar
 
-from referee.contest.shipping import Shipped, unship
-from referee.errors import UserError
+from referee.contest.shipping import arrived
+from referee.errors import SandboxError, UserError
+from referee.sandbox import kernel
+from referee.sandbox.teams import Team
 from referee.version import __version__
 
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
@@ -29,26 +31,43 @@ K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 
 @dataclass(frozen=True)
 class MatchJob:
-    """One match as data: the level file's name, bytes and sha256, the team of each slot, the
-    seed, the secret noise key (hex), ideal or not, and the software version that must run it."""
+    """One match as data: the level file's name, bytes and sha256, the team of each slot (its
+    code's bytes with it), the
+    seed, the secret noise key (hex), ideal or not, the software version that must run it, and
+    whether the organizer allows it to run without a kernel sandbox (`sandbox_missing`)."""
 
     level: str
     level_text: bytes
     level_hash: str
-    teams: tuple[Shipped, ...]
+    teams: tuple[Team, ...]
     seed: int
     noise_key: str
     ideal: bool
     software: str
+    unsandboxed: bool = False
 
 
 @dataclass(frozen=True)
 class Played:
-    """A finished match: its canonical result JSON, the replay's bytes, the wall time it took."""
+    """A finished match: its canonical result JSON, the replay's bytes, the wall time it took,
+    and why its controllers ran without a kernel sandbox ("" when they ran in one)."""
 
     result: str
     replay: bytes
     wall: float
+    unsandboxed: str = ""
+
+
+def sandbox_missing(allowed: bool) -> str:
+    """Why no kernel sandbox can hold this machine's controllers ("" where one can). A contest
+    fails closed: SandboxError (one line) unless the organizer `allowed` playing without one."""
+    reason = kernel.unavailable() or ""
+    if reason and not allowed:
+        raise SandboxError(
+            f"no kernel sandbox on this machine ({reason}); fix that, or pass --unsandboxed "
+            "(unsandboxed=True in Python) to play without one, which the results then say"
+        )
+    return reason
 
 
 class VersionMismatch(UserError):
@@ -56,27 +75,22 @@ class VersionMismatch(UserError):
 
 
 def play(job: MatchJob) -> Played:
-    """Run one job (in a worker), its team files and replay in a scratch folder of its own."""
+    """Run one job (in a worker), its replay in a scratch folder of its own."""
     from arena.loader import parse_level
     from referee.match.loop import run_match
     from referee.records.canonical import dumps
 
     if job.software != __version__:
         raise VersionMismatch(f"a worker runs laserarena {__version__}, the client {job.software}; install the same")
+    unsandboxed = sandbox_missing(job.unsandboxed)  # asked where the match runs: a Dask worker may differ
     start = time.perf_counter()
     level = parse_level(job.level_text, job.level)
     if level.hash != job.level_hash:
         raise UserError(f"{job.level}: the level arrived damaged")
     global _playing
     with tempfile.TemporaryDirectory(prefix="laserarena-job-") as scratch:
-        folder = Path(scratch)
-        os.chmod(folder, 0o711)  # the sandbox's user reaches the team files below, lists nothing
-        teams = []
-        for slot, shipped in enumerate(job.teams):
-            code = folder / f"slot{slot}"
-            code.mkdir(mode=0o755)
-            teams.append(unship(shipped, code))
-        replay = folder / "match.replay"
+        teams = [arrived(team) for team in job.teams]
+        replay = Path(scratch) / "match.replay"
         try:
             _playing = True
             result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
@@ -85,7 +99,7 @@ def play(job: MatchJob) -> Played:
         finally:
             _playing = False
         data = replay.read_bytes()
-    return Played(dumps(result), data, time.perf_counter() - start)
+    return Played(dumps(result), data, time.perf_counter() - start, unsandboxed)
 
 
 def write_replay(folder: Path, name: str, data: bytes) -> Path:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +22,6 @@ from referee.contest.journal import Journal
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
 from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
 from referee.contest.schedule import schedule
-from referee.contest.shipping import Shipped, ship
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
 from referee.terminal import safe
@@ -120,9 +120,14 @@ def play_heats(
     workers: int = 1,
     scheduler: str | None = None,
     quiet: bool = False,
+    teams: Sequence[Team] = (),
+    unsandboxed: bool = False,
 ) -> int:
     """Run every heat not yet in `journal` (replays in the journal's folder/replays); return
-    how many ran now. Workers return each heat's result and replay; only this process writes."""
+    how many ran now. Workers return each heat's result and replay; only this process writes.
+    `teams`: the heats' teams as resolved when they were planned (any other is resolved here,
+    once, and checked against the hash its heats were planned with); `unsandboxed`: the
+    organizer allows heats without a kernel sandbox (the journal then records it)."""
     replay_dir = replay_folder(journal.path)
     done = journal.heats_done()
     todo = [h for h in heats if h.key() not in done]
@@ -134,12 +139,12 @@ def play_heats(
         if "sha256:" + hashlib.sha256(data).hexdigest() != level.hash:
             raise UserError(f"{path}: the level changed since the tournament began; run it again")
         texts[level.hash] = data
-    shipped: dict[str, Shipped] = {}
-    for spec, code in {(s, c) for h in todo for s, c in zip(h.specs, h.code_hashes)}:
-        team = ship(resolve(spec))
-        if team.code_hash != code:
+    shipped = {t.spec: t for t in teams}
+    for spec, code in sorted({(s, c) for h in todo for s, c in zip(h.specs, h.code_hashes)}):
+        if spec not in shipped:
+            shipped[spec] = resolve(spec)
+        if shipped[spec].code_hash != code:
             raise UserError(f"{safe(spec)}: the team's code changed since the tournament began; run it again")
-        shipped[spec] = team
     by_key = {h.key(): h for h in todo}
     jobs = [
         (
@@ -153,6 +158,7 @@ def play_heats(
                 h.noise_key,
                 h.ideal,
                 h.software,
+                unsandboxed,
             ),
         )
         for k, h in by_key.items()
@@ -163,6 +169,8 @@ def play_heats(
         for key, played in results:
             heat = by_key[key]
             replay = write_replay(replay_dir, heat.replay_name(), played.replay)
+            if played.unsandboxed:
+                journal.note_unsandboxed(played.unsandboxed)
             journal.record_heat(heat.level, key, played.result, str(replay), played.wall)
             progress.tick(f"heat {heat.number} {heat.level} seed {heat.seed}")
     finally:

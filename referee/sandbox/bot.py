@@ -80,9 +80,9 @@ class InProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         try:  # the one place a team's code is imported into the referee
-            if self.team.files and not is_file_spec(self.team.entry):  # a package team: import it from its folder
-                rel, source = self.team.files[0]
-                home = str(source.parents[len(Path(rel).parts) - 1])
+            folder = Path(self.team.spec.rpartition(":")[0])
+            if self.team.files and not is_file_spec(self.team.entry) and folder.is_absolute():
+                home = str(folder.parent)  # a package team: import it from its folder (not the bytes shipped)
                 if home not in sys.path:
                     sys.path.insert(0, home)
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)

@@ -132,7 +132,7 @@ class ForkServer:
     def spawn(
         self,
         config: dict,
-        files: tuple[tuple[str, Path], ...],
+        files: tuple[tuple[str, bytes], ...],
         stdio: tuple[int, int, int],
         groups: list[int] | tuple[int, ...] = (),
     ) -> socket.socket:
@@ -141,8 +141,7 @@ class ForkServer:
         its control groups, which it joins) go to the monitor, never to the template."""
         bundle = os.memfd_create("team", 0)
         sizes = []
-        for rel, source in files:
-            data = source.read_bytes()
+        for rel, data in files:
             os.write(bundle, data)
             sizes.append((rel, len(data)))
         mine, its = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)

@@ -206,12 +206,12 @@ def _system_view() -> list[str]:
     return _parents([args[i + 2] for i, a in enumerate(args) if a.startswith("--") and "bind" in a]) + args
 
 
-def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[int]]:
+def _team_files(files: tuple[tuple[str, bytes], ...]) -> tuple[list[str], list[int]]:
     """The team's files as read-only in-memory copies under TEAM_DIR: (arguments, descriptors)."""
     args, fds = _parents([f"{TEAM_DIR}/{rel}" for rel, _ in files]) + ["--dir", TEAM_DIR], []
-    for rel, source in files:
+    for rel, data in files:
         fd = os.memfd_create(f"team:{rel}", 0)
-        os.write(fd, source.read_bytes())
+        os.write(fd, data)
         os.lseek(fd, 0, os.SEEK_SET)
         fds.append(fd)
         args += ["--perms", "0444", "--ro-bind-data", str(fd), f"{TEAM_DIR}/{rel}"]
@@ -219,7 +219,7 @@ def _team_files(files: tuple[tuple[str, Path], ...]) -> tuple[list[str], list[in
 
 
 def _sandbox(
-    files: tuple[tuple[str, Path], ...], env: dict[str, str], own_user_namespace: bool, filtered: bool = False
+    files: tuple[tuple[str, bytes], ...], env: dict[str, str], own_user_namespace: bool, filtered: bool = False
 ) -> Launch:
     """bwrap's arguments up to `--`: the namespaces, the system view, `files` at TEAM_DIR, a
     private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`;
@@ -268,7 +268,7 @@ def _sandbox(
     return Launch(args + ["--"], tuple(fds), info)
 
 
-def launch(command: list[str], files: tuple[tuple[str, Path], ...], env: dict[str, str], uid: int | None) -> Launch:
+def launch(command: list[str], files: tuple[tuple[str, bytes], ...], env: dict[str, str], uid: int | None) -> Launch:
     """The bwrap command line running `command` in a new sandbox with `files` at TEAM_DIR.
     `uid`: the host uid to run as (a root referee that can switch users), else None (a user
     namespace of its own, as the caller's user).

@@ -10,7 +10,6 @@ import ctypes
 import functools
 import itertools
 import os
-import shutil
 import signal
 import stat
 import sys
@@ -104,13 +103,13 @@ def check_readable_by_others(*paths: str) -> None:
                 )
 
 
-def share_team_files(files: tuple[tuple[str, Path], ...], folder: Path) -> None:
-    """Copy a team's files into `folder`, readable by the controller's user (no kernel sandbox)."""
-    for rel, source in files:
+def share_team_files(files: tuple[tuple[str, bytes], ...], folder: Path) -> None:
+    """Write a team's files into `folder`, readable by the controller's user (no kernel sandbox)."""
+    for rel, data in files:
         target = folder / rel
         target.parent.mkdir(parents=True, exist_ok=True)
         target.parent.chmod(0o755)
-        shutil.copyfile(source, target)
+        target.write_bytes(data)
         os.chmod(target, 0o644)
 
 

@@ -20,13 +20,14 @@ from pathlib import Path
 
 from arena.level import Level
 from referee.errors import TeamError
+from referee.sandbox.team_files import read_file, read_package
+from referee.terminal import safe
 from robots.api import Controller
 from robots.controllers import REFERENCE
 from robots.loading import LoadError, entry_point, is_file_spec
 
-MAX_FILES = 2000  # what a team may ship: a package larger than this is refused in one line
-MAX_BYTES = 64 << 20
 BUILT_IN = "robots"  # present in every controller process: nothing of it is shipped
+RESERVED = frozenset(sys.stdlib_module_names) | {BUILT_IN, "sitecustomize", "usercustomize"}
 
 
 @dataclass(frozen=True)
@@ -35,48 +36,57 @@ class Team:
 
     `label`: machine-independent name for tables and replays; `spec`: the spec as resolved
     (files absolute), what a replay header records; `code_hash`: "sha256:<hex>" over the code
-    that runs (see `code_hash`); `files`: (path inside the slot's code folder, source file) for
-    each file shipped into the controller's sandbox; `entry`: the spec the controller process
+    that runs (see `code_hash`); `files`: (path inside the slot's code folder, bytes) for each
+    file shipped into the controller's sandbox, read once (referee.sandbox.team_files): what
+    was hashed is what is shipped; `entry`: the spec the controller process
     loads, with file paths relative to that folder. `factory` makes a controller from Python
     objects instead, for in-process matches of a library user (never from a spec)."""
 
     label: str
     spec: str
     code_hash: str
-    files: tuple[tuple[str, Path], ...] = ()
+    files: tuple[tuple[str, bytes], ...] = ()
     entry: str = ""
     factory: Callable[[], Controller] | None = None
 
 
-def _file_hash(path: Path) -> str:
-    return "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
+def file_hash(data: bytes) -> str:
+    """The code hash of a one-file team: sha256 of its bytes."""
+    return "sha256:" + hashlib.sha256(data).hexdigest()
 
 
-def _tree_hash(files: tuple[tuple[str, Path], ...]) -> str:
-    """sha256 over every shipped file, in path order: its relative path, size and bytes."""
+def tree_hash(files: tuple[tuple[str, bytes], ...]) -> str:
+    """The code hash of a package: sha256 over every shipped file, in path order, of its
+    relative path, size and bytes."""
     h = hashlib.sha256()
-    for rel, path in sorted(files):
-        data = path.read_bytes()
+    for rel, data in sorted(files):
         h.update(f"{rel}\0{len(data)}\0".encode())
         h.update(data)
     return "sha256:" + h.hexdigest()
 
 
-def _package_files(root: Path, spec: str) -> tuple[tuple[str, Path], ...]:
-    """Every file of a package directory (bytecode caches left out), paths relative to its parent."""
-    files, size = [], 0
-    for path in sorted(root.rglob("*")):
-        rel = path.relative_to(root.parent)
-        if "__pycache__" in rel.parts or path.suffix == ".pyc":
-            continue
-        if path.is_symlink():
-            raise TeamError(f"team {spec}: {path} is a symbolic link; a team ships plain files only")
-        if path.is_file():
-            files.append((rel.as_posix(), path))
-            size += path.stat().st_size
-        if len(files) > MAX_FILES or size > MAX_BYTES:
-            raise TeamError(f"team {spec}: the package {root} is over {MAX_FILES} files or {MAX_BYTES >> 20} MiB")
-    return tuple(files)
+def _importable_name(label: str, name: str) -> None:
+    """Refuse a team whose top-level module would shadow the standard library, `robots` or a
+    module Python imports at start-up (sitecustomize, usercustomize) in its sandbox."""
+    if name in RESERVED:
+        raise TeamError(
+            f"team {safe(label)}: the module name {name!r} is taken by Python or LaserArena; "
+            "rename the team's file or folder"
+        )
+
+
+def _file_team(label: str, spec: str, path: Path, entry: str) -> Team:
+    """A team of one module file: its bytes read once, hashed and shipped."""
+    _importable_name(label, path.stem)
+    data = read_file(path, label)
+    return Team(label, spec, file_hash(data), ((path.name, data),), entry)
+
+
+def _package_team(label: str, spec: str, root: Path, entry: str) -> Team:
+    """A team of one package folder: every file's bytes read once, hashed and shipped."""
+    _importable_name(label, root.name)
+    files = read_package(root, label)
+    return Team(label, spec, tree_hash(files), files, entry)
 
 
 def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
@@ -112,11 +122,11 @@ def _module_team(label: str, spec: str, target: str) -> Team:
         raise TeamError(f"team {label}: cannot find module {module!r} on the path")
     source = Path(found.origin) if found.origin and Path(found.origin).is_file() else None
     top = module.split(".")[0]
-    if top == BUILT_IN:
+    if top == BUILT_IN:  # our own installed code, never a team's: its hash names the version that runs
         return Team(
             label,
             spec,
-            _file_hash(source) if source else "sha256:" + hashlib.sha256(spec.encode()).hexdigest(),
+            file_hash(source.read_bytes()) if source else file_hash(spec.encode()),
             (),
             target,
         )
@@ -124,12 +134,10 @@ def _module_team(label: str, spec: str, target: str) -> Team:
     if top_spec is None:
         raise TeamError(f"team {label}: cannot find package {top!r} on the path")
     if top_spec.submodule_search_locations:  # a package: ship all of it
-        files = _package_files(Path(list(top_spec.submodule_search_locations)[0]), label)
-        return Team(label, spec, _tree_hash(files), files, target)
+        return _package_team(label, spec, Path(list(top_spec.submodule_search_locations)[0]), target)
     if top_spec.origin is None:
         raise TeamError(f"team {label}: module {top!r} has no file to ship")
-    origin = Path(top_spec.origin)
-    return Team(label, spec, _file_hash(origin), ((origin.name, origin),), target)
+    return _file_team(label, spec, Path(top_spec.origin), target)
 
 
 def label_of(path: Path) -> str:
@@ -141,14 +149,23 @@ def label_of(path: Path) -> str:
         return path.name
 
 
+def _unlinked(path: Path) -> Path:
+    """`path` made absolute with the folders above it resolved but its own last part kept, so
+    a link there is refused when the team is read, not followed."""
+    if path.name in ("", ".", ".."):
+        return path.resolve()
+    return path.parent.resolve() / path.name
+
+
 def _package_dir(spec: str) -> tuple[Path, str] | None:
     """(folder, class) when `spec` is DIR or DIR:Class and DIR holds a Python package."""
     folder, _, cls = spec.rpartition(":") if ":" in spec else (spec, "", "")
     path = Path(folder)
     if not path.is_dir() or not (path / "__init__.py").is_file():
         return None
-    if not path.resolve().name.isidentifier():
-        raise TeamError(f"team {spec}: the package folder's name {path.resolve().name!r} is not a Python name")
+    name = _unlinked(path).name
+    if not name.isidentifier():
+        raise TeamError(f"team {spec}: the package folder's name {name!r} is not a Python name")
     return path, cls
 
 
@@ -199,28 +216,16 @@ def resolve(spec: str) -> Team:
     if is_file_spec(spec):
         path, _, rest = spec.partition(".py")
         source = Path(path + ".py")
-        if not source.is_file():
+        if not source.is_file() and not source.is_symlink():
             raise TeamError(f"team {spec}: no such file {source}")
-        absolute = str(source.resolve()) + rest
-        return Team(
-            label_of(source) + rest,
-            absolute,
-            _file_hash(source),
-            ((source.name, source.resolve()),),
-            source.name + rest,
-        )
+        placed = _unlinked(source)
+        return _file_team(label_of(placed) + rest, str(placed) + rest, placed, source.name + rest)
     package = _package_dir(spec)
     if package:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
         folder, cls = package
-        root = folder.resolve()
-        files = _package_files(root, spec)
-        return Team(
-            label_of(folder) + (f":{cls}" if cls else ""),
-            f"{root}:{cls}",
-            _tree_hash(files),
-            files,
-            f"{root.name}:{cls}",
-        )
+        root = _unlinked(folder)
+        label = label_of(root) + (f":{cls}" if cls else "")
+        return _package_team(label, f"{root}:{cls}", root, f"{root.name}:{cls}")
     if ":" not in spec:
         return _module_team(spec, spec, _entry_point(spec))
     return _module_team(spec, spec, spec)

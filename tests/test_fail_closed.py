@@ -1,0 +1,70 @@
+"""Contests fail closed: where no kernel sandbox can be made, `grade` and `tournament` refuse
+to play unless the organizer says --unsandboxed, which the journal, the leaderboard and the
+report then carry; and the noise secret is never taken from a command line."""
+
+import json
+import sqlite3
+import subprocess
+import sys
+
+import pytest
+from helpers import edited, run_cli
+
+from referee import api
+from referee.errors import SandboxError
+from referee.sandbox import kernel
+
+NO_SANDBOX = "bubblewrap (bwrap) is not installed (as this test pretends)"
+
+
+def cli_without_sandbox(*args: str, cwd) -> subprocess.CompletedProcess:
+    """`laserarena ARGS` in a process whose Python lies under /tmp: no sandbox can hold it."""
+    code = "import sys; sys.prefix = '/tmp/venv'; from referee.cli.main import main; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300, cwd=cwd)
+
+
+@pytest.mark.parametrize("command", ["grade", "tournament"])
+def test_a_contest_without_a_sandbox_is_refused_in_one_line(tmp_path, command):
+    proc = cli_without_sandbox(command, "bac-line", "--team", "ref:idle", "--db", "j.sqlite", cwd=tmp_path)
+    assert proc.returncode != 0 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert "no kernel sandbox" in proc.stderr and "/tmp/venv" in proc.stderr and "--unsandboxed" in proc.stderr
+    assert not (tmp_path / "j.sqlite").exists()  # refused before anything was made
+
+
+def test_a_grade_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
+    level = tmp_path / "short.yaml"
+    level.write_text(edited("bac-line", {"time_limit": 2}))
+    options = dict(seeds=1, workers=1, db=tmp_path / "r.sqlite", out=tmp_path / "lb.csv", secret="s")
+    with pytest.raises(SandboxError, match="no kernel sandbox"):
+        api.grade(level, ["ref:idle"], **options)
+    rows = api.grade(level, ["ref:idle"], unsandboxed=True, **options)
+    assert [r.matches for r in rows] == [1]
+    with sqlite3.connect(tmp_path / "r.sqlite") as db:
+        assert db.execute("SELECT value FROM meta WHERE key='unsandboxed'").fetchone() == (NO_SANDBOX,)
+    assert f"played without a kernel sandbox (--unsandboxed): {NO_SANDBOX}" in (tmp_path / "lb.md").read_text()
+    assert "played without a kernel sandbox" in capsys.readouterr().err
+
+
+def test_a_tournament_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monkeypatch):
+    monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
+    level = tmp_path / "short.yaml"
+    level.write_text(edited("bac-line", {"time_limit": 2}))
+    options = dict(rounds=1, workers=1, db=tmp_path / "t.sqlite", out=tmp_path / "site", secret="s")
+    with pytest.raises(SandboxError, match="no kernel sandbox"):
+        api.tournament(level, ["ref:idle", "ref:bac"], **options)
+    done = api.tournament(level, ["ref:idle", "ref:bac"], unsandboxed=True, **options)
+    note = f"played without a kernel sandbox (--unsandboxed): {NO_SANDBOX}"
+    assert done.notes == (note,)
+    assert note in (tmp_path / "site" / "index.html").read_text()
+    assert json.loads((tmp_path / "site" / "standings.json").read_text())["notes"] == [note]
+
+
+@pytest.mark.parametrize("command", ["grade", "tournament"])
+@pytest.mark.parametrize("given", [["--secret", "s"], ["--secret=s"]])
+def test_a_secret_on_the_command_line_is_refused(tmp_path, command, given):
+    proc = run_cli(command, "bac-line", "--team", "ref:idle", "--db", "j.sqlite", *given, cwd=tmp_path)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert "use --secret-file FILE" in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "j.sqlite").exists()
