@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import gzip
 import tempfile
 from pathlib import Path
 
 from arena.loader import parse_level
 from referee.errors import UserError
 from referee.match.loop import run_match
-from referee.records.replay import controller_hash, load
+from referee.records.replay import controller_hash, lines, load
 from referee.sandbox.teams import resolve
 
 
@@ -17,7 +16,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     """(identical?, a one-line account). Teams come from the header unless overridden (a team's
     file may live elsewhere on this machine); each must hash as the replay says."""
     try:
-        rep = load(path)
+        rep = load(path, keep=False)  # checked through, one record at a time
     except (OSError, ValueError) as e:
         raise UserError(str(e)) from None
     h = rep.header
@@ -35,8 +34,12 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     with tempfile.TemporaryDirectory() as d:
         again = Path(d) / "again.replay"
         run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
-        a, b = gzip.open(path).read().splitlines(), gzip.open(again).read().splitlines()
-    if a == b:
-        return True, f"identical: {len(a)} records, {rep.duration:.1f} s, result and every frame reproduced"
-    first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
-    return False, f"differs from record {first} on ({len(a)} recorded, {len(b)} re-simulated)"
+        try:
+            recorded, again_lines = sum(1 for _ in lines(path)), sum(1 for _ in lines(again))
+            first = next((i for i, (x, y) in enumerate(zip(lines(path), lines(again))) if x != y), None)
+        except (OSError, ValueError) as e:
+            raise UserError(str(e)) from None
+    if first is None and recorded == again_lines:
+        return True, f"identical: {recorded} records, {rep.duration:.1f} s, result and every frame reproduced"
+    first = min(recorded, again_lines) if first is None else first
+    return False, f"differs from record {first} on ({recorded} recorded, {again_lines} re-simulated)"

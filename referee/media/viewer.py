@@ -132,7 +132,7 @@ def write_viewer(replay_path: str | Path, out_path: str | Path, size: tuple[int,
     """Write a web page that plays the replay at `replay_path` (UserError on a bad replay)."""
     replay_path, out_path = Path(replay_path), Path(out_path)
     try:
-        header = load(replay_path).header  # the whole replay is checked, not only its header
+        header = load(replay_path, keep=False).header  # the whole replay is checked, not only its header
         raw = replay_path.read_bytes()
     except (OSError, ValueError) as e:
         raise UserError(str(e)) from None
