@@ -12,10 +12,8 @@ kept in the journal (or given with --secret), never from anything a controller c
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import hmac
-import io
 import json
 import math
 import sys
@@ -28,7 +26,7 @@ from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_repl
 from referee.contest.shipping import Shipped, ship
 from referee.errors import UserError
 from referee.sandbox.teams import resolve
-from referee.terminal import safe
+from referee.terminal import csv_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
@@ -244,11 +242,7 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
 def write_leaderboard(rows: list[dict], out: Path) -> str:
     """Write CSV (out), JSON and Markdown beside it; return the Markdown table."""
     fields = list(rows[0]) if rows else ["team", "level"]
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    out.write_text(buf.getvalue())
+    out.write_text(csv_text(fields, [[r[f] for f in fields] for r in rows]))
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
     text = markdown(rows)
     out.with_suffix(".md").write_text(text)
