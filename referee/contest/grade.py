@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.journal import Journal
-from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
+from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.contest.shipping import Shipped, ship
 from referee.errors import UserError
 from referee.sandbox.teams import resolve
@@ -56,9 +56,8 @@ class Job:
 
     def replay_name(self) -> str:
         """A readable, unique file name: two teams whose names clean up alike still differ."""
-        clean = "".join(c if c.isalnum() or c in "-_." else "_" for c in self.team)[-60:]
         tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
-        return f"{self.level}__{clean}__seed{self.seed}__{tag}.replay"
+        return f"{file_part(self.level[:60])}__{file_part(self.team[-60:])}__seed{self.seed}__{tag}.replay"
 
 
 def secret_id(secret: str) -> str:
