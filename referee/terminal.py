@@ -20,8 +20,11 @@ def safe(text: object, limit: int = 200) -> str:
 
 def csv_cell(value: object) -> object:
     """`value` as a CSV cell no spreadsheet runs: text starting with `=`, `+`, `-`, `@`, a tab
-    or a carriage return gets a leading `'` (OWASP's rule); numbers stay numbers."""
-    return "'" + value if isinstance(value, str) and value.startswith(FORMULA_STARTS) else value
+    or a carriage return gets a leading `'` (OWASP's rule), then its control characters are
+    escaped as `safe` shows them (a lone CR would otherwise end the row); numbers stay numbers."""
+    if not isinstance(value, str):
+        return value
+    return safe("'" + value if value.startswith(FORMULA_STARTS) else value, len(value) + 1)
 
 
 def csv_text(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
