@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from collections.abc import Iterable, Sequence
 
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # what a spreadsheet may read as a formula
+NUMBER = re.compile(r"[+-]?[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?")  # a number written as text: no formula
 
 
 def safe(text: object, limit: int = 200) -> str:
@@ -21,8 +23,9 @@ def safe(text: object, limit: int = 200) -> str:
 def csv_cell(value: object) -> object:
     """`value` as a CSV cell no spreadsheet runs: text starting with `=`, `+`, `-`, `@`, a tab
     or a carriage return gets a leading `'` (OWASP's rule), then its control characters are
-    escaped as `safe` shows them (a lone CR would otherwise end the row); numbers stay numbers."""
-    if not isinstance(value, str):
+    escaped as `safe` shows them (a lone CR would otherwise end the row); numbers, and text
+    that is a plain number (a rating formatted as `-6.2844`), stay numbers."""
+    if not isinstance(value, str) or NUMBER.fullmatch(value):
         return value
     return safe("'" + value if value.startswith(FORMULA_STARTS) else value, len(value) + 1)
 

@@ -15,16 +15,16 @@ HOSTILE_NAME = "../a/b/..\x07\x1b[31m"  # a parent folder, a subfolder, a bell a
 
 
 def test_formula_cells_get_a_quote_and_numbers_stay_numbers():
-    rows = [[FORMULA, -4.5], ["+1", 3], ["-x", -2], ["@a", 0], ["\tx", 1], ["\rx", 1], ["ok", 1.5]]
+    rows = [[FORMULA, -4.5], ["+1+A1", 3], ["-x", -2], ["@a", 0], ["\tx", 1], ["\rx", 1], ["ok", "-6.2844"]]
     read = list(csv.reader(io.StringIO(csv_text(["team", "score"], rows), newline="")))
     assert read[1:] == [
         ["'" + FORMULA, "-4.5"],
-        ["'+1", "3"],
+        ["'+1+A1", "3"],
         ["'-x", "-2"],
         ["'@a", "0"],
         ["'\\tx", "1"],  # then escaped: a lone CR would end the row
         ["'\\rx", "1"],
-        ["ok", "1.5"],
+        ["ok", "-6.2844"],  # a number formatted as text stays a number
     ]
 
 
