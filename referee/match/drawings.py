@@ -26,11 +26,12 @@ class Warnings:
     def __init__(self) -> None:
         self.kinds: dict[str, tuple[int, int, str]] = {}
 
-    def add(self, kind: str, tick: int, message: str, count: int = 1) -> None:
-        first, seen, example = self.kinds.get(kind, (tick, 0, safe(message, MESSAGE)))
-        self.kinds[kind] = (first, seen + count, example)
+    def add(self, kind: str, tick: int, message: str) -> None:
+        seen = self.kinds.get(kind)
+        self.kinds[kind] = (tick, 1, safe(message, MESSAGE)) if seen is None else (seen[0], seen[1] + 1, seen[2])
 
     def records(self) -> list[WarningRecord]:
+        """The warnings as the result holds them, in the order their kinds first happened."""
         return [WarningRecord(kind=k, tick=t, count=n, message=m) for k, (t, n, m) in self.kinds.items()]
 
 
