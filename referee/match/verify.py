@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import tempfile
 from pathlib import Path
 
@@ -34,12 +35,15 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     with tempfile.TemporaryDirectory() as d:
         again = Path(d) / "again.replay"
         run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
-        try:
-            recorded, again_lines = sum(1 for _ in lines(path)), sum(1 for _ in lines(again))
-            first = next((i for i, (x, y) in enumerate(zip(lines(path), lines(again))) if x != y), None)
+        counts, first = [0, 0], None  # records of each; the first that differs
+        try:  # a line at a time: two replays of any size are compared in the memory of a record
+            for i, pair in enumerate(itertools.zip_longest(lines(path), lines(again))):
+                counts[0] += pair[0] is not None
+                counts[1] += pair[1] is not None
+                if first is None and pair[0] != pair[1]:
+                    first = i
         except (OSError, ValueError) as e:
             raise UserError(str(e)) from None
-    if first is None and recorded == again_lines:
-        return True, f"identical: {recorded} records, {rep.duration:.1f} s, result and every frame reproduced"
-    first = min(recorded, again_lines) if first is None else first
-    return False, f"differs from record {first} on ({recorded} recorded, {again_lines} re-simulated)"
+    if first is None:
+        return True, f"identical: {counts[0]} records, {rep.duration:.1f} s, result and every frame reproduced"
+    return False, f"differs from record {first} on ({counts[0]} recorded, {counts[1]} re-simulated)"
