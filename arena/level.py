@@ -230,13 +230,15 @@ class Task:
 @dataclass(frozen=True)
 class ControllerLimits:
     """What each controller may use: set-up time, time per step, an overage bank for
-    occasional slow steps, consecutive skipped ticks before disqualification, memory."""
+    occasional slow steps, consecutive skipped ticks before disqualification, a think budget
+    for the whole match (so no team can stretch a grade without limit), memory."""
 
     setup_time: float = 10.0  # s for start-up, imports and setup()
     step_time: float = 0.1  # s per control step; slower answers draw on the bank
     step_deadline: float = 1.0  # s; later answers are skipped ticks
     overage_bank: float = 5.0  # s, summed over the match
     max_skips: int = 5  # consecutive skipped ticks
+    think_budget: float = 0.25  # s of answer time per simulated second of the time limit, summed over the match
     memory: int = 1 << 30  # bytes of address space (0: none)
     log_bytes: int = 1 << 20  # stdout + stderr kept per controller; more is an output flood (0: none)
 

@@ -561,7 +561,16 @@ def _rules(m: _Map) -> Rules:
     )
 
 
-LIMIT_KEYS = ("setup_time", "step_time", "step_deadline", "overage_bank", "max_skips", "memory_mb", "log_kb")
+LIMIT_KEYS = (
+    "setup_time",
+    "step_time",
+    "step_deadline",
+    "overage_bank",
+    "max_skips",
+    "think_budget",
+    "memory_mb",
+    "log_kb",
+)
 
 
 def _limits(m: _Map) -> ControllerLimits:
@@ -579,6 +588,7 @@ def _limits(m: _Map) -> ControllerLimits:
         step_deadline=deadline,
         overage_bank=m.opt("overage_bank", _nonnegative, d.overage_bank),
         max_skips=skips,
+        think_budget=m.opt("think_budget", _positive, d.think_budget),
         memory=int(m.opt("memory_mb", _positive, d.memory / 2**20) * 2**20),
         log_bytes=int(m.opt("log_kb", _positive, d.log_bytes / 1024) * 1024),
     )

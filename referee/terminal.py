@@ -1,6 +1,15 @@
-"""Text from teams (names, fault messages) made safe to print on a terminal or in a table."""
+"""Text from teams (names, fault messages) made safe to print on a terminal or in a table,
+and to open as a spreadsheet (CSV)."""
 
 from __future__ import annotations
+
+import csv
+import io
+import re
+from collections.abc import Iterable, Sequence
+
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # what a spreadsheet may read as a formula
+NUMBER = re.compile(r"[+-]?[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?")  # a number written as text: no formula
 
 
 def safe(text: object, limit: int = 200) -> str:
@@ -9,3 +18,22 @@ def safe(text: object, limit: int = 200) -> str:
     s = str(text)
     out = "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in s[:limit])
     return out + ("..." if len(s) > limit else "")
+
+
+def csv_cell(value: object) -> object:
+    """`value` as a CSV cell no spreadsheet runs: text starting with `=`, `+`, `-`, `@`, a tab
+    or a carriage return gets a leading `'` (OWASP's rule), then its control characters are
+    escaped as `safe` shows them (a lone CR would otherwise end the row); numbers, and text
+    that is a plain number (a rating formatted as `-6.2844`), stay numbers."""
+    if not isinstance(value, str) or NUMBER.fullmatch(value):
+        return value
+    return safe("'" + value if value.startswith(FORMULA_STARTS) else value, len(value) + 1)
+
+
+def csv_text(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
+    """A CSV table (header, then rows), every cell through `csv_cell`."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([csv_cell(h) for h in header])
+    w.writerows([csv_cell(v) for v in row] for row in rows)
+    return buf.getvalue()

@@ -381,3 +381,26 @@ def test_page_needs_no_network_and_bad_input_is_one_line(replays, tmp_path):
         proc = run_cli(*args)
         assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, (args, proc.stderr)
         assert words in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_names_that_would_end_the_script_keep_the_page_working(browser, tmp_path):
+    """A level, team and replay named with `</script>` and `<!--<script>` (which would end the
+    page's data element or swallow the script after it) leave the page playing and the names intact."""
+    bad = '</script><!--<script>&"x'
+    bot = tmp_path / "bot<!--<script>.py"
+    bot.write_text("from robots.controllers.dead_reckoning import DeadReckoning as Bot\n")
+    level = parse_level(MINI_LEVEL.replace("name: mini", f"name: {json.dumps(bad)}").encode(), "mini.yaml")
+    replay = tmp_path / "r<!--<script>.replay"
+    run_match(level, [resolve(str(bot))], replay=replay, isolate=False)
+    html = tmp_path / "page.html"
+    write_viewer(replay, html)
+    data = html.read_text().split('id="laserarena-data">', 1)[1].split("</script>", 1)[0]
+    assert not set("<>&") & set(data)  # nothing in the data element the HTML tokenizer reads
+    page = _open(browser, html)
+    assert page.evaluate("window.viewer.error") is None and page.errors == []
+    assert page.evaluate("JSON.parse(document.getElementById('laserarena-data').textContent).name") == replay.name
+    assert page.title() == f"LaserArena replay — {replay.name}"
+    levels_named = page.evaluate(
+        "Object.values(JSON.parse(document.getElementById('laserarena-data').textContent).levels).map(l => l.name)"
+    )
+    assert bad in levels_named

@@ -12,10 +12,8 @@ kept in the journal (or read from --secret-file), never from anything a controll
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import hmac
-import io
 import json
 import math
 import sys
@@ -25,10 +23,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.journal import Journal
-from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
+from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
-from referee.terminal import safe
+from referee.terminal import csv_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
@@ -58,9 +56,8 @@ class Job:
 
     def replay_name(self) -> str:
         """A readable, unique file name: two teams whose names clean up alike still differ."""
-        clean = "".join(c if c.isalnum() or c in "-_." else "_" for c in self.team)[-60:]
         tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
-        return f"{self.level}__{clean}__seed{self.seed}__{tag}.replay"
+        return f"{file_part(self.level[:60])}__{file_part(self.team[-60:])}__seed{self.seed}__{tag}.replay"
 
 
 def secret_id(secret: str) -> str:
@@ -255,11 +252,7 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
 def write_leaderboard(rows: list[dict], out: Path, notes: Sequence[str] = ()) -> str:
     """Write CSV (out), JSON and Markdown beside it; return the Markdown table (and `notes`)."""
     fields = list(rows[0]) if rows else ["team", "level"]
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=fields, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    out.write_text(buf.getvalue())
+    out.write_text(csv_text(fields, [[r[f] for f in fields] for r in rows]))
     out.with_suffix(".json").write_text(json.dumps(rows, indent=2, sort_keys=True) + "\n")
     text = markdown(rows, notes)
     out.with_suffix(".md").write_text(text)

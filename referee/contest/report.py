@@ -6,9 +6,7 @@ page (heats/heat-NNNN.html, written by the command line with referee.media.viewe
 
 from __future__ import annotations
 
-import csv
 import html
-import io
 import json
 import os
 import shutil
@@ -16,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from referee.contest.tournament import HeatResult, Outcome
+from referee.terminal import csv_text
 
 PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#7f7f7f"]
 
@@ -45,14 +44,6 @@ def heat_rows(outcome: Outcome) -> list[list]:
         for h in outcome.heats
         for slot, p in enumerate(h.placings)
     ]
-
-
-def _csv(rows: list[list], header: list[str]) -> str:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    w.writerows(rows)
-    return buf.getvalue()
 
 
 def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
@@ -99,12 +90,12 @@ def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) ->
         for s in outcome.standings
     ]
     (out / "standings.csv").write_text(
-        _csv(rows, ["rank", "team", "rating", "mu", "sigma", "heats", "mean_score"]), encoding="utf-8"
+        csv_text(["rank", "team", "rating", "mu", "sigma", "heats", "mean_score"], rows), encoding="utf-8"
     )
     (out / "standings.json").write_text(
         json.dumps(standings_data(outcome, notes), indent=2, sort_keys=True) + "\n", encoding="utf-8"
     )
-    (out / "heats.csv").write_text(_csv(heat_rows(outcome), list(HEAT_COLUMNS)), encoding="utf-8")
+    (out / "heats.csv").write_text(csv_text(HEAT_COLUMNS, heat_rows(outcome)), encoding="utf-8")
     wanted = {replay_file(h) for h in outcome.heats} | {viewer_file(h) for h in outcome.heats}
     for old in [*out.glob("replays/heat-*.replay"), *out.glob("heats/heat-*.html")]:
         if old.relative_to(out).as_posix() not in wanted:  # a heat of an earlier, larger tournament

@@ -102,8 +102,17 @@ def play(job: MatchJob) -> Played:
     return Played(dumps(result), data, time.perf_counter() - start, unsandboxed)
 
 
+def file_part(text: str) -> str:
+    """`text` (a level's or team's name) as part of a file name: letters, digits, `-`, `_` and
+    `.` kept, anything else (`/`, a control character, a space) as `_`, no leading dot."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in text).lstrip(".") or "_"
+
+
 def write_replay(folder: Path, name: str, data: bytes) -> Path:
-    """Write a replay (0600) into `folder` whole or not at all; return its path."""
+    """Write a replay (0600) into `folder` whole or not at all; return its path. `name` is a
+    plain file name (its parts made with `file_part`): never a path into another folder."""
+    if Path(name).name != name or name.startswith("."):
+        raise ValueError(f"not a plain file name: {name!r}")
     path = folder / name
     part = folder / f".laserarena-{name}.part"
     fd = os.open(part, os.O_CREAT | os.O_TRUNC | os.O_WRONLY, 0o600)

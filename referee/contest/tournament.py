@@ -20,7 +20,7 @@ from arena.level import Level
 from referee.contest.grade import Progress, noise_key, secret_id
 from referee.contest.journal import Journal
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
-from referee.contest.runner import MatchJob, replay_folder, run_jobs, write_replay
+from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.contest.schedule import schedule
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
@@ -53,7 +53,7 @@ class Heat:
     def replay_name(self) -> str:
         """A unique, readable replay file name for the journal's folder."""
         tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
-        return f"{self.level}__seed{self.seed}__{tag}.replay"
+        return f"{file_part(self.level[:60])}__seed{self.seed}__{tag}.replay"
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,6 @@ finished its task or been stopped by a fault.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import sys
 from collections.abc import Callable
@@ -24,12 +23,13 @@ from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import Watch, World
+from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
 from referee.match.rules import Rules
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
 from referee.records.replay import ReplayWriter
-from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult, WarningRecord
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
 from referee.sandbox import affinity
 from referee.sandbox.bot import Fault, InProcessBot
 from referee.sandbox.privacy import make_undumpable
@@ -37,7 +37,6 @@ from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
 from referee.sandbox.teams import Team
 from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, StartInfo, TaskInfo
-from robots.protocol import drawing_problem
 
 NO_LIMITS = ControllerLimits(
     setup_time=float("inf"),
@@ -45,6 +44,7 @@ NO_LIMITS = ControllerLimits(
     step_deadline=float("inf"),
     overage_bank=float("inf"),
     max_skips=1 << 62,
+    think_budget=float("inf"),
     memory=0,
     log_bytes=0,
 )
@@ -144,7 +144,8 @@ class Match:
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
-        self.dropped: list[dict[str, tuple[int, int]]] = [{} for _ in teams]  # drawings set aside, by reason
+        self.warnings = [Warnings() for _ in teams]
+        self.drawings = [DrawingBudget(w) for w in self.warnings]  # what each robot may still draw
         self.tracker = TaskTracker(level, self.starts)
         self.estimates = [EstimateStats(level.rules.position_scale, level.rules.heading_scale) for _ in teams]
         self.rules = Rules(level)
@@ -210,25 +211,15 @@ class Match:
             return
         self.world.command(slot, float(out.left), float(out.right))
         self.estimates[slot].add(truth, out.estimate)
-        drawings = self._drawable(slot, out.debug) if out.debug else ()
+        # the drawings that can be drawn, within the budgets; the others are warnings and never
+        # reach the replay, render or watch
+        tick = self.world.tick // self.level.steps_per_control
+        drawings = self.drawings[slot].keep(tick, out.debug) if out.debug else ()
         if self.writer:
             if out.estimate is not None:
                 self.writer.record("est", t=time, r=slot, e=list(out.estimate))
             if drawings:
-                self.writer.record("dbg", t=time, r=slot, d=[dataclasses.asdict(g) for g in drawings])
-
-    def _drawable(self, slot: int, debug: tuple) -> list:
-        """The drawings that can be drawn; the others are counted as warnings (by reason: first
-        tick, count) and never reach the replay, render or watch."""
-        kept = []
-        for g in debug:
-            problem = drawing_problem(g)
-            if problem is None:
-                kept.append(g)
-                continue
-            first, count = self.dropped[slot].get(problem, (self.world.tick // self.level.steps_per_control, 0))
-            self.dropped[slot][problem] = (first, count + 1)
-        return kept
+                self.writer.record("dbg", t=time, r=slot, d=drawings)
 
     def _write(self, record: Callable[[], None]) -> None:
         """Write to the replay now, or once controllers are computing (see `unwritten`)."""
@@ -413,16 +404,7 @@ class Match:
                     faults=[f.to_record() for f in self.faults[slot]],
                     stopped=self.stopped[slot],
                     final_pose=[pose.x, pose.y, pose.heading],
-                    **(
-                        {
-                            "warnings": [
-                                WarningRecord(kind="drawing_dropped", tick=first, count=count, message=why)
-                                for why, (first, count) in self.dropped[slot].items()
-                            ]
-                        }
-                        if self.dropped[slot]
-                        else {}
-                    ),
+                    **({"warnings": self.warnings[slot].records()} if self.warnings[slot].kinds else {}),
                 )
             )
         return MatchResult(

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import gzip
+import itertools
 import tempfile
 from pathlib import Path
 
 from arena.loader import parse_level
 from referee.errors import UserError
 from referee.match.loop import run_match
-from referee.records.replay import controller_hash, load
+from referee.records.replay import controller_hash, lines, load
 from referee.sandbox.teams import resolve
 
 
@@ -17,7 +17,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     """(identical?, a one-line account). Teams come from the header unless overridden (a team's
     file may live elsewhere on this machine); each must hash as the replay says."""
     try:
-        rep = load(path)
+        rep = load(path, keep=False)  # checked through, one record at a time
     except (OSError, ValueError) as e:
         raise UserError(str(e)) from None
     h = rep.header
@@ -35,8 +35,15 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     with tempfile.TemporaryDirectory() as d:
         again = Path(d) / "again.replay"
         run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
-        a, b = gzip.open(path).read().splitlines(), gzip.open(again).read().splitlines()
-    if a == b:
-        return True, f"identical: {len(a)} records, {rep.duration:.1f} s, result and every frame reproduced"
-    first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
-    return False, f"differs from record {first} on ({len(a)} recorded, {len(b)} re-simulated)"
+        counts, first = [0, 0], None  # records of each; the first that differs
+        try:  # a line at a time: two replays of any size are compared in the memory of a record
+            for i, pair in enumerate(itertools.zip_longest(lines(path), lines(again))):
+                counts[0] += pair[0] is not None
+                counts[1] += pair[1] is not None
+                if first is None and pair[0] != pair[1]:
+                    first = i
+        except (OSError, ValueError) as e:
+            raise UserError(str(e)) from None
+    if first is None:
+        return True, f"identical: {counts[0]} records, {rep.duration:.1f} s, result and every frame reproduced"
+    return False, f"differs from record {first} on ({counts[0]} recorded, {counts[1]} re-simulated)"

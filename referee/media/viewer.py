@@ -118,7 +118,7 @@ def page(replay_bytes: bytes, name: str, known: dict[str, dict], fonts: dict, si
         "name": name,
         "replay": base64.b64encode(replay_bytes).decode("ascii"),
     }
-    blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    blob = inline_json(data)
     html = (WEB / "viewer.html").read_text(encoding="utf-8")
     script = (WEB / "viewer.js").read_text(encoding="utf-8").replace("</", "<\\/")
     font = _font()
@@ -132,7 +132,7 @@ def write_viewer(replay_path: str | Path, out_path: str | Path, size: tuple[int,
     """Write a web page that plays the replay at `replay_path` (UserError on a bad replay)."""
     replay_path, out_path = Path(replay_path), Path(out_path)
     try:
-        header = load(replay_path).header  # the whole replay is checked, not only its header
+        header = load(replay_path, keep=False).header  # the whole replay is checked, not only its header
         raw = replay_path.read_bytes()
     except (OSError, ValueError) as e:
         raise UserError(str(e)) from None
@@ -153,6 +153,13 @@ def write_viewer(replay_path: str | Path, out_path: str | Path, size: tuple[int,
     tmp = out_path.with_name(f".{out_path.name}.part")
     tmp.write_text(html, encoding="utf-8")
     os.replace(tmp, out_path)
+
+
+def inline_json(data: object) -> str:
+    """`data` as JSON safe inside a <script> element: `<`, `>` and `&` as \\u escapes, so no
+    text of a level or team (`</script>`, `<!--`) can end the element or change how it is read."""
+    text = json.dumps(data, separators=(",", ":"))
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 def _escape(text: str) -> str:

@@ -9,8 +9,12 @@ drawings, `trial` (a localize trial began: the robots were carried to new poses)
 `fault`; the last line is the result. `load()` reads one back.
 
 Replays are organizer files (0600): a graded one holds the match's noise key. Reading is
-bounded: a record is at most `MAX_RECORD` bytes, nested JSON cannot exhaust the stack, and
-the header has a fixed, typed schema (its level text is parsed as safely as a level file).
+bounded: a replay is at most `MAX_REPLAY` bytes, compressed and decompressed (counted as it
+streams, so a gzip bomb stops there), a record at most `MAX_RECORD` bytes, nested JSON cannot
+exhaust the stack, and the header has a fixed, typed schema (its level text is parsed as
+safely as a level file). What a match writes is bounded by its level (frames, sensor events,
+one estimate a tick), by the drawing budgets (referee.match.drawings) and by one record per
+foul and fault; docs/replay.md gives the sum, far below `MAX_REPLAY` for the built-in levels.
 """
 
 from __future__ import annotations
@@ -40,7 +44,8 @@ from referee.records.canonical import DECIMALS, dumps
 FORMAT, VERSION = "laserarena-replay", 1
 BEHAVIOUR = 10  # bump when a change alters simulation results (the golden-replay test says so)
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
-MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or 256 drawings, fit
+MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or a result, fit
+MAX_REPLAY = 64 << 20  # bytes of a whole replay, decompressed (and its file): what readers accept
 
 _Text = Annotated[str, msgspec.Meta(max_length=4096)]
 
@@ -438,11 +443,14 @@ class Replay:
         return self.frames[-1][0] if self.frames else 0.0
 
 
-def records(path: str | Path) -> Iterator[dict[str, Any]]:
-    """Stream a replay's records (dicts), header first; ReplayError (a ValueError, one line) on a record
-    that is too long, not JSON, nested too deeply or not an object."""
+def lines(path: str | Path) -> Iterator[bytes]:
+    """Stream a replay's decompressed lines; ReplayError (a ValueError, one line) on a file or
+    a decompressed whole over MAX_REPLAY bytes, a line over MAX_RECORD, or damaged gzip. No more
+    than a line is held at a time, whatever the file holds."""
+    if os.stat(path).st_size > MAX_REPLAY:
+        raise ReplayError(f"{path}: a file over {MAX_REPLAY} bytes, more than a replay may be")
     with gzip.open(path, "rb") as f:
-        n = 0
+        n = total = 0
         while True:
             try:
                 line = f.readline(MAX_RECORD + 1)
@@ -451,17 +459,40 @@ def records(path: str | Path) -> Iterator[dict[str, Any]]:
             if not line:
                 return
             n += 1
+            total += len(line)
             if len(line) > MAX_RECORD:
                 raise ReplayError(f"{path}: record {n} is over {MAX_RECORD} bytes")
-            try:
-                rec = msgspec.json.decode(line)
-            except msgspec.DecodeError as e:
-                raise ReplayError(f"{path}: record {n} is not JSON ({e})") from None
-            except RecursionError:
-                raise ReplayError(f"{path}: record {n} is nested too deeply") from None
-            if not isinstance(rec, dict):
-                raise ReplayError(f"{path}: record {n} is not an object")
-            yield rec
+            if total > MAX_REPLAY:
+                raise ReplayError(f"{path}: over {MAX_REPLAY} bytes decompressed, more than a replay may hold")
+            yield line
+
+
+def records(path: str | Path) -> Iterator[dict[str, Any]]:
+    """Stream a replay's records (dicts), header first; ReplayError (a ValueError, one line) as
+    `lines` gives it, or on a record that is not JSON, nested too deeply or not an object."""
+    for n, line in enumerate(lines(path), 1):
+        try:
+            rec = msgspec.json.decode(line)
+        except msgspec.DecodeError as e:
+            raise ReplayError(f"{path}: record {n} is not JSON ({e})") from None
+        except RecursionError:
+            raise ReplayError(f"{path}: record {n} is nested too deeply") from None
+        if not isinstance(rec, dict):
+            raise ReplayError(f"{path}: record {n} is not an object")
+        yield rec
+
+
+def _measure(path: str | Path) -> None:
+    """Read `path` through once, a line at a time: ReplayError as `lines` gives it (the first
+    line's as 'not a LaserArena replay')."""
+    read = 0
+    try:
+        for _line in lines(path):
+            read += 1
+    except ReplayError as e:
+        if read:
+            raise
+        raise ReplayError(f"{path}: not a LaserArena replay ({str(e).removeprefix(f'{path}: ')})") from None
 
 
 def check_header(header: dict[str, Any], path: str | Path) -> None:
@@ -476,8 +507,13 @@ def check_header(header: dict[str, Any], path: str | Path) -> None:
         raise ReplayError(f"{path}: a damaged replay header ({e})") from None
 
 
-def load(path: str | Path) -> Replay:
-    """Read a whole replay (ReplayError, one line, if it is not one or is damaged)."""
+def load(path: str | Path, keep: bool = True) -> Replay:
+    """Read a whole replay (ReplayError, one line, if it is not one or is damaged). Its size is
+    checked first, a line at a time, so a replay over MAX_REPLAY is refused before anything is
+    kept. `keep=False` checks every record but keeps only the header, the last frame and the
+    result: what `verify` and the web page need, in the memory of one record."""
+    if keep:
+        _measure(path)
     it = records(path)
     try:
         header = next(it)
@@ -488,13 +524,7 @@ def load(path: str | Path) -> Replay:
     check_header(header, path)
     rep = Replay(header)
     slots = len(header["teams"])
-    lists = {
-        "e": rep.events,
-        "est": rep.estimates,
-        "dbg": rep.debug,
-        "foul": rep.fouls,
-        "fault": rep.faults,
-    }
+    lists = {"e": rep.events, "est": rep.estimates, "dbg": rep.debug, "foul": rep.fouls, "fault": rep.faults}
     for rec in it:
         k = rec.get("k")
         if k == "f":
@@ -504,7 +534,10 @@ def load(path: str | Path) -> Replay:
                 raise ReplayError(f"{path}: a damaged frame record ({e})") from None
             if len(frame.p) != slots:
                 raise ReplayError(f"{path}: a frame with {len(frame.p)} robots, the header has {slots}")
-            rep.frames.append((frame.t, rec["p"]))
+            if keep:
+                rep.frames.append((frame.t, rec["p"]))
+            else:
+                rep.frames[:] = [(frame.t, rec["p"])]
         elif k == "result":
             rep.result = rec.get("result")
         elif k == "trial":
@@ -512,8 +545,9 @@ def load(path: str | Path) -> Replay:
                 msgspec.convert(rec, _Trial)  # its time is read as a number (`Replay.moves`)
             except msgspec.ValidationError as e:
                 raise ReplayError(f"{path}: a damaged trial record ({e})") from None
-            rep.trials.append(rec)
-        elif k in lists:
+            if keep:
+                rep.trials.append(rec)
+        elif k in lists and keep:
             lists[k].append(rec)
     if not rep.frames:
         raise ReplayError(f"{path}: a replay without frames")

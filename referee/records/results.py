@@ -131,8 +131,9 @@ class FaultRecord(Record, frozen=True):
 
 
 class WarningRecord(Record, frozen=True):
-    """Something of a team's the referee set aside without stopping it (`drawing_dropped`: a
-    debug drawing that cannot be drawn): the first tick, how many times, and why."""
+    """Something of a team's the referee set aside without stopping it, one per kind
+    (`drawing_dropped`, `drawing_over_tick`, `drawing_over_match`): the first tick, how many
+    times, and the first example's text."""
 
     kind: str
     tick: int

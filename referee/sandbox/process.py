@@ -97,6 +97,8 @@ class ProcessBot:
         self.buf = b""
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
         self.bank = limits.overage_bank
+        self.thinking = 0.0  # s of answer time so far this match (steps, and waits for late answers)
+        self.think_limit = float("inf")  # the match's think budget in s, known at setup (brief.time_limit)
         self.skips = 0  # consecutive skipped ticks
         self.pending: int | None = None  # tick of an observation still unanswered
         self.sent = 0.0  # when the last observation was sent (time.monotonic)
@@ -323,6 +325,9 @@ class ProcessBot:
             message = (
                 f"in {where}: {self.skips} skipped ticks in a row"
                 if self.skips >= self.limits.max_skips
+                else f"in {where}: think budget of {self.think_limit:g} s used up "
+                f"({self.limits.think_budget:g} s per simulated second)"
+                if self.thinking > self.think_limit
                 else f"in {where}: overage bank exhausted"
                 if where == "step"
                 else f"in {where}: no answer within {self.limits.setup_time:g} s"
@@ -393,6 +398,7 @@ class ProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         self.launch()
+        self.think_limit = self.limits.think_budget * brief.time_limit
         deadline = time.monotonic() + self.limits.setup_time
         unsent = self._send({"type": "setup", "brief": protocol.to_plain(brief)}, self.limits.setup_time)
         if unsent:
@@ -414,8 +420,9 @@ class ProcessBot:
     def _drain(self, obs: Observation) -> Fault | None:
         """Wait for the late answer to a skipped tick, charging the wait to the overage bank."""
         start = time.monotonic()
-        reply = self._receive(max(self.bank, 0.0))
+        reply = self._receive(max(min(self.bank, self.think_limit - self.thinking), 0.0))
         self.bank -= time.monotonic() - start
+        self.thinking += time.monotonic() - start
         if reply == "timeout":
             return self._fault(obs.tick, obs.time, "timeout", "step")
         if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == self.pending:
@@ -430,7 +437,8 @@ class ProcessBot:
 
         Within `step_time`: normal. Up to `step_deadline`: accepted, the excess drawn from the
         overage bank. Later: a skipped tick; the late answer is awaited (and charged) before the
-        next observation. `max_skips` in a row, or an empty bank, disqualify the robot.
+        next observation. `max_skips` in a row, an empty bank, or answers that together take
+        longer than the think budget disqualify the robot.
         (`exchange` does the same for several controllers at once.)"""
         fault = self.send(obs)
         if fault:
@@ -459,11 +467,12 @@ class ProcessBot:
         `send`, weighed against the allowances."""
         if self._flooded():  # all it wrote before this answer (or deadline) is counted by now
             return self._fault(obs.tick, obs.time, "flood", "step")
+        self.thinking += took
         if reply == "timeout":
             self.pending = obs.tick
             self.bank -= self.limits.step_deadline - self.limits.step_time
             self.skips += 1
-            if self.skips >= self.limits.max_skips or self.bank <= 0:
+            if self.skips >= self.limits.max_skips or self.bank <= 0 or self.thinking > self.think_limit:
                 return self._fault(obs.tick, obs.time, "timeout", "step")
             return Fault(
                 obs.tick, obs.time, "skipped_tick", f"no answer within {self.limits.step_deadline:g} s", fatal=False
@@ -473,6 +482,8 @@ class ProcessBot:
             self.bank -= took - self.limits.step_time
             if self.bank <= 0:
                 return self._fault(obs.tick, obs.time, "timeout", "step")
+        if self.thinking > self.think_limit:
+            return self._fault(obs.tick, obs.time, "timeout", "step")
         if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == obs.tick:
             try:
                 cmd = protocol.command_from(reply.get("command"))
