@@ -12,9 +12,16 @@ from helpers import edited, run_cli
 
 from referee import api
 from referee.errors import SandboxError
-from referee.sandbox import kernel
+from referee.sandbox import kernel, process
 
 NO_SANDBOX = "bubblewrap (bwrap) is not installed (as this test pretends)"
+
+
+def pretend_no_sandbox(monkeypatch) -> None:
+    """No kernel sandbox here; and controllers run as the referee's own user, as where root
+    cannot become `nobody` (the checkout may be closed to other users: a 0700 /root)."""
+    monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
+    monkeypatch.setattr(process, "drop_to", lambda: None)
 
 
 def cli_without_sandbox(*args: str, cwd) -> subprocess.CompletedProcess:
@@ -33,7 +40,7 @@ def test_a_contest_without_a_sandbox_is_refused_in_one_line(tmp_path, command):
 
 
 def test_a_grade_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
+    pretend_no_sandbox(monkeypatch)
     level = tmp_path / "short.yaml"
     level.write_text(edited("bac-line", {"time_limit": 2}))
     options = dict(seeds=1, workers=1, db=tmp_path / "r.sqlite", out=tmp_path / "lb.csv", secret="s")
@@ -48,7 +55,7 @@ def test_a_grade_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monk
 
 
 def test_a_tournament_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monkeypatch):
-    monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
+    pretend_no_sandbox(monkeypatch)
     level = tmp_path / "short.yaml"
     level.write_text(edited("bac-line", {"time_limit": 2}))
     options = dict(rounds=1, workers=1, db=tmp_path / "t.sqlite", out=tmp_path / "site", secret="s")
