@@ -85,8 +85,24 @@ def _prctl(option: int, arg: int, arg3: int = 0) -> None:
 
 
 def _tmpfs(target: str) -> None:
-    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`."""
+    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
+    the mounts the template had below it (an interpreter or virtual environment installed
+    under /tmp, bound there read-only) bound again at their paths, above it."""
+    with open("/proc/self/mountinfo") as info:
+        points = [line.split()[4] for line in info]
+    below = [p for p in points if p.startswith(target + "/")]
+    tops = sorted({p for p in below if not any(p.startswith(q + "/") for q in below)})
+    held = [os.open(p, os.O_PATH | os.O_DIRECTORY | os.O_CLOEXEC) for p in tops]  # reachable once covered
     _mount("tmpfs", target, "tmpfs", MS_NOSUID | MS_NODEV, f"mode=1777,size={TMP_SIZE}")
+    for point, fd in zip(tops, held):
+        folder = target
+        for part in point[len(target) + 1 :].split("/"):  # passable, not listable, as bwrap made them
+            folder = f"{folder}/{part}"
+            if not os.path.isdir(folder):
+                os.mkdir(folder)
+                os.chmod(folder, 0o711)
+        _mount(f"/proc/self/fd/{fd}", point, None, MS_BIND | MS_REC)
+        os.close(fd)
 
 
 def _read_only_everywhere(writable: tuple[str, ...]) -> None:

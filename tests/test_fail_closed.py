@@ -3,6 +3,7 @@ to play unless the organizer says --unsandboxed, which the journal, the leaderbo
 report then carry; and the noise secret is never taken from a command line."""
 
 import json
+import os
 import sqlite3
 import subprocess
 import sys
@@ -25,9 +26,11 @@ def pretend_no_sandbox(monkeypatch) -> None:
 
 
 def cli_without_sandbox(*args: str, cwd) -> subprocess.CompletedProcess:
-    """`laserarena ARGS` in a process whose Python lies under /tmp: no sandbox can hold it."""
-    code = "import sys; sys.prefix = '/tmp/venv'; from referee.cli.main import main; sys.exit(main(sys.argv[1:]))"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300, cwd=cwd)
+    """`laserarena ARGS` where bwrap is out of reach (not on the PATH): no sandbox can be made."""
+    env = {**os.environ, "PATH": str(cwd)}
+    return subprocess.run(
+        [sys.executable, "-m", "referee", *args], capture_output=True, text=True, timeout=300, cwd=cwd, env=env
+    )
 
 
 @pytest.mark.parametrize("command", ["grade", "tournament"])
@@ -35,7 +38,7 @@ def test_a_contest_without_a_sandbox_is_refused_in_one_line(tmp_path, command):
     proc = cli_without_sandbox(command, "bac-line", "--team", "ref:idle", "--db", "j.sqlite", cwd=tmp_path)
     assert proc.returncode != 0 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr, proc.stderr
-    assert "no kernel sandbox" in proc.stderr and "/tmp/venv" in proc.stderr and "--unsandboxed" in proc.stderr
+    assert "no kernel sandbox" in proc.stderr and "bwrap" in proc.stderr and "--unsandboxed" in proc.stderr
     assert not (tmp_path / "j.sqlite").exists()  # refused before anything was made
 
 

@@ -318,7 +318,10 @@ def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
     # bwrap out of reach (as on macOS or in a locked-down container): the match still runs
     env = {**os.environ, "PATH": str(tmp_path)}
     plain = run_cli_env(env, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "plain.json"), "--quiet")
-    assert plain.stderr.startswith("laserarena: warning: no kernel sandbox (bubblewrap (bwrap) is not installed)")
+    assert plain.stderr.startswith(
+        "laserarena: warning: no kernel sandbox, controllers are not isolated: "
+        "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
+    )
     if os.geteuid() == 0 and closed_to_others(Path(sys.prefix)):
         # root from a checkout only root can read (a container's /root): without a sandbox to
         # copy the install in, `nobody` cannot start Python there; refused in one line, not run as root
@@ -340,15 +343,6 @@ def run_cli_env(env, *args):
     return subprocess.run(
         [sys.executable, "-m", "referee", *args], capture_output=True, text=True, env=env, timeout=300
     )
-
-
-def test_a_python_under_tmp_gets_no_sandbox_and_says_why_in_one_line():
-    # each sandbox mounts a private /tmp over the host's: a venv there would vanish inside it
-    # (every controller "exited with code 127"); the referee says so and runs unsandboxed
-    code = "import sys; sys.prefix = '/tmp/venv'; from referee.sandbox import kernel; print(kernel.unavailable())"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.count("\n") == 1 and "/tmp/venv" in out.stdout and "install it elsewhere" in out.stdout
 
 
 def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(tmp_path):

@@ -299,8 +299,9 @@ def scheduler_address(sched_file: Path, scheduler: subprocess.Popen) -> str:
 
 def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest, tmp_path):
     """A scheduler and two workers started as an operator would; the workers run in a mount
-    namespace of their own whose /tmp is an empty tmpfs, so the level, the team files, the
-    journal and the report folder of the client are all out of their sight."""
+    namespace of their own where the contest's folder and this test's are empty tmpfs, so the
+    level, the team files, the journal and the report folder of the client are all out of
+    their sight (their own interpreter stays, wherever it is installed: under /tmp too)."""
     if not shutil.which("unshare"):
         pytest.skip("needs util-linux unshare to hide the client's files from the workers")
     sched_file = tmp_path / "scheduler.json"
@@ -321,8 +322,22 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
     workers = None
     try:
         address = scheduler_address(sched_file, scheduler)
-        hidden = "mount -t tmpfs tmpfs /tmp && cd /tmp && exec " + " ".join(
-            [sys.executable, "-m", "dask", "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard"]
+        hidden = (
+            f"mount -t tmpfs tmpfs {contest} && mount -t tmpfs tmpfs {tmp_path} && cd {tmp_path} && exec "
+            + " ".join(
+                [
+                    sys.executable,
+                    "-m",
+                    "dask",
+                    "worker",
+                    address,
+                    "--nworkers",
+                    "2",
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                ]
+            )
         )
         workers = start(["unshare", "--mount", "--propagation", "private", "sh", "-c", hidden], Path("/"))
         from dask.distributed import Client

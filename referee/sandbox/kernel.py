@@ -82,18 +82,16 @@ def init_pid(info: int, timeout: float = 1.0) -> int | None:
 
 @functools.cache
 def unavailable() -> str | None:
-    """Why no sandbox can be made here (None when it can): probed once per process by running
-    `true` in one, so a kernel or container that forbids namespaces is found before a match."""
+    """Why no sandbox can be made here and what would make one (None when it can): probed once
+    per process by running `true` in one, so a kernel or container that forbids namespaces is
+    found before a match."""
     if sys.platform != "linux":
         return f"no Linux namespaces on {sys.platform}"
     bwrap = shutil.which("bwrap")
     if bwrap is None:
-        return "bubblewrap (bwrap) is not installed"
+        return "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
     if switches_users() and shutil.which("setpriv") is None:
-        return "setpriv (util-linux) is not installed"
-    for path in (PYTHON, sys.prefix):  # bound at their own paths (`robots` goes to LIB_DIR)
-        if any(Path(path).is_relative_to(private) for private in ("/tmp", "/dev/shm")):
-            return f"LaserArena's Python ({path}) lies under a folder each sandbox replaces with its own; install it elsewhere"
+        return "setpriv (util-linux) is not installed: apt-get install util-linux"
     trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
     try:  # a whole controller sandbox, bind mounts and privilege drop included, running `true`
         probe = subprocess.run(trial.argv, pass_fds=trial.pass_fds, capture_output=True, timeout=10)
@@ -103,7 +101,8 @@ def unavailable() -> str | None:
         for fd in (*trial.pass_fds, trial.info):
             os.close(fd)
     if probe.returncode != 0:
-        return "bwrap cannot create namespaces here: " + " ".join(probe.stderr.decode(errors="replace").split())[:200]
+        said = " ".join(probe.stderr.decode(errors="replace").split())[:160]
+        return f"bwrap cannot make namespaces here ({said}): run as root, or allow unprivileged user namespaces"
     return None
 
 
@@ -234,35 +233,19 @@ def _sandbox(
         os.lseek(rules, 0, os.SEEK_SET)
         fds.append(rules)
         team += ["--seccomp", str(rules)]
+    private = ["--proc", "/proc", "--dev", "/dev"]
+    for folder in ("/tmp", "/dev/shm"):
+        private += ["--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", folder]
+    # the private folders first: an interpreter or virtual environment under /tmp is bound over
+    # them, read-only, at its own path; only the rest of /tmp and /dev/shm stays writable
     args = (
         _namespaces(own_user_namespace)
         + ["--info-fd", str(info_w)]
+        + private
         + _system_view()
         + team
-        + [
-            "--proc",
-            "/proc",
-            "--dev",
-            "/dev",
-            "--perms",
-            "1777",
-            "--size",
-            str(TMP_SIZE),
-            "--tmpfs",
-            "/tmp",
-            "--perms",
-            "1777",
-            "--size",
-            str(TMP_SIZE),
-            "--tmpfs",
-            "/dev/shm",
-            "--remount-ro",
-            "/",
-            "--chdir",
-            "/tmp",
-            "--clearenv",
-        ]
-    )  # only /tmp and /dev/shm stay writable
+        + ["--remount-ro", "/", "--chdir", "/tmp", "--clearenv"]
+    )
     for key, value in sorted(env.items()):
         args += ["--setenv", key, value]
     return Launch(args + ["--"], tuple(fds), info)

@@ -47,15 +47,13 @@ from robots.loading import is_file_spec
 
 FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
-UNENFORCED = (
-    "controllers share one uid and see each other's processes, the file system their user can read, and the network"
-)
 
 
 @functools.cache
 def _warn_unsandboxed(reason: str) -> None:
-    """Say once per process what is not enforced without a kernel sandbox."""
-    print(f"laserarena: warning: no kernel sandbox ({reason}); not enforced: {UNENFORCED}", file=sys.stderr)
+    """Say once per process, in one line, that controllers run without a kernel sandbox, why,
+    and what would give them one (docs/security.md says what is then not enforced)."""
+    print(f"laserarena: warning: no kernel sandbox, controllers are not isolated: {reason}", file=sys.stderr)
 
 
 def isolation_unavailable() -> str | None:
