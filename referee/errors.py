@@ -21,6 +21,14 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130
 class UserError(LaserArenaError):
     """A bad argument, value or path given on the command line or to the Python API."""
 
+    @classmethod
+    def of(cls, e: Exception) -> UserError:
+        """The one line for a file that could not be read: `PATH: reason` for an OSError that
+        names its file (not Python's `[Errno 2] ...`), else the exception's own words."""
+        if isinstance(e, OSError) and e.filename is not None:
+            return cls(f"{e.filename}: {e.strerror or e}")
+        return cls(str(e))
+
 
 class TeamError(LaserArenaError):
     """A team spec that names nothing loadable, or whose files cannot be shipped."""

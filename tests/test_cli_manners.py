@@ -38,6 +38,14 @@ def test_json_to_stdout_table_to_stderr(shared_dir):
         (["render", "x.replay", "--out", "x.avi"], "not .avi"),
         (["render", "x.replay", "--out", "no/such/folder/x.mp4"], "the folder does not exist"),
         (["grade", "bac-line", "--team", "ref:idle", "--out", "no/such/folder/board.csv"], "the folder does not exist"),
+        (["grade", "bac-line", "--team", "ref:idle", "--workers", "0"], "--workers: must be at least 1, got 0"),
+        (["grade", "bac-line", "--team", "ref:idle", "--seeds", "-1"], "--seeds: must be at least 1, got -1"),
+        (["tournament", "bac-line", "--team", "ref:idle", "--rounds", "0"], "--rounds: must be at least 1, got 0"),
+        (["tournament", "bac-line", "--team", "ref:idle", "--workers", "two"], "--workers: not a whole number: 'two'"),
+        (["render", "nosuch.replay", "--out", "x.mp4"], "laserarena: nosuch.replay: No such file or directory"),
+        (["render", "nosuch.replay", "--html", "x.html"], "laserarena: nosuch.replay: No such file or directory"),
+        (["verify", "nosuch.replay"], "laserarena: nosuch.replay: No such file or directory"),
+        (["plot", "nosuch.replay"], "laserarena: nosuch.replay: No such file or directory"),
         (
             [
                 "grade",
@@ -85,3 +93,12 @@ def test_a_level_whose_own_controller_cannot_load_is_exit_2(shared_dir):
     out = run_cli("run", "lv.yaml", "--quiet", cwd=shared_dir)
     assert out.returncode == EXIT_BAD_INPUT, out.stderr
     assert out.stderr.count("\n") == 1 and "broken at import" in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize("command", ["grade", "tournament"])
+def test_contest_help_says_what_the_command_does_and_what_its_levels_are(command):
+    out = run_cli(command, "--help")
+    assert out.returncode == 0
+    usage, description = out.stdout.split("\n\n")[:2]
+    assert "docs/contests.md" in description and "resumable" in description
+    assert "level names or level files" in out.stdout

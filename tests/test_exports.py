@@ -57,6 +57,7 @@ def test_grade_and_tournament_keep_replays_of_a_hostile_level_name_in_their_fold
         cwd=shared_dir,
     )  # fmt: skip
     assert played.returncode == 0, played.stderr
+    assert played.stdout.splitlines()[0].split() == ["rank", "rating", "heats", "mean", "team"]  # the standings' header
     assert {p.name for p in shared_dir.iterdir()} == {"level.yaml", folder.name, "g", "t"}
     for run in ("g", "t"):
         replays = list((shared_dir / run / "replays").iterdir())

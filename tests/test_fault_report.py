@@ -1,5 +1,6 @@
-"""A team can act on its faults: the console shows each fault's message and where the failed
-slot's log is kept (laserarena-logs/ by default), the result JSON has the traceback's tail."""
+"""A team can act on its faults: the console shows each fault's message and, with --logs, where
+the failed slot's log is kept (without it nothing is written); the result JSON has the
+traceback's tail."""
 
 from __future__ import annotations
 
@@ -38,12 +39,14 @@ def test_fault_message_log_and_traceback(shared_dir, extra):
     assert tb[0] == "Traceback (most recent call last):" and tb[-1] == "ZeroDivisionError: division by zero"
     assert tb[1].endswith('boom.py", line 11, in step') and tb[3].endswith('boom.py", line 5, in deep')
     assert "slot 0 exception at 0.15 s: in step: ZeroDivisionError: division by zero" in out.stdout
-    log = shared_dir / "laserarena-logs" / "slot0.log"
-    if extra:  # in-process: the team's output went to the referee's own stderr, no log to keep
-        assert not log.exists() and "slot 0 log:" not in out.stdout
+    assert not (shared_dir / "laserarena-logs").exists()  # no folder nobody asked for
+    if extra:  # in-process: the team's output went to the referee's own stderr
+        assert "slot 0 log:" not in out.stdout and "--logs DIR" not in out.stdout
     else:
-        assert "slot 0 log: laserarena-logs/slot0.log" in out.stdout
-        assert log.read_text().rstrip().endswith("ZeroDivisionError: division by zero")
+        assert "slot 0 log:" not in out.stdout and "--logs DIR keeps each controller's output" in out.stdout
+        kept = run_cli("run", "level.yaml", "--team", "boom.py", "--logs", "logs", cwd=shared_dir)
+        assert "slot 0 log: logs/slot0.log" in kept.stdout
+        assert (shared_dir / "logs" / "slot0.log").read_text().rstrip().endswith("ZeroDivisionError: division by zero")
 
 
 def test_a_clean_run_keeps_no_logs(shared_dir):

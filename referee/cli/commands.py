@@ -6,9 +6,7 @@ Bad input (a level file, a team spec, a path) prints one line to stderr and exit
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
-import tempfile
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -23,7 +21,6 @@ from referee.cli.summary import table
 from referee.errors import EXIT_BAD_INPUT, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
-from referee.records.results import MatchResult
 from referee.sandbox.teams import controller_problem, fill_slots
 from referee.terminal import safe
 from referee.version import __version__
@@ -61,22 +58,20 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError(f"{path}: the folder does not exist")
     if args.logs:
         Path(args.logs).mkdir(parents=True, exist_ok=True)
-    scratch = Path(tempfile.mkdtemp(prefix="laserarena-logs-")) if not args.logs else None
-    try:
-        result = run_match(
-            level,
-            teams,
-            seed=args.seed,
-            replay=args.replay,
-            ideal=args.ideal,
-            isolate=not args.in_process,
-            limits=NO_LIMITS if args.no_limits else None,
-            logs=Path(args.logs) if args.logs else scratch,
-        )
-        logs = _failed_logs(result, Path(args.logs) if args.logs else None, scratch)
-    finally:
-        if scratch:
-            shutil.rmtree(scratch, ignore_errors=True)
+    result = run_match(
+        level,
+        teams,
+        seed=args.seed,
+        replay=args.replay,
+        ideal=args.ideal,
+        isolate=not args.in_process,
+        limits=NO_LIMITS if args.no_limits else None,
+        logs=Path(args.logs) if args.logs else None,
+    )
+    failed = [r["slot"] for r in result["robots"] if r["faults"]]
+    # in-process, the team's output went to this terminal: nothing to keep, nothing to say
+    logs = {slot: str(Path(args.logs) / f"slot{slot}.log") for slot in failed} if args.logs else None
+    logs = {} if args.in_process and not args.logs else logs
     given = result["robots"][: len(args.team)] if args.team else result["robots"]  # else the level's own
     unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
     if given and len(unloadable) == len(given):  # nothing the user asked for (or the level named) could run
@@ -88,35 +83,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(table(result, logs), file=sys.stderr if args.json == "-" else sys.stdout)
     return 0
-
-
-FAILED_LOGS = Path("laserarena-logs")  # where a failed slot's output is kept when --logs is not given
-
-
-def _failed_logs(result: MatchResult, given: Path | None, scratch: Path | None) -> dict[int, str]:
-    """The log of each slot that faulted, by slot: in the --logs folder, else copied from the
-    scratch folder to ./laserarena-logs/slotN.log (the other slots' logs are not kept)."""
-    failed = [r["slot"] for r in result["robots"] if r["faults"]]
-    if given is not None:
-        return {slot: str(given / f"slot{slot}.log") for slot in failed}
-    kept: dict[int, str] = {}
-    if scratch is None:
-        return kept
-    for slot in failed:
-        source = scratch / f"slot{slot}.log"
-        if not source.is_file() or not source.stat().st_size:  # in-process (output on this terminal), or silent
-            continue
-        try:
-            FAILED_LOGS.mkdir(exist_ok=True)
-            shutil.copyfile(source, FAILED_LOGS / source.name)
-        except OSError as e:
-            print(
-                f"laserarena: warning: cannot keep slot {slot}'s log in {FAILED_LOGS}: {e.strerror or e}",
-                file=sys.stderr,
-            )
-            continue
-        kept[slot] = str(FAILED_LOGS / source.name)
-    return kept
 
 
 class _NoSecretOnTheCommandLine(argparse.Action):
@@ -179,11 +145,20 @@ def cmd_grade(args: argparse.Namespace) -> int:
     return 0
 
 
+def _at_least_one(text: str) -> int:
+    """A count given on the command line: a whole number, 1 or more (argparse's type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def cmd_tournament(args: argparse.Namespace) -> int:
     from referee import api
 
-    if args.rounds < 1:
-        raise UserError("--rounds must be at least 1")
     start = time.perf_counter()
     done = api.tournament(
         args.level,
@@ -194,8 +169,9 @@ def cmd_tournament(args: argparse.Namespace) -> int:
     if args.quiet:
         api.warn(done.notes)
     else:
+        print(f"{'rank':>4}  {'rating':>7}  {'heats':>5}  {'mean':>7}  team")
         for s in done.standings:
-            print(f"{s.rank:>3}  {s.rating:7.2f}  {s.heats:>3} heats  {s.mean_score:7.1f}  {safe(s.team)}")
+            print(f"{s.rank:>4}  {s.rating:7.2f}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
         for note in done.notes:
             print(f"Note: {safe(note, 500)}")
         heats = len({h.heat for h in done.heats})
@@ -371,8 +347,8 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument(
         "--logs",
         metavar="DIR",
-        help="keep each controller's output here (slotN.log); without it, "
-        "a failed slot's output is kept in laserarena-logs/slotN.log",
+        help="keep each controller's output here (slotN.log); without it, nothing is written "
+        "(a fault's message and its traceback's tail are in the table and the result)",
     )
     s.add_argument("--no-limits", action="store_true", help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
@@ -382,11 +358,12 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("level", nargs="+")
     s.set_defaults(func=cmd_check)
 
-    s = sub.add_parser("grade", help="grade teams x levels x seeds headless, resumable, into a leaderboard")
-    s.add_argument("level", nargs="+")
+    what = "grade teams x levels x seeds headless, resumable, into a leaderboard"
+    s = sub.add_parser("grade", help=what, description=f"{what[0].upper()}{what[1:]} (docs/contests.md).")
+    s.add_argument("level", nargs="+", help="level names or level files")
     s.add_argument("--team", action="append", required=True, metavar="T", help="a team spec (repeat)")
-    s.add_argument("--seeds", type=int, default=3, help="seeds 1..N per team and level (default 3)")
-    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    s.add_argument("--seeds", type=_at_least_one, default=3, help="seeds 1..N per team and level (default 3)")
+    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
     _contest_flags(s)
@@ -394,13 +371,14 @@ def parser() -> argparse.ArgumentParser:
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=cmd_grade)
 
-    s = sub.add_parser(
-        "tournament", help="rated heats of teams racing each other on levels, resumable, into a report folder"
-    )
-    s.add_argument("level", nargs="+")
+    what = "rated heats of teams racing each other on levels, resumable, into a report folder"
+    s = sub.add_parser("tournament", help=what, description=f"{what[0].upper()}{what[1:]} (docs/contests.md).")
+    s.add_argument("level", nargs="+", help="level names or level files (their robot slots are the heats' lanes)")
     s.add_argument("--team", action="append", required=True, metavar="T", help="a rated team spec (repeat)")
-    s.add_argument("--rounds", type=int, default=1, help="rounds; in each, every team starts once from every slot")
-    s.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
+    s.add_argument(
+        "--rounds", type=_at_least_one, default=1, help="rounds; in each, every team starts once from every slot"
+    )
+    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
     s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
     s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
     _contest_flags(s)

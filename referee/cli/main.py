@@ -13,7 +13,7 @@ import threading
 from types import FrameType
 
 from arena.errors import LaserArenaError
-from referee.errors import EXIT_INTERRUPTED, EXIT_PIPE
+from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
 from referee.terminal import safe
 
 RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
@@ -73,6 +73,11 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())  # no second error when Python flushes stdout at exit
         return EXIT_PIPE
+    except OSError as e:  # a file the command was given or writes: named, in one line
+        if e.filename is None:
+            raise
+        print(f"laserarena: {safe(UserError.of(e), 1000)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     finally:
         # the interpreter's own shutdown (joining worker pools' threads) follows: a Ctrl-C there
         # would print a traceback after the command's last line

@@ -30,7 +30,8 @@ FAULT_WIDTH = 100  # a fault's message under the table, cut to this many charact
 
 def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error;
-    under it each fault's message on one line, and where the faulted slot's log is (`logs`)."""
+    under it each fault's message on one line, and where the faulted slot's log is (`logs`:
+    None when no log is kept, which a line then says how to get)."""
     head = (
         f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
         f"({result['end_reason'].replace('_', ' ')})"
@@ -79,4 +80,6 @@ def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
             )
         if r["faults"] and logs and r["slot"] in logs:
             lines.append(f"slot {r['slot']} log: {safe(logs[r['slot']], 200)}")
+    if logs is None and any(r["faults"] for r in result["robots"]):
+        lines.append("(--logs DIR keeps each controller's output; the result has each traceback's tail)")
     return "\n".join(lines)

@@ -19,7 +19,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     try:
         rep = load(path, keep=False)  # checked through, one record at a time
     except (OSError, ValueError) as e:
-        raise UserError(str(e)) from None
+        raise UserError.of(e) from None
     h = rep.header
     level = parse_level(h["level"]["text"].encode(), f"{path}:level")
     if level.hash != h["level"]["hash"]:
@@ -43,7 +43,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
                 if first is None and pair[0] != pair[1]:
                     first = i
         except (OSError, ValueError) as e:
-            raise UserError(str(e)) from None
+            raise UserError.of(e) from None
     if first is None:
         return True, f"identical: {counts[0]} records, {rep.duration:.1f} s, result and every frame reproduced"
     return False, f"differs from record {first} on ({counts[0]} recorded, {counts[1]} re-simulated)"

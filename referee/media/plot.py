@@ -81,7 +81,7 @@ def error_figure(replay: str | Path, out: str | Path | None = None, width: int =
     try:
         rep = load(replay)
     except (OSError, ValueError) as e:
-        raise UserError(str(e)) from None
+        raise UserError.of(e) from None
     duration = max(rep.duration, 1e-9)
     teams = [t["label"] for t in rep.header["teams"]]
     robots = []

@@ -135,7 +135,7 @@ def render(
     try:
         scenes = Scenes(load(replay))
     except (OSError, ValueError) as e:
-        raise UserError(str(e)) from None
+        raise UserError.of(e) from None
     end = scenes.duration if end is None else min(end, scenes.duration)
     if fps <= 0 or size[0] < 64 or size[1] < 64 or end < start:
         raise UserError("render: need fps > 0, a size of at least 64x64 and --from <= --to")

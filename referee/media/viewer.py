@@ -135,7 +135,7 @@ def write_viewer(replay_path: str | Path, out_path: str | Path, size: tuple[int,
         header = load(replay_path, keep=False).header  # the whole replay is checked, not only its header
         raw = replay_path.read_bytes()
     except (OSError, ValueError) as e:
-        raise UserError(str(e)) from None
+        raise UserError.of(e) from None
     try:
         level = parse_level(header["level"]["text"].encode(), header["level"]["name"])
     except (KeyError, TypeError, LevelError) as e:
