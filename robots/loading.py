@@ -18,6 +18,8 @@ from types import ModuleType
 from robots.api import Controller
 from robots.controllers import REFERENCE
 
+STANDARD_VIEW = ("numpy", "msgspec")  # what a sandboxed controller may import besides the standard library and robots
+
 
 class LoadError(Exception):
     """A team spec that cannot be loaded; the text is one line naming the spec."""
@@ -57,12 +59,34 @@ def entry_point(name: str) -> str:
     return found[0].value
 
 
+def import_hint(e: ImportError, alone: bool) -> str:
+    """What to do about a failed import, by what failed (`alone`: the team is one FILE.py):
+    a name robots does not have, a module outside what a sandboxed controller may import
+    (the standard library, `robots`, `STANDARD_VIEW`), or a module of the team's own that was
+    not shipped."""
+    top = (e.name or "").partition(".")[0]
+    if top == "robots":
+        return " (what robots' modules provide: docs/api.md and docs/toolkit.md)"
+    if not isinstance(e, ModuleNotFoundError) or not top or top in sys.stdlib_module_names or top in STANDARD_VIEW:
+        return ""
+    own = (
+        "; a module of your own ships in a package team: a folder with __init__.py, given as --team DIR"
+        if alone
+        else ""
+    )
+    return (
+        f" (a sandboxed controller imports the standard library, robots, {', '.join(STANDARD_VIEW)} and its own "
+        f"modules{own}; docs/controllers.md)"
+    )
+
+
 def _from_module(target: str, spec: str) -> type[Controller]:
     module_name, _, cls = target.partition(":")
     try:
         module = importlib.import_module(module_name)
     except (Exception, SystemExit) as e:  # the team's import failed (or exited): report it in one line
-        raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}") from None
+        hint = import_hint(e, alone=False) if isinstance(e, ImportError) else ""
+        raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}{hint}") from None
     return _pick(module, cls, spec)
 
 
@@ -82,12 +106,7 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
         module_spec.loader.exec_module(module)
     except (Exception, SystemExit) as e:  # a SystemExit at import must not end the loader
         del sys.modules[name]
-        hint = ""
-        if isinstance(e, ImportError):  # a sibling module, most likely: it was not shipped
-            hint = (
-                " (a FILE.py team is that one file: for a team of several modules or data files, "
-                "make its folder a package with __init__.py and give --team DIR)"
-            )
+        hint = import_hint(e, alone=True) if isinstance(e, ImportError) else ""
         raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}{hint}") from None
     return _pick(module, cls, spec)
 

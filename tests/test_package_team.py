@@ -72,3 +72,24 @@ def test_file_team_importing_a_sibling_is_told_to_make_a_package(shared_dir):
     assert out.returncode == 2
     assert "No module named 'helper'" in out.stderr and "--team DIR" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    "line, said, hint, not_said",
+    [
+        ("from robots.toolkit.steering import wrap", "cannot import name 'wrap'", "docs/toolkit.md", "--team DIR"),
+        ("import robots.toolkit.nosuch", "No module named 'robots.toolkit.nosuch'", "docs/toolkit.md", "--team DIR"),
+        ("import scipy", "No module named 'scipy'", "robots, numpy, msgspec and its own modules", "docs/toolkit.md"),
+        ("import json.nosuch", "No module named 'json.nosuch'", "", "docs/"),
+    ],
+)
+def test_a_failed_import_is_told_what_to_do_about_that_import(shared_dir, line, said, hint, not_said):
+    # the advice follows what failed: a name robots lacks, a package outside the sandbox's
+    # view, a module of the standard library (nothing to advise)
+    (shared_dir / "bot.py").write_text(
+        f"{line}\nfrom robots.api import Command, Controller\nclass Bot(Controller): pass\n"
+    )
+    (shared_dir / "bot.py").chmod(0o644)
+    out = run_cli("run", "bac-line", "--team", "bot.py", cwd=shared_dir)
+    assert out.returncode == 2 and len(out.stderr.strip().splitlines()) == 1, out.stderr
+    assert said in out.stderr and hint in out.stderr and not_said not in out.stderr, out.stderr

@@ -31,10 +31,11 @@ from pathlib import Path
 import robots
 import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
+from robots.loading import STANDARD_VIEW
 
 TEAM_DIR = "/team"  # the slot's code, read-only
 LIB_DIR = "/laserarena"  # the packages a controller may import besides the standard library
-ALLOWED = ("numpy", "msgspec")  # besides `robots` (and its own `.libs` folder, where a wheel has one)
+ALLOWED = STANDARD_VIEW  # besides `robots` (each with its wheel's `.libs` folder, where it has one)
 TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not disk
 ROBOTS_DIR = Path(robots.__file__).resolve().parent
 PYTHON = os.path.normpath(os.path.abspath(sys.executable))  # as the sandbox can reach it (no `..`)
