@@ -17,6 +17,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from helpers import edited
+
 ROOT = Path(__file__).resolve().parent.parent
 QUICKSTART = re.compile(r"^<!-- quickstart -->\n```sh\n(.*?)^```", re.S | re.M)
 SH = re.compile(r"^```sh\n(.*?)^```", re.S | re.M)
@@ -57,9 +59,11 @@ def _bash(script: str, cwd: Path, timeout: int) -> subprocess.CompletedProcess:
 def test_readme_quickstart_then_the_starter_kits_readme():
     (block,) = QUICKSTART.findall((ROOT / "README.md").read_text(encoding="utf-8"))
     assert "pip install" in block and "laserarena new myteam" in block
-    # not under /tmp: a controller's sandbox has a private /tmp, which would hide a venv there
-    with tempfile.TemporaryDirectory(prefix="laserarena-fresh-", dir="/var/tmp") as d:
-        os.chmod(d, 0o755)  # the controllers run as another user, from this venv
+    # under /tmp (which every sandbox replaces with a /tmp of its own) and closed to other users
+    # (as a clone in /root is), with whatever `python3` is first on PATH (a pyenv build under
+    # /root, often): the venv is bound into each controller's sandbox all the same
+    with tempfile.TemporaryDirectory(prefix="laserarena-fresh-", dir="/tmp") as d:
+        os.chmod(d, 0o700)
         copy = _checkout_copy(Path(d))
         assert not (copy / ".venv").exists() and shutil.which("laserarena", path=_fresh_env()["PATH"]) is None
         out = _bash(block, copy, INSTALL_TIMEOUT)
@@ -73,3 +77,26 @@ def test_readme_quickstart_then_the_starter_kits_readme():
         assert json.loads((kit / "result.json").read_text())["robots"][0]["faults"] == []
         assert (kit / "logs" / "slot0.log").is_file() and (kit / "asabe.replay").is_file()
         assert "ok: the controller follows the line" in out.stdout
+        # and there, a hostile team in a four-robot match harms no other
+        (kit / "race.yaml").write_text(edited("asabe-race", {"time_limit": 6}))
+        (kit / "hostile.py").write_text(HOSTILE)
+        out = _bash(
+            ". ../.venv/bin/activate\nlaserarena run race.yaml --team hostile.py --json race.json --quiet", kit, 600
+        )
+        assert out.stderr == "", out.stderr  # sandboxed: no warning
+        hostile, *others = json.loads((kit / "race.json").read_text())["robots"]
+        assert [f["kind"] for f in hostile["faults"]] == ["exception"], hostile["faults"]
+        assert all(not r["faults"] and not r["stopped"] for r in others), others
+
+
+HOSTILE = """import os, signal
+from robots.api import Command, Controller
+
+
+class Hostile(Controller):  # every process it can name, killed; the others' files, read
+    def step(self, obs):
+        if obs.tick == 3:
+            os.kill(-1, signal.SIGKILL)
+            raise RuntimeError(f"still here, seeing {sorted(os.listdir('/proc'))[:3]}")
+        return Command(0.05, 0.05)
+"""
