@@ -1,11 +1,12 @@
-"""Text from teams (names, fault messages) made safe to print on a terminal or in a table,
-and to open as a spreadsheet (CSV)."""
+"""The terminal's side of every command: text from teams (names, fault messages) made safe to
+print or to open as a spreadsheet (CSV), and the one progress bar every long command shows."""
 
 from __future__ import annotations
 
 import csv
 import io
 import re
+import sys
 from collections.abc import Iterable, Sequence
 
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # what a spreadsheet may read as a formula
@@ -37,3 +38,30 @@ def csv_text(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
     w.writerow([csv_cell(h) for h in header])
     w.writerows([csv_cell(v) for v in row] for row in rows)
     return buf.getvalue()
+
+
+class Progress:
+    """A progress bar on stderr (tqdm): items done, rate and ETA, the item just finished. It
+    shows only on a terminal and vanishes when done: a log or a pipe gets no bar lines."""
+
+    def __init__(self, total: int, unit: str, quiet: bool, already: int = 0):
+        from tqdm import tqdm
+
+        self.bar = tqdm(
+            total=total,
+            initial=already,
+            unit=unit,
+            leave=False,
+            file=sys.stderr,
+            disable=quiet or not sys.stderr.isatty(),
+            dynamic_ncols=True,
+        )
+
+    def tick(self, label: str = "") -> None:
+        if label:
+            self.bar.set_postfix_str(safe(label, 40), refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        """Take the bar off the terminal."""
+        self.bar.close()

@@ -5,6 +5,8 @@ against the replay's records and the referee's result."""
 import math
 import os
 import re
+import subprocess
+import sys
 
 import pygame
 import pytest
@@ -137,3 +139,16 @@ def test_hud_lines_are_drawn_in_each_robots_colour(replay):
         assert count(surface, band, rgb) > 30, i
     field_top = viewer.painter.to_screen(0, viewer.scenes.level.field.ymax)[1]
     assert field_top > viewer.painter.hud_height  # the field lies below the HUD
+
+
+def test_without_a_display_watch_says_so_in_one_line_and_plays_nothing(tmp_path):
+    # no X11, no Wayland, no SDL driver chosen (a server over ssh): one line, exit 2, at once
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER")}
+    out = subprocess.run(
+        [sys.executable, "-m", "referee", "watch", "asabe"], capture_output=True, text=True, timeout=120, env=env
+    )
+    assert out.returncode == 2 and out.stdout == ""
+    assert out.stderr.splitlines() == [
+        "laserarena: watch: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); "
+        "`laserarena render REPLAY --html page.html` makes a page any browser plays"
+    ]

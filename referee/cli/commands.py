@@ -230,12 +230,15 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_watch(args: argparse.Namespace) -> int:
-    from referee.media.watch import KEYS_HELP, watch
+    from referee.media.watch import ELSEWHERE, KEYS_HELP, no_display, watch
 
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:
         raise UserError(f"--size {args.size}: expected WIDTHxHEIGHT") from None
+    problem = no_display()
+    if problem:
+        raise UserError(f"watch: {problem}; {ELSEWHERE}")
     print(KEYS_HELP)
     watch(args.target, args.team, args.seed, (w, h), args.speed, args.frames)
     return 0

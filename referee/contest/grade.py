@@ -16,7 +16,6 @@ import hashlib
 import hmac
 import json
 import math
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +25,7 @@ from referee.contest.journal import Journal
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
-from referee.terminal import csv_text, safe
+from referee.terminal import Progress, csv_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
@@ -68,32 +67,6 @@ def secret_id(secret: str) -> str:
 def noise_key(secret: str, level_hash: str, seed: int) -> str:
     """The per-match noise key: HMAC-SHA256 of the level and seed under the run's secret."""
     return hmac.new(secret.encode(), f"laserarena-noise:{level_hash}:{seed}".encode(), hashlib.sha256).hexdigest()
-
-
-class Progress:
-    """A progress bar on stderr (tqdm): matches done, rate and ETA, the match just finished. It
-    shows only on a terminal and vanishes when done: a log or a pipe gets no bar lines."""
-
-    def __init__(self, total: int, already: int, quiet: bool):
-        from tqdm import tqdm
-
-        self.bar = tqdm(
-            total=total,
-            initial=already,
-            unit="match",
-            leave=False,
-            file=sys.stderr,
-            disable=quiet or not sys.stderr.isatty(),
-            dynamic_ncols=True,
-        )
-
-    def tick(self, label: str) -> None:
-        self.bar.set_postfix_str(safe(label, 40), refresh=False)
-        self.bar.update(1)
-
-    def close(self) -> None:
-        """Take the bar off the terminal."""
-        self.bar.close()
 
 
 def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: str, software: str) -> list[Job]:
@@ -160,7 +133,7 @@ def grade(
         return journal
     by_key = {j.key(): j for j in todo}
     playable = _match_jobs(todo, teams, unsandboxed)
-    progress = Progress(len(jobs), len(jobs) - len(todo), quiet)
+    progress = Progress(len(jobs), "match", quiet, already=len(jobs) - len(todo))
     results = run_jobs([(k, playable[k]) for k in by_key], workers, scheduler)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:

@@ -17,14 +17,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from arena.level import Level
-from referee.contest.grade import Progress, noise_key, secret_id
+from referee.contest.grade import noise_key, secret_id
 from referee.contest.journal import Journal
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.contest.schedule import schedule
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
-from referee.terminal import safe
+from referee.terminal import Progress, safe
 
 
 @dataclass(frozen=True)
@@ -163,7 +163,7 @@ def play_heats(
         )
         for k, h in by_key.items()
     ]
-    progress = Progress(len(heats), len(heats) - len(todo), quiet)
+    progress = Progress(len(heats), "heat", quiet, already=len(heats) - len(todo))
     results = run_jobs(jobs, workers, scheduler)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:

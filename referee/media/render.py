@@ -8,7 +8,6 @@ ships its own ffmpeg), with a progress bar.
 from __future__ import annotations
 
 import bisect
-import sys
 from pathlib import Path
 
 import pygame
@@ -19,6 +18,7 @@ from arena.loader import parse_level
 from referee.errors import UserError
 from referee.media.standings import Standings
 from referee.records.replay import Replay, load
+from referee.terminal import Progress
 
 TRAIL = 8.0  # s of trail behind each robot
 BEAM_WINDOW = 0.06  # s: hits this recent are drawn as beams
@@ -159,6 +159,7 @@ def render(
         writer.send(None)
     else:
         out.mkdir(parents=True, exist_ok=True)
+    progress = Progress(len(times), "frame", quiet)
     try:
         for k, t in enumerate(times):
             painter.draw(surface, scenes.at(t))
@@ -166,14 +167,9 @@ def render(
                 writer.send(pygame.image.tobytes(surface, "RGB"))
             else:
                 pygame.image.save(surface, str(out / f"frame_{k:05d}.png"))
-            if not quiet and sys.stderr.isatty() and (k % 15 == 0 or k == len(times) - 1):
-                done = (k + 1) / len(times)
-                print(
-                    f"\r[{'#' * round(24 * done):<24}] {k + 1}/{len(times)} frames", end="", file=sys.stderr, flush=True
-                )
+            progress.tick()
     finally:
+        progress.close()
         if mp4:
             writer.close()
-    if not quiet and sys.stderr.isatty():
-        print(file=sys.stderr)
     return len(times)

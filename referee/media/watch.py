@@ -10,6 +10,8 @@ and the error of its latest estimate.
 
 from __future__ import annotations
 
+import os
+import sys
 import threading
 import time
 from pathlib import Path
@@ -99,6 +101,19 @@ class Viewer:
         )
 
 
+ELSEWHERE = "`laserarena render REPLAY --html page.html` makes a page any browser plays"
+
+
+def no_display() -> str | None:
+    """Why SDL has no display to open a window on (None: it may have one): on Linux and the
+    BSDs, neither X11 nor Wayland is reachable and no SDL driver was chosen."""
+    if not sys.platform.startswith(("linux", "freebsd", "openbsd", "netbsd")) or os.environ.get("SDL_VIDEODRIVER"):
+        return None
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return None
+    return "no display (neither DISPLAY nor WAYLAND_DISPLAY is set)"
+
+
 def watch(
     target: str,
     teams: list[str] | None = None,
@@ -107,8 +122,13 @@ def watch(
     speed: float = 1.0,
     max_frames: int | None = None,
 ) -> int:
-    """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames drawn."""
+    """Open the window and play until closed (or `max_frames` drawn, for tests); returns frames
+    drawn. UserError, before anything is played, where no window can be opened."""
     import pygame
+
+    problem = no_display()
+    if problem:
+        raise UserError(f"watch: {problem}; {ELSEWHERE}")
 
     from referee.media.render import Scenes
     from referee.records.replay import MemoryRecorder, load
@@ -134,10 +154,15 @@ def watch(
         live = threading.Thread(target=match.run, daemon=True)
         live.start()
         while not recorder.replay.frames:
+            if not live.is_alive():  # the match ended before its first frame: nothing to show
+                raise UserError(f"{target}: the match ended before its first frame")
             time.sleep(0.01)
         scenes = Scenes(recorder.replay)
 
-    pygame.display.init()
+    try:
+        pygame.display.init()
+    except pygame.error as e:
+        raise UserError(f"watch: no window can be opened here ({e}); {ELSEWHERE}") from None
     pygame.display.set_caption(f"LaserArena — {target}")
     screen = pygame.display.set_mode(size)
     viewer = Viewer(scenes, size, speed)
