@@ -18,6 +18,12 @@ from arena.errors import LaserArenaError
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141  # docs/cli.md
 
 
+class LaserArenaWarning(UserWarning):
+    """Something the user should know that does not stop the command (`warnings.warn`: a
+    library caller filters it as any Python warning; the command line prints it as
+    `laserarena: warning: ...`, and `run --quiet` keeps it quiet)."""
+
+
 class UserError(LaserArenaError):
     """A bad argument, value or path given on the command line or to the Python API."""
 

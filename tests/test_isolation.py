@@ -317,7 +317,7 @@ def test_output_flood_is_capped_and_reported(tmp_path):
 def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
     # bwrap out of reach (as on macOS or in a locked-down container): the match still runs
     env = {**os.environ, "PATH": str(tmp_path)}
-    plain = run_cli_env(env, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "plain.json"), "--quiet")
+    plain = run_cli_env(env, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "plain.json"))
     assert plain.stderr.startswith(
         "laserarena: warning: no kernel sandbox, controllers are not isolated: "
         "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
@@ -329,6 +329,8 @@ def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
         return
     assert plain.returncode == 0, plain.stderr
     assert plain.stderr.count("\n") == 1
+    quiet = run_cli_env(env, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "quiet.json"), "--quiet")
+    assert quiet.returncode == 0 and quiet.stderr == "" and quiet.stdout == ""  # --quiet: nothing, warning included
     boxed = run_cli_env(os.environ, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "boxed.json"), "--quiet")
     assert boxed.returncode == 0 and boxed.stderr == ""
     assert (tmp_path / "plain.json").read_bytes() == (tmp_path / "boxed.json").read_bytes()

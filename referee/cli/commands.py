@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from dataclasses import asdict
 from pathlib import Path
 from typing import NoReturn
@@ -18,7 +19,7 @@ import levels
 from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create
 from referee.cli.summary import table
-from referee.errors import EXIT_BAD_INPUT, UserError
+from referee.errors import EXIT_BAD_INPUT, LaserArenaWarning, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
 from referee.sandbox.teams import controller_problem, fill_slots
@@ -47,6 +48,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    if args.quiet:  # nothing on success: not even that the controllers run unsandboxed
+        warnings.simplefilter("ignore", LaserArenaWarning)
     level = find_level(args.level, controllers=controller_problem)
     teams = fill_slots(level, args.team)
     if args.seed is not None and args.seed < 0:

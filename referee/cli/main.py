@@ -10,10 +10,12 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from types import FrameType
+from typing import TextIO
 
 from arena.errors import LaserArenaError
-from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, UserError
+from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
 from referee.terminal import safe
 
 RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
@@ -51,12 +53,31 @@ def _fragile(frame: FrameType | None) -> bool:
     return False
 
 
+_python_show_warning = warnings.showwarning
+
+
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
+    """Our warnings as one line, `laserarena: warning: ...`; any other as Python shows it."""
+    if issubclass(category, LaserArenaWarning):
+        print(f"laserarena: warning: {safe(message, 500)}", file=sys.stderr)
+    else:
+        _python_show_warning(message, category, filename, lineno, file, line)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run `laserarena ARGV` and return its exit code."""
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
+    warnings.showwarning = _show_warning
     try:
         from referee.cli.commands import parser
 

@@ -11,13 +11,13 @@ import json
 import os
 import secrets
 import sqlite3
-import sys
 import time
+import warnings
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Protocol, TypeVar
 
-from referee.errors import UserError
+from referee.errors import LaserArenaWarning, UserError
 from referee.terminal import safe
 
 SCHEMA_VERSION = 2
@@ -79,7 +79,7 @@ class Journal:
 
             fcntl.flock(self.lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except ImportError:
-            print(f"laserarena: warning: {path}: no file locks here; run one grading per journal", file=sys.stderr)
+            warnings.warn(f"{path}: no file locks here; run one grading per journal", LaserArenaWarning, stacklevel=2)
         except BlockingIOError:
             raise UserError(f"{path}: another grading run is using this journal") from None
         try:

@@ -12,7 +12,7 @@ finished its task or been stopped by a fault.
 from __future__ import annotations
 
 import functools
-import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -23,6 +23,7 @@ from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
 from arena.sensing import Sensing
 from arena.world import Watch, World
+from referee.errors import LaserArenaWarning
 from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
 from referee.match.rules import Rules
@@ -129,9 +130,8 @@ class Match:
         limits = level.limits if limits is None else limits
         reason = isolation_unavailable() if isolate else None
         if reason:  # said once per match, in one line; the match still runs
-            print(
-                f"laserarena: warning: controllers run in this process ({reason}): nothing isolates them",
-                file=sys.stderr,
+            warnings.warn(
+                f"controllers run in this process ({reason}): nothing isolates them", LaserArenaWarning, stacklevel=2
             )
             isolate = False
         if isolate:

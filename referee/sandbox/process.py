@@ -22,12 +22,14 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
 
 import robots
 from arena.level import ControllerLimits
+from referee.errors import LaserArenaWarning
 from referee.sandbox import cgroup, forkserver, kernel
 from referee.sandbox.bot import Fault, traceback_tail
 from referee.sandbox.kernel import RUNNER_ENV
@@ -53,7 +55,7 @@ ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
 def _warn_unsandboxed(reason: str) -> None:
     """Say once per process, in one line, that controllers run without a kernel sandbox, why,
     and what would give them one (docs/security.md says what is then not enforced)."""
-    print(f"laserarena: warning: no kernel sandbox, controllers are not isolated: {reason}", file=sys.stderr)
+    warnings.warn(f"no kernel sandbox, controllers are not isolated: {reason}", LaserArenaWarning, stacklevel=1)
 
 
 def isolation_unavailable() -> str | None:
