@@ -385,3 +385,22 @@ def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(
         assert FAST.overage_bank - bot.bank >= 0.12 - FAST.step_time  # its own slowness, all of it
     finally:
         bot.close()
+
+
+@pytest.mark.parametrize("sandboxed", [True, False])
+def test_a_load_error_names_the_teams_own_path(tmp_path, monkeypatch, sandboxed):
+    # the folder its files were put in (the sandbox's /team, a temporary folder without one)
+    # is no business of the team's: its message names its file as it gave it
+    from referee.match.loop import brief_for
+    from referee.sandbox import process
+
+    monkeypatch.setattr(process, "drop_to", lambda: None)  # without a sandbox: as this user (a 0700 checkout)
+    (tmp_path / "broken.py").write_text("raise RuntimeError(f'no data beside {__file__}')\n")
+    level = variant("bac-line", "short.yaml", time_limit=2)
+    bot = process.ProcessBot(resolve(str(tmp_path / "broken.py")), level.limits, sandboxed=sandboxed)
+    try:
+        fault = bot.setup(brief_for(level, 0))
+    finally:
+        bot.close()
+    assert fault is not None and fault.kind == "load", fault
+    assert fault.message.endswith("RuntimeError: no data beside broken.py"), fault.message

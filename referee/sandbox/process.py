@@ -315,7 +315,7 @@ class ProcessBot:
             message = str(what.get("message", ""))[:500]
             if kind == "load":  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
-            message = " ".join(message.split()) or f"in {where}"
+            message = " ".join(self._own_paths(message).split()) or f"in {where}"
         elif what == "flood" or what == "crash" and self._flooded():
             kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
         elif what == "crash":
@@ -343,10 +343,15 @@ class ProcessBot:
         results stay byte-identical."""
         if self.team_log is None:
             return None
-        text = self.team_log.text()
+        return traceback_tail(self._own_paths(self.team_log.text()))
+
+    def _own_paths(self, text: str) -> str:
+        """`text` with the folder the team's files were put in (the sandbox's /team, or a
+        temporary folder without a sandbox) left out: the team's own relative paths, the same
+        on every machine and run."""
         if self.folder is not None:
             text = text.replace(self.folder.name + os.sep, "")
-        return traceback_tail(text.replace(kernel.TEAM_DIR + "/", ""))
+        return text.replace(kernel.TEAM_DIR + "/", "")
 
     def _flooded(self) -> bool:
         """Whether the controller has written more output than `log_kb` allows."""
