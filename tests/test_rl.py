@@ -17,11 +17,11 @@ from helpers import exact_starts, variant  # noqa: E402
 
 import levels  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
-from referee.gym.observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
 from referee.match.loop import brief_for, run_match  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402
 from robots.api import Observation  # noqa: E402
 from robots.controllers.dead_reckoning import DeadReckoning  # noqa: E402
+from robots.toolkit.features import AGE_MAX, GOAL, HEADER, PER_BEACON  # noqa: E402
 
 
 def shortened(name: str, seconds: float):
@@ -106,6 +106,35 @@ def test_bearings_in_the_observation_match_the_geometry():
         assert 0 <= age <= period + 1e-6
     assert seen >= 3
     assert obs[0] == pytest.approx(1.0 / level.time_limit, rel=1e-6)  # 5 ticks of 0.2 s
+
+
+def test_goal_block_points_at_the_next_waypoint_from_the_robots_own_estimate():
+    """With `goal=True` the observation gains a block: the next waypoint in the robot's frame,
+    from the toolkit's tracker (never the true pose). Standing at bac-line's exact start with
+    ideal sensors, the estimate settles on the truth, so the block matches the geometry computed
+    here from the level; the rest of the vector is the default observation, number for number."""
+    from referee.gym import LaserArenaEnv
+
+    level = variant("bac-line", **exact_starts("bac-line"))
+    plain, goal = LaserArenaEnv(level=level, ideal=True), LaserArenaEnv(level=level, ideal=True, goal=True)
+    assert goal.observation_space.shape[0] == plain.observation_space.shape[0] + GOAL
+    a, _ = plain.reset(seed=1)
+    b, _ = goal.reset(seed=1)
+    for _ in range(5):
+        a, *_ = plain.step(np.zeros(2))
+        b, *_ = goal.step(np.zeros(2))
+    plain.close()
+    goal.close()
+    n = len(a)
+    assert np.array_equal(a, b[:n])
+    c, s, distance, passed, known = b[n:]
+    start, first = level.robots[0].start, level.robots[0].path[0]
+    want = math.atan2(first[1] - start.y, first[0] - start.x) - start.heading
+    assert known == 1 and passed == 0
+    assert math.remainder(math.atan2(s, c) - want, 2 * math.pi) == pytest.approx(0, abs=0.02)
+    f = level.field
+    diagonal = math.hypot(f.size[0], f.size[1])
+    assert distance * diagonal == pytest.approx(math.dist((start.x, start.y), first), abs=0.005)
 
 
 def test_pettingzoo_parallel_api_and_every_robot_an_agent():
