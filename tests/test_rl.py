@@ -137,6 +137,27 @@ def test_goal_block_points_at_the_next_waypoint_from_the_robots_own_estimate():
     assert distance * diagonal == pytest.approx(math.dist((start.x, start.y), first), abs=0.005)
 
 
+def test_no_reward_for_the_start():
+    """asabe's path begins where the robot starts: the referee counts that waypoint reached at
+    once, but the agent did nothing for it, so standing still pays nothing, and the return of a
+    robot that stands still for the whole match is 0 while its task progress shows the waypoint."""
+    from referee.gym import LaserArenaEnv
+
+    env = LaserArenaEnv(level=shortened("asabe", 2), ideal=True)
+    env.reset(seed=1)
+    start, first = env.session.match.starts[0], env.session.level.robots[0].path[0]
+    assert math.dist((start.x, start.y), first) <= env.session.level.task.radius
+    rewards, done = [], False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(np.zeros(2))
+        rewards.append(reward)
+        done = terminated or truncated
+    env.close()
+    assert rewards[0] == 0 and sum(rewards) == 0
+    assert info["progress"] == pytest.approx(1 / len(env.session.level.robots[0].path))
+    assert info["result"]["robots"][0]["task"]["reached"] == 1
+
+
 def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     from pettingzoo.test import parallel_api_test
 

@@ -101,6 +101,7 @@ class AgentSession:
         self.done = {s: False for s in self.agents}
         for enc in self.encoders.values():
             enc.reset()
+        self.free = {s: self._free(s) for s in self.agents}
         self.potential = {s: self._potential(s) for s in self.agents}
         self.fouls = {s: 0 for s in self.agents}
         return self._observe()
@@ -168,15 +169,29 @@ class AgentSession:
         points = LOCALIZE_TASK_POINTS if self.level.task.kind == "localize" else LOCALIZATION_POINTS
         return points / self.total_ticks * quality
 
+    def _free(self, slot: int) -> int:
+        """How many of the first waypoints the robot's true start already lies on: the referee
+        counts them reached at the first physics step, whatever the agent does, so they must
+        not pay as the first step's reward (reset's potential holds them)."""
+        m = self._live()
+        if m.tracker.kind not in ("waypoints", "race"):
+            return 0
+        targets, start = m.tracker.targets(slot), m.starts[slot]
+        free = 0
+        while free < len(targets) and math.dist((start.x, start.y), targets[free]) <= self.level.task.radius:
+            free += 1
+        return free
+
     def _potential(self, slot: int) -> float:
-        """Task points reached so far plus the fraction of the current leg covered (shaping)."""
+        """Task points reached so far plus the fraction of the current leg covered (shaping);
+        the waypoints the start lies on count as reached from the start."""
         m = self._live()
         tracker = m.tracker
-        if tracker.kind == "localize":
-            return 0.0
-        value = TASK_POINTS * tracker.progress(slot)
         targets = tracker.targets(slot)
-        i = tracker.next[slot]
+        if tracker.kind == "localize" or not targets:
+            return 0.0
+        i = max(tracker.next[slot], self.free[slot])
+        value = TASK_POINTS * (i / len(targets) if tracker.kind != "goto" else tracker.progress(slot))
         if tracker.kind != "goto" and i < len(targets):
             start = m.starts[slot]
             prev = targets[i - 1] if i else (start.x, start.y)
