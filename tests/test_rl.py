@@ -158,12 +158,15 @@ def test_no_reward_for_the_start():
     assert info["result"]["robots"][0]["task"]["reached"] == 1
 
 
-def test_pettingzoo_parallel_api_and_every_robot_an_agent():
-    from pettingzoo.test import parallel_api_test
+def test_pettingzoo_factories_pass_the_parallel_and_aec_api_tests():
+    """`parallel_env()` and `env()` (AEC, through PettingZoo's parallel_to_aec), as PettingZoo's
+    own environments expose them, pass PettingZoo's API tests; every robot is an agent."""
+    from pettingzoo.test import api_test, parallel_api_test
 
-    from referee.gym.parallel import LaserArenaParallelEnv
+    from referee.gym import parallel
 
-    env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))
+    level = shortened("asabe-race", 4)
+    env = parallel.parallel_env(level=level)
     parallel_api_test(env, num_cycles=40)
     assert env.possible_agents == ["robot_0", "robot_1", "robot_2", "robot_3"]
     obs, _ = env.reset(seed=2)
@@ -174,6 +177,17 @@ def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     assert steps == 20 and all(truncated.values())  # 4 s of 0.2 s periods, nobody finished a lap
     assert len(infos["robot_0"]["result"]["robots"]) == 4
     env.close()
+    aec = parallel.env(level=level, goal=True)
+    api_test(aec, num_cycles=40)
+    aec.reset(seed=2)
+    assert aec.observation_space("robot_0").shape == (env.observation_space("robot_0").shape[0] + GOAL,)
+    turns = 0
+    for _agent in aec.agent_iter(max_iter=200):  # bounded: 4 agents x 20 periods
+        *_, terminated, truncated, _ = aec.last()
+        aec.step(None if terminated or truncated else np.ones(2))
+        turns += 1
+    assert 80 <= turns < 200 and not aec.agents
+    aec.close()
 
 
 def test_random_policy_example_runs():
