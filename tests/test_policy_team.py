@@ -3,6 +3,9 @@ team that drives exactly as the policy did in the env, and the example that trai
 Needs the rl extra (installed by `make test`)."""
 
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +13,7 @@ from helpers import run_cli
 
 pytest.importorskip("gymnasium", reason="the rl extra is not installed: pip install '.[rl]'")
 
+from referee.records.replay import load
 from robots.toolkit.policy import Policy
 
 
@@ -70,3 +74,22 @@ def test_policy_round_trips_and_new_refuses_what_is_not_one(tmp_path):
         out = run_cli("new", "team", "--from-policy", bad, cwd=tmp_path)
         assert out.returncode == 2 and says in out.stderr and len(out.stderr.strip().splitlines()) == 1, out.stderr
     assert not (tmp_path / "team").exists()
+
+
+def test_train_and_submit_example_quick(shared_dir):
+    """`examples/train_and_submit.py --quick` trains for a moment, saves the weights, makes the
+    team and plays it in a tournament against the references: the team loads and plays every
+    heat without a fault."""
+    script = Path(__file__).resolve().parent.parent / "examples" / "train_and_submit.py"
+    out = shared_dir / "trained"
+    proc = subprocess.run(
+        [sys.executable, str(script), "--quick", "--out", str(out)], capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert Policy.load(out / "learner" / "policy.npz").goal
+    standings = json.loads((out / "report" / "standings.json").read_text())["standings"]
+    assert sorted(s["team"] for s in standings) == ["learner", "ref:dead-reckoning", "ref:idle"]
+    results = [load(r).result for r in sorted((out / "report" / "replays").glob("*.replay"))]
+    mine = [r for res in results for r in res["robots"] if r["team"] == "learner"]
+    assert mine and all(r["faults"] == [] for r in mine)
+    assert "learner" in proc.stdout and "ref:dead-reckoning" in proc.stdout
