@@ -17,11 +17,11 @@ from helpers import exact_starts, variant  # noqa: E402
 
 import levels  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
-from referee.gym.observation import AGE_MAX, HEADER, PER_BEACON  # noqa: E402
 from referee.match.loop import brief_for, run_match  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402
 from robots.api import Observation  # noqa: E402
 from robots.controllers.dead_reckoning import DeadReckoning  # noqa: E402
+from robots.toolkit.features import AGE_MAX, GOAL, HEADER, PER_BEACON  # noqa: E402
 
 
 def shortened(name: str, seconds: float):
@@ -108,12 +108,65 @@ def test_bearings_in_the_observation_match_the_geometry():
     assert obs[0] == pytest.approx(1.0 / level.time_limit, rel=1e-6)  # 5 ticks of 0.2 s
 
 
-def test_pettingzoo_parallel_api_and_every_robot_an_agent():
-    from pettingzoo.test import parallel_api_test
+def test_goal_block_points_at_the_next_waypoint_from_the_robots_own_estimate():
+    """With `goal=True` the observation gains a block: the next waypoint in the robot's frame,
+    from the toolkit's tracker (never the true pose). Standing at bac-line's exact start with
+    ideal sensors, the estimate settles on the truth, so the block matches the geometry computed
+    here from the level; the rest of the vector is the default observation, number for number."""
+    from referee.gym import LaserArenaEnv
 
-    from referee.gym.parallel import LaserArenaParallelEnv
+    level = variant("bac-line", **exact_starts("bac-line"))
+    plain, goal = LaserArenaEnv(level=level, ideal=True), LaserArenaEnv(level=level, ideal=True, goal=True)
+    assert goal.observation_space.shape[0] == plain.observation_space.shape[0] + GOAL
+    a, _ = plain.reset(seed=1)
+    b, _ = goal.reset(seed=1)
+    for _ in range(5):
+        a, *_ = plain.step(np.zeros(2))
+        b, *_ = goal.step(np.zeros(2))
+    plain.close()
+    goal.close()
+    n = len(a)
+    assert np.array_equal(a, b[:n])
+    c, s, distance, passed, known = b[n:]
+    start, first = level.robots[0].start, level.robots[0].path[0]
+    want = math.atan2(first[1] - start.y, first[0] - start.x) - start.heading
+    assert known == 1 and passed == 0
+    assert math.remainder(math.atan2(s, c) - want, 2 * math.pi) == pytest.approx(0, abs=0.02)
+    f = level.field
+    diagonal = math.hypot(f.size[0], f.size[1])
+    assert distance * diagonal == pytest.approx(math.dist((start.x, start.y), first), abs=0.005)
 
-    env = LaserArenaParallelEnv(level=shortened("asabe-race", 4))
+
+def test_no_reward_for_the_start():
+    """asabe's path begins where the robot starts: the referee counts that waypoint reached at
+    once, but the agent did nothing for it, so standing still pays nothing, and the return of a
+    robot that stands still for the whole match is 0 while its task progress shows the waypoint."""
+    from referee.gym import LaserArenaEnv
+
+    env = LaserArenaEnv(level=shortened("asabe", 2), ideal=True)
+    env.reset(seed=1)
+    start, first = env.session.match.starts[0], env.session.level.robots[0].path[0]
+    assert math.dist((start.x, start.y), first) <= env.session.level.task.radius
+    rewards, done = [], False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(np.zeros(2))
+        rewards.append(reward)
+        done = terminated or truncated
+    env.close()
+    assert rewards[0] == 0 and sum(rewards) == 0
+    assert info["progress"] == pytest.approx(1 / len(env.session.level.robots[0].path))
+    assert info["result"]["robots"][0]["task"]["reached"] == 1
+
+
+def test_pettingzoo_factories_pass_the_parallel_and_aec_api_tests():
+    """`parallel_env()` and `env()` (AEC, through PettingZoo's parallel_to_aec), as PettingZoo's
+    own environments expose them, pass PettingZoo's API tests; every robot is an agent."""
+    from pettingzoo.test import api_test, parallel_api_test
+
+    from referee.gym import parallel
+
+    level = shortened("asabe-race", 4)
+    env = parallel.parallel_env(level=level)
     parallel_api_test(env, num_cycles=40)
     assert env.possible_agents == ["robot_0", "robot_1", "robot_2", "robot_3"]
     obs, _ = env.reset(seed=2)
@@ -124,6 +177,17 @@ def test_pettingzoo_parallel_api_and_every_robot_an_agent():
     assert steps == 20 and all(truncated.values())  # 4 s of 0.2 s periods, nobody finished a lap
     assert len(infos["robot_0"]["result"]["robots"]) == 4
     env.close()
+    aec = parallel.env(level=level, goal=True)
+    api_test(aec, num_cycles=40)
+    aec.reset(seed=2)
+    assert aec.observation_space("robot_0").shape == (env.observation_space("robot_0").shape[0] + GOAL,)
+    turns = 0
+    for _agent in aec.agent_iter(max_iter=200):  # bounded: 4 agents x 20 periods
+        *_, terminated, truncated, _ = aec.last()
+        aec.step(None if terminated or truncated else np.ones(2))
+        turns += 1
+    assert 80 <= turns < 200 and not aec.agents
+    aec.close()
 
 
 def test_random_policy_example_runs():

@@ -17,7 +17,7 @@ import numpy as np
 
 import levels
 from arena.loader import find_level, load_level
-from referee.cli.starter_kit import create
+from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import EXIT_BAD_INPUT, LaserArenaWarning, UserError
 from referee.match.loop import NO_LIMITS, run_match
@@ -288,6 +288,12 @@ def cmd_map(args: argparse.Namespace) -> int:
 
 
 def cmd_new(args: argparse.Namespace) -> int:
+    if args.from_policy:
+        folder = create_from_policy(args.name, Path(args.from_policy), Path(args.dir))
+        print(f"wrote {folder}/: __init__.py, policy.npz, README.md")
+        here = "" if args.dir == "." else f"cd {folder.parent} && "
+        print(f"next: {here}laserarena run LEVEL --team {args.name}")
+        return 0
     folder = create(args.name, Path(args.dir))
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
     print(f"next: cd {folder} && laserarena run bac-line --team controller.py")
@@ -435,6 +441,11 @@ def parser() -> argparse.ArgumentParser:
     s = sub.add_parser("new", help="write a starter controller package for a team")
     s.add_argument("name")
     s.add_argument("--dir", default=".", help="where to create it (default: here)")
+    s.add_argument(
+        "--from-policy",
+        metavar="WEIGHTS.npz",
+        help="write a package team that plays this trained policy instead (docs/rl.md)",
+    )
     s.set_defaults(func=cmd_new)
 
     s = sub.add_parser("levels", help="list the built-in levels")

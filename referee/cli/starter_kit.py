@@ -1,12 +1,15 @@
-"""`laserarena new NAME`: a ready controller package for a team to start from."""
+"""`laserarena new NAME`: a ready controller package for a team to start from; with
+`--from-policy`, a package team that plays a trained policy (docs/rl.md)."""
 
 from __future__ import annotations
 
 import re
+import shutil
 from pathlib import Path
 
 import robots.controllers.starter as starter
 from referee.errors import UserError
+from robots.toolkit.policy import Policy
 
 README = """# {name}
 
@@ -77,15 +80,71 @@ if __name__ == "__main__":  # without pytest: python test_controller.py
 '''
 
 
-def create(name: str, where: Path = Path(".")) -> Path:
-    """Write the starter kit into `where/name`; refuse to overwrite anything."""
+POLICY_INIT = '''"""{name}: a LaserArena team that plays the trained policy in policy.npz (docs/rl.md)."""
+
+from pathlib import Path
+
+from robots.controllers.policy import PolicyController
+
+
+class Team(PolicyController):
+    """Plays policy.npz, shipped beside this file, on the envs' own observation encoding."""
+
+    weights = Path(__file__).parent / "policy.npz"
+'''
+
+POLICY_README = """# {name}
+
+A LaserArena team made by `laserarena new {name} --from-policy`: `__init__.py` plays the
+trained policy in `policy.npz` ({layers} layer(s), {inputs} inputs, goal block {goal}) with
+`robots.controllers.policy.PolicyController`, which encodes what the controller sees exactly
+as the training env did (LaserArena's docs/rl.md).
+
+Run it from the folder above this one, and hand in this folder:
+
+```sh
+laserarena run asabe --team {name} --json result.json
+laserarena tournament asabe --team {name} --team ref:idle --team ref:dead-reckoning
+```
+"""
+
+
+def _folder(name: str, where: Path) -> Path:
+    """`where/name`, made empty; refuse a bad name or anything that exists."""
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]{0,63}", name):
         raise UserError(f"{name}: a team name is a letter followed by letters, digits, - or _")
     folder = where / name
     if folder.exists():
         raise UserError(f"{folder}: already exists; choose another name or folder")
     folder.mkdir(parents=True)
+    return folder
+
+
+def create(name: str, where: Path = Path(".")) -> Path:
+    """Write the starter kit into `where/name`; refuse to overwrite anything."""
+    folder = _folder(name, where)
     (folder / "controller.py").write_text(Path(starter.__file__).read_text())
     (folder / "test_controller.py").write_text(TEST)
     (folder / "README.md").write_text(README.format(name=name))
+    return folder
+
+
+def create_from_policy(name: str, weights: Path, where: Path = Path(".")) -> Path:
+    """Write a package team into `where/name` that plays the policy saved at `weights`
+    (robots.toolkit.policy's .npz); refuse a file that is not one, or to overwrite anything."""
+    if not name.isidentifier():
+        raise UserError(f"{name}: a policy team is a Python package; its name is letters, digits and _")
+    try:
+        policy = Policy.load(weights)
+    except FileNotFoundError:
+        raise UserError(f"{weights}: no such file") from None
+    except (OSError, ValueError, KeyError) as e:
+        raise UserError(f"{weights}: not a policy .npz (robots.toolkit.policy): {e}") from None
+    folder = _folder(name, where)
+    shutil.copyfile(weights, folder / "policy.npz")
+    (folder / "__init__.py").write_text(POLICY_INIT.format(name=name))
+    goal = "on" if policy.goal else "off"
+    (folder / "README.md").write_text(
+        POLICY_README.format(name=name, layers=len(policy.weights), inputs=policy.inputs, goal=goal)
+    )
     return folder

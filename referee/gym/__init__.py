@@ -8,9 +8,10 @@ Importing this module registers `LaserArena-v0` with Gymnasium (that is how `mak
 `rl` extra (`pip install 'laserarena[rl]'`).
 
 The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the match driven
-one control period at a time for agents (`session`), the fixed-size observation encoding
-(`observation`) and frames for `render()` (`view`). It may import the match core, the
-sandbox's team specs, `arena` and `robots.api`; nothing imports it but users.
+one control period at a time for agents (`session`) and frames for `render()` (`view`). The
+observation encoding and the action's command are team-side (robots.toolkit.features and
+.policy), so that a trained policy plays in the sandbox on the same numbers. It may import the
+match core, the sandbox's team specs, `arena` and `robots`; nothing imports it but users.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ ENV_ID = "LaserArena-v0"
 
 class LaserArenaEnv(gymnasium.Env):
     """Robot `slot` of `level` is the agent; other slots run `others` (default: the level's
-    default controller) in this process. One step is one control period."""
+    default controller) in this process. One step is one control period. `goal` adds the next
+    waypoint, in the robot's frame by its own pose estimate, to the observation (docs/rl.md)."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
@@ -42,8 +44,9 @@ class LaserArenaEnv(gymnasium.Env):
         replay: str | Path | None = None,
         render_mode: str | None = None,
         render_size: tuple[int, int] = (480, 360),
+        goal: bool = False,
     ):
-        self.session = AgentSession(level, (slot,), others, ideal, report_estimate, replay)
+        self.session = AgentSession(level, (slot,), others, ideal, report_estimate, replay, goal)
         self.slot = slot
         enc = self.session.encoders[slot]
         self.observation_space = gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)

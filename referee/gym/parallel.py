@@ -1,7 +1,7 @@
 """A PettingZoo ParallelEnv: every robot of a level is an agent (`robot_0`, `robot_1`, ...).
 
-    from referee.gym.parallel import LaserArenaParallelEnv
-    env = LaserArenaParallelEnv(level="asabe-race")
+    from referee.gym import parallel
+    env = parallel.parallel_env(level="asabe-race")   # or parallel.env(...): the AEC form
 
 Each agent observes and acts as in the Gymnasium env (docs/rl.md); an agent that finishes
 its task (or is stopped) leaves `agents` and its robot stands still while the others play on.
@@ -14,7 +14,8 @@ from pathlib import Path
 
 import gymnasium
 import numpy as np
-from pettingzoo import ParallelEnv
+from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
 
 from arena.level import Level
 from referee.gym.session import AgentSession, load
@@ -33,10 +34,11 @@ class LaserArenaParallelEnv(ParallelEnv):
         replay: str | Path | None = None,
         render_mode: str | None = None,
         render_size: tuple[int, int] = (480, 360),
+        goal: bool = False,
     ):
         level = load(level)
         n = len(level.robots)
-        self.session = AgentSession(level, tuple(range(n)), [], ideal, report_estimate, replay)
+        self.session = AgentSession(level, tuple(range(n)), [], ideal, report_estimate, replay, goal)
         self.possible_agents = [f"robot_{s}" for s in range(n)]
         self.agents: list[str] = []
         self.render_mode, self.render_size = render_mode, render_size
@@ -90,3 +92,15 @@ class LaserArenaParallelEnv(ParallelEnv):
 
     def close(self) -> None:
         self.session.close()
+
+
+def parallel_env(**kwargs) -> LaserArenaParallelEnv:
+    """The parallel env (keywords as LaserArenaParallelEnv's), as PettingZoo's own environments
+    name their factory."""
+    return LaserArenaParallelEnv(**kwargs)
+
+
+def env(**kwargs) -> AECEnv:
+    """The same env in PettingZoo's AEC form (agents act in turn; a cycle of all agents is one
+    control period), through PettingZoo's own `parallel_to_aec` conversion."""
+    return parallel_to_aec(parallel_env(**kwargs))

@@ -17,13 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from arena.level import Level
-from referee.gym.observation import ObservationEncoder
 from referee.match.loop import Match, brief_for
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.records.results import MatchResult
 from referee.sandbox.teams import Team, controller_problem, fill_slots
 from robots.api import Command
 from robots.controllers.idle import Idle
+from robots.toolkit.features import ObservationEncoder
+from robots.toolkit.policy import command
 
 AGENT_SPEC = "ref:idle"  # what the replay header names for an agent slot (its answers come from the agent)
 AGENT_HASH = "sha256:" + hashlib.sha256(AGENT_SPEC.encode()).hexdigest()  # no code ships for an agent
@@ -54,7 +55,9 @@ class AgentSession:
 
     An action is a float array in -1..1: the left and right wheel speeds as fractions of the
     robot's top speed; with `report_estimate`, followed by the pose estimate that the referee
-    scores, x and y scaled so -1..1 spans the field and heading / pi."""
+    scores, x and y scaled so -1..1 spans the field and heading / pi (robots.toolkit.policy's
+    `command`, as a controller playing a trained policy maps it). Observations are the
+    team-side encoder's (robots.toolkit.features), with its goal block if `goal`."""
 
     def __init__(
         self,
@@ -64,6 +67,7 @@ class AgentSession:
         ideal: bool = False,
         report_estimate: bool = False,
         replay: str | Path | None = None,
+        goal: bool = False,
     ):
         self.level = load(level)
         n = len(self.level.robots)
@@ -74,7 +78,8 @@ class AgentSession:
         self.others = dict(zip(rest, fill_slots(self.level, others, len(rest))))
         self.ideal, self.report_estimate, self.replay = ideal, report_estimate, replay
         samples = int(self.level.beacons.params.get("samples_per_turn", 0))
-        self.encoders = {s: ObservationEncoder(brief_for(self.level, s), samples) for s in self.agents}
+        self.briefs = {s: brief_for(self.level, s) for s in self.agents}
+        self.encoders = {s: ObservationEncoder(self.briefs[s], samples, goal) for s in self.agents}
         self.total_ticks = self.level.control_ticks
         self.match: Match | None = None
         self.result: MatchResult | None = None
@@ -82,12 +87,6 @@ class AgentSession:
     def action_size(self) -> int:
         """2 (wheel speeds), or 5 with a pose estimate; every component is in -1..1."""
         return 5 if self.report_estimate else 2
-
-    def estimate(self, a: np.ndarray) -> tuple[float, float, float]:
-        """An action's normalized estimate (-1..1 spans the field, and -pi..pi) in metres and radians."""
-        f = self.level.field
-        u = np.clip(a[2:5], -1.0, 1.0)
-        return (f.xmin + (u[0] + 1) / 2 * f.size[0], f.ymin + (u[1] + 1) / 2 * f.size[1], float(u[2]) * math.pi)
 
     def reset(self, seed: int) -> dict[int, np.ndarray]:
         """Start a new match with `seed`; return each agent's first observation."""
@@ -102,6 +101,7 @@ class AgentSession:
         self.done = {s: False for s in self.agents}
         for enc in self.encoders.values():
             enc.reset()
+        self.free = {s: self._free(s) for s in self.agents}
         self.potential = {s: self._potential(s) for s in self.agents}
         self.fouls = {s: 0 for s in self.agents}
         return self._observe()
@@ -138,14 +138,12 @@ class AgentSession:
                 m.answer(slot, Command(0.0, 0.0))
                 continue
             a = np.asarray(actions[slot], dtype=np.float64)
-            top = self.level.robots[slot].model.max_wheel_speed
-            left, right = (float(np.clip(v, -1.0, 1.0)) * top for v in a[:2])
-            estimate = self.estimate(a) if self.report_estimate else None
+            cmd = command(a if self.report_estimate else a[:2], self.briefs[slot])
             before = m.estimates[slot].quality_sum
-            m.answer(slot, Command(left, right, estimate))
-            if estimate is not None:  # the tick's quality, as the referee scored it
+            m.answer(slot, cmd)
+            if cmd.estimate is not None:  # the tick's quality, as the referee scored it
                 loc[slot] = self._localization(m.estimates[slot].quality_sum - before)
-            self.encoders[slot].command = (left, right)
+            self.encoders[slot].commanded(cmd.left, cmd.right)
         m.advance()
         terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
         truncated: dict[int, bool] = {s: m.ended and not terminated[s] for s in self.agents}
@@ -171,15 +169,29 @@ class AgentSession:
         points = LOCALIZE_TASK_POINTS if self.level.task.kind == "localize" else LOCALIZATION_POINTS
         return points / self.total_ticks * quality
 
+    def _free(self, slot: int) -> int:
+        """How many of the first waypoints the robot's true start already lies on: the referee
+        counts them reached at the first physics step, whatever the agent does, so they must
+        not pay as the first step's reward (reset's potential holds them)."""
+        m = self._live()
+        if m.tracker.kind not in ("waypoints", "race"):
+            return 0
+        targets, start = m.tracker.targets(slot), m.starts[slot]
+        free = 0
+        while free < len(targets) and math.dist((start.x, start.y), targets[free]) <= self.level.task.radius:
+            free += 1
+        return free
+
     def _potential(self, slot: int) -> float:
-        """Task points reached so far plus the fraction of the current leg covered (shaping)."""
+        """Task points reached so far plus the fraction of the current leg covered (shaping);
+        the waypoints the start lies on count as reached from the start."""
         m = self._live()
         tracker = m.tracker
-        if tracker.kind == "localize":
-            return 0.0
-        value = TASK_POINTS * tracker.progress(slot)
         targets = tracker.targets(slot)
-        i = tracker.next[slot]
+        if tracker.kind == "localize" or not targets:
+            return 0.0
+        i = max(tracker.next[slot], self.free[slot])
+        value = TASK_POINTS * (i / len(targets) if tracker.kind != "goto" else tracker.progress(slot))
         if tracker.kind != "goto" and i < len(targets):
             start = m.starts[slot]
             prev = targets[i - 1] if i else (start.x, start.y)
