@@ -258,7 +258,9 @@ def test_score_so_far_counts_only_what_was_earned(replays, browser, tmp_path):
         at = [page.evaluate(f"window.viewer.scenes.standings.score({slot}, {t})") for t in times]
         assert 0 <= at[0] <= first_tick, at
         assert scores[slot].split("\t")[-1] == f"{at[0]:.1f}"
-        earned = [a + sum(f["penalty"] for f in rep.fouls if f["r"] == slot and f["time"] <= t) for a, t in zip(at, times)]
+        earned = [
+            a + sum(f["penalty"] for f in rep.fouls if f["r"] == slot and f["time"] <= t) for a, t in zip(at, times)
+        ]
         assert earned[0] < earned[1] < earned[2] <= earned[3], earned  # points accrue as the match goes
         assert at[3] == pytest.approx(robot["score"]["total"], abs=0.01), (at, robot["score"])
         hud = page.evaluate("window.viewer.scenes.at(0).hud")[1 + slot]
