@@ -53,9 +53,9 @@ def test_every_page_named_in_prose_exists():
 
 
 def test_the_indexes_list_every_page_and_every_record():
-    index = (ROOT / "docs" / "README.md").read_text(encoding="utf-8")
+    index = (ROOT / "docs" / "index.md").read_text(encoding="utf-8")
     listed = {target.partition("#")[0] for target in LINK.findall(index)}
-    pages = {p.name for p in (ROOT / "docs").glob("*.md")} - {"README.md"}
+    pages = {p.name for p in (ROOT / "docs").glob("*.md")} - {"index.md"}
     assert pages - listed == set(), f"pages the docs' index does not list: {sorted(pages - listed)}"
     records = (ROOT / "docs" / "decisions" / "README.md").read_text(encoding="utf-8")
     listed = set(LINK.findall(records))
@@ -70,7 +70,7 @@ def test_the_readme_leads_to_the_three_paths_and_the_indexes():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     targets = set(LINK.findall(readme))
     assert {"docs/controllers.md", "docs/contests.md", "docs/rl.md"} <= targets
-    assert {"docs/README.md", "docs/decisions/README.md", "docs/performance.md"} <= targets
+    assert {"docs/index.md", "docs/decisions/README.md", "docs/performance.md"} <= targets
 
 
 def test_the_checker_sees_a_broken_link(tmp_path):
