@@ -60,7 +60,9 @@ def test_the_indexes_list_every_page_and_every_record():
     records = (ROOT / "docs" / "decisions" / "README.md").read_text(encoding="utf-8")
     listed = set(LINK.findall(records))
     files = {p.name for p in (ROOT / "docs" / "decisions").glob("[0-9]*.md")}
-    assert files == listed, f"records not indexed: {sorted(files - listed)}; indexed, not there: {sorted(listed - files)}"
+    assert files == listed, (
+        f"records not indexed: {sorted(files - listed)}; indexed, not there: {sorted(listed - files)}"
+    )
     assert all(line.rstrip().endswith("?") for line in records.splitlines() if line.startswith("- ")), (
         "each record's line ends with the question it answers"
     )
