@@ -39,7 +39,7 @@ test: lint
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
 
 bench: $(VENV)/.installed
-	$(VENV)/bin/python benchmarks/all.py --json out/bench.json
+	$(VENV)/bin/python benchmarks/all.py  # writes docs/performance.json and sets the figures the docs quote from it
 
 baselines: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/baselines.py --out docs/baselines.md

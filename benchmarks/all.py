@@ -3,7 +3,10 @@
 (a) the 4-robot asabe-race world: bare stepping, sensing, full matches isolated and in-process
     with two controllers, grading's CPU beside bare stepping's (benchmarks/speed.py);
 (b) localization solvers, scalar and vectorized; (c) rendering and encoding frames per second;
-(d) grading throughput. Prints a table and writes the figures as JSON (--json).
+(d) grading throughput. Prints a table and writes the figures as JSON (--json): to
+docs/performance.json by default, the committed report the docs quote (benchmarks/quoted.py's
+`<!--p:KEY:STAT-->` markers, set here and held to it by tests/test_docs_figures.py), where
+each figure is in the unit the docs show it in.
 """
 
 from __future__ import annotations
@@ -19,15 +22,75 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 
 import grading
+import quoted
 import render
 import solvers
 import speed
 
 
+def report(f: dict, repeat: int) -> dict:
+    """The figures as the docs quote them: {key: {stat: value}}, in the units shown."""
+    sp, s, r, g = f["speed"], f["solvers"], f["render"], f["grading"]
+    w = sp["world"]
+    out: dict = {
+        "machine": dict(f["machine"], repeat=repeat, seconds=round(f["seconds"])),
+        "world": {
+            "bare_x": w["bare_x"],
+            "compiled_x": w["compiled_x"],
+            "compiled_over_bare": w["compiled_x"] / w["bare_x"],
+            "sensing_x": w["sensing_x"],
+            "sensing_overhead_percent": 100 * w["sensing_overhead"],
+        },
+    }
+    for name, m in sp["matches"].items():
+        spec, _, how = name.partition(" ")
+        out[f"match.{spec.removeprefix('ref:')}.{how}"] = {
+            "x": m["x"],
+            "ratio": m["ratio"],
+            "referee_cpu_ms": 1000 * m["referee_cpu_per_s"],
+            "others_cpu_ms": 1000 * m["others_cpu_per_s"],
+        }
+    for spec, gr in sp["grading"].items():
+        out[f"grading.{spec.removeprefix('ref:')}"] = {
+            "cpu_ms": 1000 * gr["cpu_per_s"],
+            "ratio": gr["ratio"],
+            "bare_cpu_ms": 1000 * gr["bare_cpu_per_s"],
+        }
+    c = sp["command_line_grading"]
+    out["grade-command"] = {
+        "cpu_ms": 1000 * c["cpu_per_s"],
+        "ratio": c["ratio"],
+        "fixed_cpu_s": c["fixed_cpu_s"],
+        "match_cpu_ms": 1000 * c["match_cpu_per_s"],
+    }
+    out["solvers"] = {
+        "total_scalar_us": s["total_scalar_us"],
+        "total_heading_us": s["total_heading_us"],
+        "circles_scalar_us": s["circles_scalar_us"],
+        "total_vectorized_m_per_s": s["total_vectorized_per_s"] / 1e6,
+        "total_vectorized_ns": 1e9 / s["total_vectorized_per_s"],
+    }
+    out["render"] = {"draw_fps": r["draw_fps"], "encode_fps": r["encode_fps"], "both_fps": r["both_fps"]}
+    out["throughput"] = {
+        "cpu_per_match_s": g["cpu_per_match_s"],
+        "per_hour_1": g["per_hour_1"],
+        "per_hour_all": g["per_hour_all"],
+        "workers": g["workers"],
+        "speedup": g["speedup"],
+    }
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", metavar="OUT", help="write the figures here as JSON")
+    ap.add_argument(
+        "--json",
+        metavar="OUT",
+        default=str(quoted.REPORTS["p"]),
+        help="write the figures here as JSON (default docs/performance.json, whose figures the docs quote)",
+    )
     ap.add_argument("--repeat", type=int, default=3, help="runs per speed figure (the median is kept)")
+    ap.add_argument("--note", default="", help="a word on the run kept in the report, e.g. that the machine was busy")
     args = ap.parse_args()
     t0 = time.perf_counter()
     figures = {
@@ -63,9 +126,13 @@ def main() -> None:
         print(f"  {a:<{width}}  {b:<28} {c}")
     figures["seconds"] = time.perf_counter() - t0
     print(f"  ({figures['seconds']:.0f} s)")
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n")
+    out = report(figures, args.repeat)
+    out["machine"]["note"] = args.note
+    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.json).write_text(json.dumps(out, indent=1, sort_keys=True) + "\n")
+    if Path(args.json) == quoted.REPORTS["p"]:  # the committed report: set the figures the docs quote
+        for page in quoted.requote_pages("p", out):
+            print(f"  set the figures of {page.relative_to(quoted.ROOT)}")
 
 
 if __name__ == "__main__":

@@ -7,8 +7,8 @@ pose) for one seed, reads what happened from the match's replay (events, estimat
 and returns named figures. A row takes one figure over `--seeds` seeds (in worker processes) and
 passes when its median lies in the row's band; the table gives the median, the 5-95 % range of
 the seeds and how many seeds fell outside the band. Written as Markdown to docs/fidelity.md and
-as JSON to docs/fidelity.json (`--out`, `--json`): docs quote figures from it
-(tests/test_docs_figures.py holds them to it). Exit status 0; `--strict` makes a failed row exit 1.
+as JSON to docs/fidelity.json (`--out`, `--json`): docs quote figures from it through
+benchmarks/quoted.py's markers (tests/test_docs_figures.py holds them to it). Exit status 0; `--strict` makes a failed row exit 1.
 
     python benchmarks/fidelity.py [--seeds 20] [--workers 2] [--sensitivity-seeds 5] [--strict]
 """
@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import statistics
 import sys
 import time
@@ -29,6 +28,7 @@ from itertools import groupby
 from pathlib import Path
 from typing import Any
 
+import quoted
 import yaml
 
 import levels
@@ -773,27 +773,6 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
     return "\n".join(lines) + "\n"
 
 
-# a figure quoted in the docs from this report: <!--f:KEY:STAT-->VALUE<!--/f--> (STAT: median, p5, p95)
-QUOTED = re.compile(r"<!--f:([\w.-]+):(median|p5|p95)-->(-?[0-9.]+)<!--/f-->")
-
-
-def quoted_pages() -> list[Path]:
-    """The pages that may quote the report: README.md and docs/*.md."""
-    return [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-
-
-def requote(text: str, report: dict[str, dict[str, float]]) -> str:
-    """`text` with every figure it quotes from the report set to the report's value, to the
-    decimals it was quoted with."""
-
-    def figure(m: re.Match) -> str:
-        key, stat, old = m.groups()
-        digits = len(old.partition(".")[2])
-        return f"<!--f:{key}:{stat}-->{report[key][stat]:.{digits}f}<!--/f-->"
-
-    return QUOTED.sub(figure, text)
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=20, help="seeds 1..N of every row (default 20)")
@@ -844,11 +823,8 @@ def main(argv: list[str] | None = None) -> int:
         for o in outcomes
     }  # fmt: skip
     Path(args.json).write_text(json.dumps(report, indent=1, sort_keys=True) + "\n", encoding="utf-8")
-    if args.json == str(ROOT / "docs" / "fidelity.json"):  # the committed report: the docs quote it
-        for page in quoted_pages():
-            text = page.read_text(encoding="utf-8")
-            if requote(text, report) != text:
-                page.write_text(requote(text, report), encoding="utf-8")
+    if Path(args.json) == quoted.REPORTS["f"]:  # the committed report: the docs quote it
+        quoted.requote_pages("f", report)
     failed = sum(not o.ok for o in outcomes)
     print(f"{len(outcomes) - failed} of {len(outcomes)} rows within their band in {seconds:.0f} s; wrote {args.out}")
     return 1 if args.strict and failed else 0

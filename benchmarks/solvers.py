@@ -1,7 +1,7 @@
 """Solver speed: ToTal scalar (pure Python) and NumPy-vectorized, plus the other solvers.
 
-Run: python benchmarks/solvers.py
-Targets (issue 5): scalar ToTal under 3 us per call; vectorized at least 10 million solves per
+Run: python benchmarks/solvers.py (`make bench` runs it and writes its figures to docs/performance.json)
+Targets (docs/performance.md): scalar ToTal under 3 us per call; vectorized at least 10 million solves per
 second (the published C implementation took 163 ns per call on an i7 920).
 """
 

@@ -241,6 +241,35 @@ def test_task_progress_follows_the_result(replays, browser, tmp_path):
         assert f"{count} / {total} reached" in row, (t, row)
 
 
+def test_score_so_far_counts_only_what_was_earned(replays, browser, tmp_path):
+    """At t = 0 nothing is earned: no task points, no time bonus, and of the localization points
+    at most the first tick's share (Q is the mean over the match's ticks, docs/rules.md). The
+    score so far grows with the ticks and, at the last frame, is the referee's final score."""
+    rep = load(replays["race"])
+    html = tmp_path / "race.html"
+    write_viewer(replays["race"], html)
+    page = _open(browser, html)
+    page.evaluate("window.viewer.seek(0)")
+    scores = page.locator("#now tr").all_inner_texts()[1:]
+    for slot, robot in enumerate(rep.result["robots"]):
+        assert robot["localization"]["quality"] > 0, "every robot of the test match reports estimates"
+        first_tick = 25.0 / robot["localization"]["ticks"]  # the most one tick's estimate earns
+        times = (0, 1, 3, rep.duration)
+        at = [page.evaluate(f"window.viewer.scenes.standings.score({slot}, {t})") for t in times]
+        assert 0 <= at[0] <= first_tick, at
+        assert scores[slot].split("\t")[-1] == f"{at[0]:.1f}"
+        earned = [
+            a + sum(f["penalty"] for f in rep.fouls if f["r"] == slot and f["time"] <= t) for a, t in zip(at, times)
+        ]
+        assert earned[0] < earned[1] < earned[2] <= earned[3], earned  # points accrue as the match goes
+        assert at[3] == pytest.approx(robot["score"]["total"], abs=0.01), (at, robot["score"])
+        hud = page.evaluate("window.viewer.scenes.at(0).hud")[1 + slot]
+        assert f"score {at[0]:6.1f}   0/" in hud, hud  # no waypoint yet
+    # the same in the HUD pygame draws (referee/media/standings.py)
+    assert page.evaluate("window.viewer.scenes.at(0).hud") == list(Scenes(rep).at(0).hud)
+    assert page.errors == [] and page.remote == []
+
+
 @pytest.mark.parametrize("key, t", [("race", 3.0), ("vannoy", 2.0), ("simi", 1.5), ("osentoski", 1.5)])
 def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key, t):
     """The canvas at time t and arena/draw.py's frame of the same size and time, compared.

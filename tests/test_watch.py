@@ -69,10 +69,11 @@ def test_help_shows_at_start_hides_by_itself_and_toggles(replay):
     assert viewer.key(pygame.K_q) is False
 
 
-def direct_standing(rep, result, slot, t, control_period):
+def direct_standing(rep, result, slot, t):
     """Score so far, waypoints reached and latest estimate error, from the records (docs/rules.md):
     each tick's quality 1 / (1 + hypot(d / position_scale, h / heading_scale)), 0 without an
-    estimate, averaged over the ticks so far, with the scales of the level the replay carries."""
+    estimate, summed over the ticks so far and divided by the match's ticks (Q is the mean over
+    them all), with the scales of the level the replay carries."""
     rules = yaml.safe_load(rep.header["level"]["text"])["rules"]
     position_scale, heading_scale = rules["position_scale"], math.radians(rules["heading_scale"])
     robot = result["robots"][slot]
@@ -88,7 +89,7 @@ def direct_standing(rep, result, slot, t, control_period):
                     abs(math.atan2(math.sin(e["e"][2] - h), math.cos(e["e"][2] - h))),
                 )
             )
-    ticks = math.floor(t / control_period + 1e-9) + 1
+    ticks = robot["localization"]["ticks"]  # Q is the mean over the match's ticks: each tick earns its share
     quality = sum(1 / (1 + math.hypot(d / position_scale, h / heading_scale)) for d, h in errors) / ticks
     score = (
         100 * reached / robot["task"]["total"]
@@ -112,7 +113,7 @@ def test_hud_shows_each_robots_standing_so_far(replay):
         hud = scenes.at(t).hud
         assert len(hud) == 1 + 4 and f"t = {t:6.2f} s" in hud[0]
         for slot in range(4):
-            score, reached, (pos, hdg) = direct_standing(rep, result, slot, t, 0.2)
+            score, reached, (pos, hdg) = direct_standing(rep, result, slot, t)
             line = hud[1 + slot]
             got = re.search(r"score\s+(-?[\d.]+)\s+(\d+)/(\d+) waypoints\s+err (\d+) mm (\d+) deg", line)
             assert got, line

@@ -3,9 +3,13 @@ far, score so far, and the error of its latest estimate. Grows with a live repla
 
 Progress is tracked on the recorded frames from the first frame's true starts (the referee
 tracks every physics step, so a waypoint grazed between two frames may show a frame late);
-the score so far applies docs/rules.md to what happened up to that moment: task points,
-localization points of the estimates so far (the ticks so far as the denominator), the time
-bonus scaled by that quality, and the penalties of the fouls so far.
+the score so far is the points docs/rules.md gives for what happened up to that moment: task
+points, the localization points the ticks so far have earned, the time bonus once finished,
+minus the penalties of the fouls so far. Q is the mean tick quality over the match's ticks,
+so each tick earns its quality over the match's tick count: the result's count once the
+replay has one, before that (live play) the ticks to the time limit, the most a match can
+have. Nothing is counted before it is earned: at t = 0 a robot has earned at most one tick's
+share, the score so far never exceeds the final score, and at the end it is the final score.
 """
 
 from __future__ import annotations
@@ -54,13 +58,18 @@ class Standings:
         localize = self.level.task.kind == "localize"
         progress = self.progress[slot][self._frame(t)]
         points = 0.0 if localize else TASK_POINTS * progress
-        ticks = math.floor(t / self.level.control_period + 1e-9) + 1
-        quality = min(1.0, self.errors[slot].quality_sum_until(t) / ticks)
+        quality = min(1.0, self.errors[slot].quality_sum_until(t) / self.match_ticks(slot))
         finished = self.finished[slot]
         if finished is not None and finished <= t and not localize:
             points += TIME_POINTS * (1.0 - finished / self.level.time_limit) * quality
         points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality
         return points - sum(f["penalty"] for f in self.rep.fouls if f["r"] == slot and f["time"] <= t)
+
+    def match_ticks(self, slot: int) -> int:
+        """The control ticks Q is the mean over: the result's, else the time limit's."""
+        result = self.rep.result
+        localization = result["robots"][slot].get("localization") if result else None
+        return localization["ticks"] if localization else self.level.control_ticks
 
     def error_now(self, slot: int, t: float) -> tuple[float, float] | None:
         """Position (m) and heading (rad) error of the latest estimate reported by time `t`."""

@@ -56,6 +56,7 @@ def level_geometry(level: Level) -> dict:
         "heading_scale": level.rules.heading_scale,
         "time_limit": level.time_limit,
         "control_period": level.control_period,
+        "control_ticks": level.control_ticks,
     }
 
 

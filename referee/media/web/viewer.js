@@ -134,13 +134,17 @@
 
     frame(t) { return frameAt(this.rep, t); }
 
-    score(slot, t) {  // the score had the match ended at t (docs/rules.md)
+    matchTicks(slot) {  // the control ticks Q is the mean over: the result's, else the time limit's
+      const result = this.rep.result, localization = result ? result.robots[slot].localization : null;
+      return localization ? localization.ticks : this.geom.control_ticks;
+    }
+
+    score(slot, t) {  // the points earned by t (docs/rules.md; referee/media/standings.py)
       const localize = this.geom.task.kind === "localize", P = this.P;
       const progress = this.progress[slot][this.frame(t)];
       let points = localize ? 0 : P.task * progress;
       const track = this.errors[slot], n = bisectRight(track.times, t + 1e-9);
-      const ticks = Math.floor(t / this.geom.control_period + 1e-9) + 1;
-      const quality = Math.min(1, (n ? track.qualities[n - 1] : 0) / ticks);
+      const quality = Math.min(1, (n ? track.qualities[n - 1] : 0) / this.matchTicks(slot));
       const finished = this.finished[slot];
       if (finished !== null && finished <= t && !localize) points += P.time * (1 - finished / this.geom.time_limit) * quality;
       points += (localize ? P.localize_task : P.localization) * quality;
