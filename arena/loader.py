@@ -12,6 +12,7 @@ import hashlib
 import math
 import re
 from collections.abc import Callable
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -154,6 +155,34 @@ class _Ctx:
         return LevelError(self.source, line, key, message)
 
 
+@dataclass
+class Shape:
+    """What the loader read at one mapping of a level file (`arena/level_schema.py` makes the
+    published JSON Schema from these): its allowed keys, each key's converters, how many times
+    the mapping was read and each key required, and the keys that held lists."""
+
+    keys: set[str] = dataclasses.field(default_factory=set)
+    converters: dict[str, list[Callable[..., Any]]] = dataclasses.field(default_factory=dict)  # in first use order
+    reads: int = 0
+    required: dict[str, int] = dataclasses.field(default_factory=dict)
+    lists: set[str] = dataclasses.field(default_factory=set)
+
+    def note(self, key: str, conv: Callable[..., Any]) -> None:
+        """`key` was read through `conv` (a key may take several forms: a number or a point)."""
+        known = self.converters.setdefault(key, [])
+        if conv not in known:
+            known.append(conv)
+
+    def always_required(self) -> list[str]:
+        """The keys every reading of this mapping required (none that some reading let go)."""
+        return sorted(k for k, n in self.required.items() if n == self.reads)
+
+
+# while set (by the schema's maker), each mapping read records its Shape under its path, list
+# positions written `[]`: the schema comes from the very calls that read levels
+SHAPES: ContextVar[dict[str, Shape] | None] = ContextVar("SHAPES", default=None)
+
+
 class _Map:
     """A YAML mapping being read: typed getters, and unknown keys rejected up front."""
 
@@ -161,6 +190,11 @@ class _Map:
         if not isinstance(node.value, _MapValue):
             raise ctx.fail(node.line, path or "(top)", f"expected a mapping, got {_kind(node.value)}")
         self.ctx, self.node, self.path = ctx, node, path
+        shapes = SHAPES.get()
+        self.shape = None if shapes is None else shapes.setdefault(re.sub(r"\[\d+\]", "[]", path), Shape())
+        if self.shape is not None:
+            self.shape.keys.update(allowed)
+            self.shape.reads += 1
         for key in node.value.items:
             if key not in allowed:
                 raise ctx.fail(
@@ -179,15 +213,22 @@ class _Map:
         return self.node.value.items[key]
 
     def req(self, key: str, conv: Callable[[_Ctx, _Node, str], Any]) -> Any:
+        if self.shape is not None:
+            self.shape.note(key, conv)
+            self.shape.required[key] = self.shape.required.get(key, 0) + 1
         return conv(self.ctx, self.raw(key), self.key(key))
 
     def opt(self, key: str, conv: Callable[[_Ctx, _Node, str], Any], default: Any) -> Any:
-        return self.req(key, conv) if self.has(key) else default
+        if self.shape is not None:
+            self.shape.note(key, conv)
+        return conv(self.ctx, self.raw(key), self.key(key)) if self.has(key) else default
 
     def sub(self, key: str, allowed: tuple[str, ...]) -> _Map:
         return _Map(self.ctx, self.raw(key), self.key(key), allowed)
 
     def seq(self, key: str) -> list[tuple[_Node, str]]:
+        if self.shape is not None:
+            self.shape.lists.add(key)
         node = self.raw(key)
         if not isinstance(node.value, list):
             raise self.ctx.fail(node.line, self.key(key), f"expected a list, got {_kind(node.value)}")
