@@ -368,6 +368,9 @@ class ProcessBot:
             return ("memory" if self.loaded else "load"), (
                 f"in {where}: {how}" if self.loaded else f"team {self.team.label}: {how}"
             )
+        problem = getattr(self._process(), "problem", "")  # a forked slot's monitor that failed
+        if problem:  # before the team's code ran: the sandbox's, said as it was
+            return "load", f"team {self.team.label}: its sandbox could not be made: {problem}"
         if not self.loaded:
             return "load", f"team {self.team.label}: {how} while its code was loading"
         return "crash", f"in {where}: {how}"

@@ -7,8 +7,9 @@ import os
 import pytest
 
 from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, team_file
-from referee.match.loop import run_match
+from referee.match.loop import brief_for, run_match
 from referee.sandbox import forkserver
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="the template serves a root referee only")
@@ -94,3 +95,16 @@ class Reader(Controller):
     )
     assert result["robots"][0]["faults"] == []
     assert [f["message"] for f in result["robots"][1]["faults"]] == ["in step: RuntimeError: contained: saw nothing"]
+
+
+def test_a_slot_the_template_cannot_make_is_a_load_fault_saying_why():
+    # the monitor fails before the team's code runs (here: a CPU the machine has not): the
+    # fault says so, in the monitor's words, not "exited while its code was loading"
+    bot = ProcessBot(resolve(HONEST), FAST, slot=0)
+    bot.cpus = [4095]
+    try:
+        fault = bot.setup(brief_for(short_race(), 0))
+    finally:
+        bot.close()
+    assert fault is not None and fault.kind == "load", fault
+    assert "its sandbox could not be made: OSError" in fault.message and "Invalid argument" in fault.message
