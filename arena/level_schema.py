@@ -12,15 +12,13 @@ docs/schema/ (tests/test_level_schema.py holds the committed file to this).
 from __future__ import annotations
 
 import json
-import sys
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import yaml
 
 import levels
-from arena import loader
+from arena import loader, schema_file
 
 SCHEMA_FILE = "level.schema.json"
 NUMBER: dict[str, Any] = {"type": "number"}
@@ -176,7 +174,7 @@ def _object(path: str, found: dict[str, loader.Shape]) -> dict[str, Any]:
 def schema() -> dict[str, Any]:
     """The level format's JSON Schema (draft 2020-12)."""
     return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$schema": schema_file.DRAFT,
         "title": "LaserArena level",
         "description": "A level file (docs/levels.md); `laserarena check FILE` checks what a schema cannot.",
         **_object("", shapes()),
@@ -185,18 +183,8 @@ def schema() -> dict[str, Any]:
 
 def schema_text() -> str:
     """The schema as the file in docs/schema/ holds it."""
-    return json.dumps(schema(), indent=2, sort_keys=True) + "\n"
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Write the schema to docs/schema/ (or the folder given)."""
-    args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0]) if args else Path("docs") / "schema"
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / SCHEMA_FILE).write_text(schema_text(), encoding="utf-8")
-    print(f"wrote {folder / SCHEMA_FILE}")
-    return 0
+    return schema_file.text(schema())
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(schema_file.main(SCHEMA_FILE, schema()))

@@ -11,13 +11,12 @@ docs/schema/; docs/results.md describes each field.
 
 from __future__ import annotations
 
-import json
-import sys
-from pathlib import Path
 from typing import Any
 
 import msgspec
 from msgspec import UNSET, UnsetType
+
+from arena import schema_file
 
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 3  # 3: localization quality; the time bonus scaled by it
 SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"
@@ -184,7 +183,7 @@ def schema() -> dict[str, Any]:
     """The JSON Schema of a result, generated from the records."""
     generated: dict[str, Any] = msgspec.json.schema(MatchResult)
     return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$schema": schema_file.DRAFT,
         "title": f"{RESULT_FORMAT} version {RESULT_VERSION}",
         **generated,
     }
@@ -192,18 +191,8 @@ def schema() -> dict[str, Any]:
 
 def schema_text() -> str:
     """The schema as the file in docs/schema/ holds it."""
-    return json.dumps(schema(), indent=2, sort_keys=True) + "\n"
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Write the schema to docs/schema/ (or the folder given)."""
-    args = sys.argv[1:] if argv is None else argv
-    folder = Path(args[0]) if args else Path("docs") / "schema"
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / SCHEMA_FILE).write_text(schema_text(), encoding="utf-8")
-    print(f"wrote {folder / SCHEMA_FILE}")
-    return 0
+    return schema_file.text(schema())
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(schema_file.main(SCHEMA_FILE, schema()))
