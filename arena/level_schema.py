@@ -160,7 +160,10 @@ def _object(path: str, found: dict[str, loader.Shape]) -> dict[str, Any]:
         elif f"{child}[]" in found:
             properties[key] = {"type": "array", "items": _object(f"{child}[]", found)}
         elif key in shape.converters:
-            forms = [_fragment(conv) for conv in shape.converters[key]]
+            forms: list[dict[str, Any]] = []
+            for conv in shape.converters[key]:  # a `_choice` is a new function at each call: one form each
+                if _fragment(conv) not in forms:
+                    forms.append(_fragment(conv))
             properties[key] = forms[0] if len(forms) == 1 else {"anyOf": forms}
         elif (path, key) in BY_HAND:
             properties[key] = BY_HAND[path, key]

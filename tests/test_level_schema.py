@@ -27,6 +27,18 @@ def test_the_committed_schema_is_the_generated_one():
     assert SCHEMA.read_text() == schema_text(), "run: python -m arena.level_schema docs/schema"
 
 
+def test_a_key_of_several_forms_lists_each_once():
+    def forms(node):
+        if isinstance(node, dict):
+            if "anyOf" in node:
+                texts = [json.dumps(f, sort_keys=True) for f in node["anyOf"]]
+                assert len(set(texts)) == len(texts) > 1, texts
+            for value in node.values():
+                forms(value)
+
+    forms(json.loads(SCHEMA.read_text()))
+
+
 def test_every_key_the_loader_allows_has_its_values_known():
     # a key read by hand, without a converter, must be described in BY_HAND
     assert set(_unexplored(shapes())) <= set(BY_HAND)
