@@ -21,6 +21,7 @@ from referee.terminal import safe
 RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
 # packages whose code, when an exception is raised inside it, loses it or turns it into another
 FRAGILE = ("numba", "llvmlite", "pymunk")
+LOSES_EXCEPTIONS = ("__del__", "__set_name__")  # functions whose raised exception Python drops or wraps
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
@@ -41,13 +42,14 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 def _fragile(frame: FrameType | None) -> bool:
     """Whether `frame` runs where a raised exception does not reach the command: in a finalizer
     (`__del__`: Python drops what it raises; numba's LLVM objects run them while compiled code
-    loads), in numba's or llvmlite's machinery (their C code turns it into a SystemError), or
-    in a pymunk callback from chipmunk (cffi prints it and goes on)."""
+    loads), in a class body's `__set_name__` (Python turns it into a RuntimeError: numpy's
+    `finfo` while numpy loads), in numba's or llvmlite's machinery (their C code turns it into
+    a SystemError), or in a pymunk callback from chipmunk (cffi prints it and goes on)."""
     files = [getattr(sys.modules.get(name), "__file__", None) for name in FRAGILE]
     folders = tuple(os.path.dirname(file) + os.sep for file in files if file)
     while frame is not None:
         code = frame.f_code
-        if code.co_name == "__del__" or code.co_filename.startswith(folders):
+        if code.co_name in LOSES_EXCEPTIONS or code.co_filename.startswith(folders):
             return True
         frame = frame.f_back
     return False
