@@ -94,8 +94,10 @@ def play(job: MatchJob) -> Played:
         try:
             _playing = True
             result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
-        except _Stopped:  # the match has stopped its controllers on the way out; leave now, not
-            os._exit(143)  # back into the pool's loop (which would wait for work for ever)
+        except BaseException:
+            if _stopping:  # the match has stopped its controllers on the way out (a clean-up cut
+                os._exit(143)  # short may raise something else); leave now, not back into the
+            raise  # pool's loop, which would wait for work for ever
         finally:
             _playing = False
         data = replay.read_bytes()
@@ -146,6 +148,7 @@ def run_jobs(
 
 PR_SET_PDEATHSIG = 1
 _playing = False  # a pool worker is inside a match
+_stopping = False  # told to stop: whatever the match's clean-up raises, the worker leaves
 
 
 class _Stopped(BaseException):
@@ -153,7 +156,9 @@ class _Stopped(BaseException):
 
 
 def _worker_stop(signum: int, frame: object) -> None:
+    global _stopping
     if _playing:
+        _stopping = True
         raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
     os._exit(143)
 

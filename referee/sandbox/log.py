@@ -84,13 +84,18 @@ class TeamLog:
             return self.tail.decode("utf-8", "replace")
 
     def close(self) -> None:
-        """Stop reading (the controller has ended), close the pipe and the log file."""
+        """Stop reading (the controller has ended), close the pipe and the log file. Safe to
+        call again, after a close that an interrupt cut short."""
         with self._lock:
             self._ended = True
-        os.write(self._woken, b"x")
+        if self._woken >= 0:
+            os.write(self._woken, b"x")
         self._thread.join(JOIN_TIME)
         self.handed_over()
-        for fd in (self._read, self._wake, self._woken):
-            os.close(fd)
+        for name in ("_read", "_wake", "_woken"):
+            fd = getattr(self, name)
+            if fd >= 0:
+                setattr(self, name, -1)
+                os.close(fd)
         if self.file is not None:
             self.file.close()
