@@ -1,5 +1,6 @@
-"""Angles of the world, in one place: a full turn, and wrapping to (-pi, pi] for one angle or
-an array of them (the team side has its own, in robots.toolkit.angles)."""
+"""Angles of the world, in one place: a full turn, a heading wrapped to (-pi, pi] (`wrap`) and
+an array of angle differences wrapped to [-pi, pi] (`wrap_angle`, whose sign alone is read).
+The team side has its own, in robots.toolkit.angles."""
 
 from __future__ import annotations
 
@@ -12,11 +13,13 @@ _TURN, _PER_TURN = np.array(TWO_PI), np.array(1.0 / TWO_PI)  # 0-d: NumPy takes 
 
 
 def wrap(angle: float) -> float:
-    """One angle wrapped to [-pi, pi]."""
-    return math.remainder(angle, TWO_PI)
+    """One angle wrapped to (-pi, pi]: a heading of -pi is reported as pi, so that two equal
+    headings always read alike (`math.remainder` alone gives -pi for 3 pi or -pi)."""
+    r = math.remainder(angle, TWO_PI)
+    return math.pi if r == -math.pi else r
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi] (rounding is much cheaper than a float modulo; `rint` is
+    """Angle differences wrapped to [-pi, pi], both ends possible (rounding is much cheaper than a float modulo; `rint` is
     what `np.round` calls for whole numbers, without its Python wrapper)."""
     return a - _TURN * np.rint(a * _PER_TURN)

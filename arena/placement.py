@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from arena.angles import wrap
 from arena.floor import Grid
 from arena.level import Level, Placement, Pose
 from arena.level_checks import body_problem, footprint
@@ -35,7 +36,7 @@ def draw(nominal: Pose, placement: Placement, rng: np.random.Generator) -> Pose:
         r, a = placement.position * math.sqrt(u[0]), 2 * math.pi * u[1]
         x, y = nominal.x + r * math.cos(a), nominal.y + r * math.sin(a)
     heading = nominal.heading + placement.heading * (2 * u[2] - 1)
-    return Pose(x, y, math.remainder(heading, 2 * math.pi))
+    return Pose(x, y, wrap(heading))
 
 
 def _fits(level: Level, slot: int, pose: Pose, others: list[list[tuple[float, float]]]) -> bool:

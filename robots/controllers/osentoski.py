@@ -16,6 +16,7 @@ import math
 from statistics import median
 
 from robots.api import Brief, Command, Controller, Observation
+from robots.toolkit.angles import wrap
 from robots.toolkit.solvers import law_of_sines
 
 SPLIT = 2  # samples (6 deg, one beam width): closer peaks are one light's, split by the servo's shake
@@ -94,7 +95,7 @@ class Osentoski(Controller):
         x = mx + fix.x * ux - fix.y * uy
         y = my + fix.x * uy + fix.y * ux
         heading = math.atan2(my - y, mx - x) - mid
-        return x, y, math.remainder(heading, 2 * math.pi)
+        return x, y, wrap(heading)
 
     def step(self, observation: Observation) -> Command:
         if observation.trial != self.trial:  # carried to a new pose: its fixes start again
@@ -113,5 +114,5 @@ class Osentoski(Controller):
         self.fixes.append(fix)
         h0 = self.fixes[0][2]
         xs, ys = [f[0] for f in self.fixes], [f[1] for f in self.fixes]
-        hs = [math.remainder(f[2] - h0, 2 * math.pi) for f in self.fixes]
-        self.pose = (median(xs), median(ys), math.remainder(h0 + median(hs), 2 * math.pi))
+        hs = [wrap(f[2] - h0) for f in self.fixes]
+        self.pose = (median(xs), median(ys), wrap(h0 + median(hs)))

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 from robots.controllers.stop_and_scan import StopAndScan
-from robots.toolkit.angles import Revolution
+from robots.toolkit.angles import Revolution, wrap
 from robots.toolkit.motion import Pose
 from robots.toolkit.solvers import wall
 
@@ -62,4 +62,4 @@ class Ubersetzig(StopAndScan):
         (ax, ay), (ox, oy) = self.axes, self.origin
         x, y = ox + fix.x * ax[0] + fix.y * ay[0], oy + fix.x * ax[1] + fix.y * ay[1]
         heading = math.atan2(oy - y, ox - x) - t_mid  # the middle target's world bearing
-        return x, y, math.remainder(heading, 2 * math.pi)
+        return x, y, wrap(heading)

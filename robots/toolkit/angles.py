@@ -16,8 +16,9 @@ TWO_PI = 2 * math.pi
 
 
 def wrap(angle: float) -> float:
-    """An angle wrapped to [-pi, pi]."""
-    return math.remainder(angle, TWO_PI)
+    """An angle wrapped to (-pi, pi] (-pi reads as pi, so equal headings read alike)."""
+    r = math.remainder(angle, TWO_PI)
+    return math.pi if r == -math.pi else r
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,8 @@ from typing import NamedTuple
 import numpy as np
 
 from robots.toolkit import dense
+from robots.toolkit.angles import wrap
 
-TWO_PI = 2 * math.pi
 COT_CLAMP = 1e8  # cot of an angle this close to 0 or pi stands for infinity (ToTal's advice)
 DEGENERATE = 1e-12
 MAX_STEP = 0.25  # m: Newton's largest position step
@@ -243,7 +243,7 @@ def newton(
             d2 = dx * dx + dy * dy
             if d2 < 1e-18:
                 return failed("robot at a beacon")
-            minus_f.append(-math.remainder(math.atan2(dy, dx) - h - b, TWO_PI))
+            minus_f.append(-wrap(math.atan2(dy, dx) - h - b))
             jx.append(dy / d2)
             jy.append(-dx / d2)
         sx, sy, sh = solve(jx + jy + jh, minus_f)
@@ -255,7 +255,7 @@ def newton(
             cond = dense.condition(np.array([jx, jy, jh]).T)
             if not math.isfinite(cond) or cond > 1e10:
                 return failed("robot on the circle through the beacons")
-            return Fix(float(x), float(y), math.remainder(float(h), TWO_PI), float(1.0 / cond))
+            return Fix(float(x), float(y), wrap(float(h)), float(1.0 / cond))
     return failed("Newton-Raphson did not converge")
 
 
