@@ -1,16 +1,20 @@
-"""Find a team's Controller class from a spec: `ref:NAME`, `FILE.py[:Class]`, `module:Class`,
-or the NAME of an installed package's controller (entry point group `laserarena.controllers`).
+"""A team spec's grammar (`TeamSpec`, `parse_spec`) and finding the Controller class it names:
+`ref:NAME`, `FILE.py[:Class]`, `DIR[:Class]` (a package folder), `module:Class`, or the NAME of
+an installed package's controller (entry point group `laserarena.controllers`).
 
-Lives in `robots` because the controller's own process uses it to load the team's code.
+Lives in `robots` because the controller's own process uses it to load the team's code; the
+referee reads specs with the same grammar (referee.sandbox.teams) without running any of it.
 """
 
 from __future__ import annotations
 
+import enum
 import hashlib
 import importlib
 import importlib.util
 import inspect
 import sys
+from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 from types import ModuleType
@@ -25,22 +29,66 @@ class LoadError(Exception):
     """A team spec that cannot be loaded; the text is one line naming the spec."""
 
 
+class SpecKind(enum.Enum):
+    """What a spec's form names: it is told by its text alone."""
+
+    REFERENCE = "ref:NAME"
+    FILE = "FILE.py[:Class]"
+    NAME = "DIR or NAME"  # a package folder if one is there, else an installed controller
+    MODULE = "DIR:Class or module:Class"  # a package folder if one is there, else a module
+
+
+@dataclass(frozen=True)
+class TeamSpec:
+    """A team spec read once: `target` is the reference name, the `.py` file, the folder or
+    entry-point name, or the folder or module before `:`; `cls` the class named after `:`
+    ("" for none); `tail` what follows the file or folder as written (":Class", ":" or "")."""
+
+    text: str
+    kind: SpecKind
+    target: str
+    cls: str = ""
+    tail: str = ""
+
+
+def parse_spec(text: str) -> TeamSpec:
+    """The form of a team spec, read from its text alone (nothing is looked up)."""
+    if text.startswith("ref:"):
+        return TeamSpec(text, SpecKind.REFERENCE, text[4:])
+    if text.endswith(".py") or ".py:" in text:
+        path, _, rest = text.partition(".py")
+        return TeamSpec(text, SpecKind.FILE, path + ".py", rest.removeprefix(":"), rest)
+    if ":" not in text:
+        return TeamSpec(text, SpecKind.NAME, text)
+    target, _, cls = text.rpartition(":")
+    return TeamSpec(text, SpecKind.MODULE, target, cls, ":" + cls)
+
+
 def is_file_spec(spec: str) -> bool:
-    return spec.endswith(".py") or ".py:" in spec
+    """Whether a spec names one `.py` file."""
+    return parse_spec(spec).kind is SpecKind.FILE
+
+
+def unknown_reference(name: str) -> str | None:
+    """The problem with `ref:NAME` when there is no such reference controller."""
+    if name in REFERENCE:
+        return None
+    return f"no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})"
 
 
 def load_class(spec: str) -> type[Controller]:
     """The Controller class a spec names; raise LoadError (one line) if it cannot be loaded."""
-    if spec.startswith("ref:"):
-        name = spec[4:]
-        if name not in REFERENCE:
-            raise LoadError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
-        return _from_module(REFERENCE[name], spec)
-    if is_file_spec(spec):
-        path, _, cls = spec.partition(".py")
-        return _from_file(Path(path + ".py"), cls.lstrip(":"), spec)
-    if ":" not in spec:
-        return _from_module(entry_point(spec), spec)
+    parsed = parse_spec(spec)
+    match parsed.kind:
+        case SpecKind.REFERENCE:
+            problem = unknown_reference(parsed.target)
+            if problem:
+                raise LoadError(f"team {spec}: {problem}")
+            return _from_module(REFERENCE[parsed.target], spec)
+        case SpecKind.FILE:
+            return _from_file(Path(parsed.target), parsed.cls, spec)
+        case SpecKind.NAME:
+            return _from_module(entry_point(spec), spec)
     return _from_module(spec, spec)
 
 

@@ -13,7 +13,7 @@ from helpers import MINI_LEVEL, run_cli
 
 from arena.loader import LevelError
 from arena.loader import load_level as load_bare
-from referee.sandbox.teams import controller_problem
+from referee.sandbox.teams import controller_problem, resolve
 
 # as the referee loads a level: its default controller checked too
 load_level = partial(load_bare, controllers=controller_problem)
@@ -160,6 +160,18 @@ def test_default_controller_file_is_found_beside_the_level_without_running_it(tm
     level = load_level(write(tmp_path, with_controller("bots/team.py:Bot")))
     assert level.default_controller == f"{team}:Bot"
     assert not (tmp_path / "bots" / "team.py.ran").exists()
+
+
+@pytest.mark.parametrize("tail", ["", ":Bot"])
+def test_default_package_folder_is_found_beside_the_level_without_running_it(tmp_path, monkeypatch, tail):
+    pkg = tmp_path / "bots" / "fleet"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text(HOSTILE)
+    monkeypatch.chdir("/")  # relative to the level file, as a FILE.py controller is
+    level = load_level(write(tmp_path, with_controller("bots/fleet" + tail)))
+    assert level.default_controller == f"{pkg}{tail}"
+    assert resolve(level.default_controller).files == (("fleet/__init__.py", HOSTILE.encode()),)
+    assert not list(pkg.glob("*.ran"))
 
 
 def test_default_module_is_found_without_running_its_package(tmp_path, monkeypatch):

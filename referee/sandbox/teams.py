@@ -24,7 +24,7 @@ from referee.sandbox.team_files import read_file, read_package
 from referee.terminal import safe
 from robots.api import Controller
 from robots.controllers import REFERENCE
-from robots.loading import LoadError, entry_point, is_file_spec
+from robots.loading import LoadError, SpecKind, TeamSpec, entry_point, parse_spec, unknown_reference
 
 BUILT_IN = "robots"  # present in every controller process: nothing of it is shipped
 RESERVED = frozenset(sys.stdlib_module_names) | {BUILT_IN, "sitecustomize", "usercustomize"}
@@ -157,44 +157,52 @@ def _unlinked(path: Path) -> Path:
     return path.parent.resolve() / path.name
 
 
-def _package_dir(spec: str) -> tuple[Path, str] | None:
-    """(folder, class) when `spec` is DIR or DIR:Class and DIR holds a Python package."""
-    folder, _, cls = spec.rpartition(":") if ":" in spec else (spec, "", "")
-    path = Path(folder)
+def _package_dir(spec: TeamSpec, base: Path | None = None) -> Path | None:
+    """The folder of a `DIR` or `DIR:Class` spec when it holds a Python package (relative to
+    `base` if given and the folder is relative), else None."""
+    if spec.kind not in (SpecKind.NAME, SpecKind.MODULE):
+        return None
+    path = Path(spec.target)
+    if base is not None and not path.is_absolute():
+        path = base / path
     if not path.is_dir() or not (path / "__init__.py").is_file():
         return None
     name = _unlinked(path).name
     if not name.isidentifier():
-        raise TeamError(f"team {spec}: the package folder's name {name!r} is not a Python name")
-    return path, cls
+        raise TeamError(f"team {spec.text}: the package folder's name {name!r} is not a Python name")
+    return path
 
 
-def controller_problem(spec: str, base: Path) -> tuple[str, str | None]:
-    """Whether a level's default controller spec names something that exists, found WITHOUT running any
-    of its code: `ref:NAME` among the reference controllers, `FILE.py[:Class]` relative to the
-    level's folder `base`, `module:Class` by the import system's finders, or an installed
-    controller's entry point. Returns (the spec with a file made absolute, problem or None)."""
-    if spec.startswith("ref:"):
-        if spec[4:] not in REFERENCE:
-            return spec, f"no reference controller {spec[4:]!r} (have: {', '.join(sorted(REFERENCE))})"
-        return spec, None
-    if is_file_spec(spec):
-        path, _, rest = spec.partition(".py")
-        file = Path(path + ".py")
+def controller_problem(text: str, base: Path) -> tuple[str, str | None]:
+    """Whether a level's default controller spec names something that exists, found WITHOUT
+    running any of its code: `ref:NAME` among the reference controllers, `FILE.py[:Class]` or
+    `DIR[:Class]` relative to the level's folder `base`, `module:Class` by the import system's
+    finders, or an installed controller's entry point. Returns (the spec with a file or folder
+    made absolute, problem or None)."""
+    spec = parse_spec(text)
+    if spec.kind is SpecKind.REFERENCE:
+        return text, unknown_reference(spec.target)
+    if spec.kind is SpecKind.FILE:
+        file = Path(spec.target)
         file = file if file.is_absolute() else base / file
         if not file.is_file():
-            return spec, f"no such file {file} (a controller file is found relative to the level file)"
-        return str(file.resolve()) + rest, None
-    if ":" not in spec:
+            return text, f"no such file {file} (a controller file is found relative to the level file)"
+        return str(file.resolve()) + spec.tail, None
+    try:
+        folder = _package_dir(spec, base)
+    except TeamError as e:
+        return text, str(e).removeprefix(f"team {text}: ")
+    if folder is not None:
+        return str(folder.resolve()) + spec.tail, None
+    if spec.kind is SpecKind.NAME:
         try:
-            entry_point(spec)
+            entry_point(text)
         except LoadError as e:
-            return spec, str(e).removeprefix(f"team {spec}: ")
-        return spec, None
-    module, _, cls = spec.partition(":")
-    if not cls or not module or not _importable(module):
-        return spec, f"no importable module {module!r}" if module else "expected module:Class"
-    return spec, None
+            return text, str(e).removeprefix(f"team {text}: ")
+        return text, None
+    if not spec.cls or not spec.target or not _importable(spec.target):
+        return text, f"no importable module {spec.target!r}" if spec.target else "expected module:Class"
+    return text, None
 
 
 def _importable(name: str) -> bool:
@@ -205,30 +213,29 @@ def _importable(name: str) -> bool:
         return False
 
 
-def resolve(spec: str) -> Team:
+def resolve(text: str) -> Team:
     """Turn a team spec into a `Team`; raise `TeamError` (one line) if its code cannot be found.
     Whether the code loads is learnt only in the controller's process."""
-    if spec.startswith("ref:"):
-        name = spec[4:]
-        if name not in REFERENCE:
-            raise TeamError(f"team {spec}: no reference controller {name!r} (have: {', '.join(sorted(REFERENCE))})")
-        return _module_team(spec, spec, REFERENCE[name])
-    if is_file_spec(spec):
-        path, _, rest = spec.partition(".py")
-        source = Path(path + ".py")
+    spec = parse_spec(text)
+    if spec.kind is SpecKind.REFERENCE:
+        problem = unknown_reference(spec.target)
+        if problem:
+            raise TeamError(f"team {text}: {problem}")
+        return _module_team(text, text, REFERENCE[spec.target])
+    if spec.kind is SpecKind.FILE:
+        source = Path(spec.target)
         if not source.is_file() and not source.is_symlink():
-            raise TeamError(f"team {spec}: no such file {source}")
+            raise TeamError(f"team {text}: no such file {source}")
         placed = _unlinked(source)
-        return _file_team(label_of(placed) + rest, str(placed) + rest, placed, source.name + rest)
-    package = _package_dir(spec)
-    if package:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
-        folder, cls = package
+        return _file_team(label_of(placed) + spec.tail, str(placed) + spec.tail, placed, source.name + spec.tail)
+    folder = _package_dir(spec)
+    if folder:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
         root = _unlinked(folder)
-        label = label_of(root) + (f":{cls}" if cls else "")
-        return _package_team(label, f"{root}:{cls}", root, f"{root.name}:{cls}")
-    if ":" not in spec:
-        return _module_team(spec, spec, _entry_point(spec))
-    return _module_team(spec, spec, spec)
+        label = label_of(root) + (f":{spec.cls}" if spec.cls else "")
+        return _package_team(label, f"{root}:{spec.cls}", root, f"{root.name}:{spec.cls}")
+    if spec.kind is SpecKind.NAME:
+        return _module_team(text, text, _entry_point(text))
+    return _module_team(text, text, text)
 
 
 def code_hash(spec: str) -> str:
