@@ -1,5 +1,6 @@
 """Angles of the world, in one place: a full turn, and wrapping to (-pi, pi] for one angle or
-an array of them (the team side has its own, in robots.toolkit.angles)."""
+an array of them (inside a compiled loop: arena.compiled.wrap_angle, the same arithmetic; the
+team side has its own, in robots.toolkit.angles)."""
 
 from __future__ import annotations
 

@@ -515,27 +515,6 @@ def pulses(
 
 
 @compiled()
-def lean(
-    x: np.ndarray, y: np.ndarray, k: np.ndarray, phase: np.ndarray, amp: float, height: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """arena.floor.Tilt.lean: how far a point `height` (per robot) above each base at (x, y)
-    (steps, robots) stands off it, on a floor of height amp sum cos(k . p + phase). A kernel of
-    its own, not the twin of a NumPy expression: its sines are the C library's."""
-    steps, robots = x.shape
-    dx, dy = np.empty((steps, robots)), np.empty((steps, robots))
-    for i in range(steps):
-        for j in range(robots):
-            gx, gy = 0.0, 0.0
-            for w in range(k.shape[0]):
-                s = -amp * math.sin(k[w, 0] * x[i, j] + k[w, 1] * y[i, j] + phase[w])
-                gx += s * k[w, 0]
-                gy += s * k[w, 1]
-            scale = height[j] / math.sqrt(1.0 + gx * gx + gy * gy)
-            dx[i, j], dy[i, j] = -gx * scale, -gy * scale
-    return dx, dy
-
-
-@compiled()
 def incidence(bearing: np.ndarray, facing: np.ndarray, beacon: np.ndarray) -> np.ndarray:
     """arena.detectors.incidence: |wrap(bearing + pi - facing of the beacon)| per crossing."""
     n = bearing.shape[0]
