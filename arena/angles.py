@@ -1,6 +1,7 @@
 """Angles of the world, in one place: a full turn, a heading wrapped to (-pi, pi] (`wrap`) and
-an array of angle differences wrapped to [-pi, pi] (`wrap_angle`, whose sign alone is read).
-The team side has its own, in robots.toolkit.angles."""
+an array of angle differences wrapped to [-pi, pi] (`wrap_angle`, whose sign alone is read;
+inside a compiled loop: arena.compiled.wrap_angle, the same arithmetic). The team side has its
+own, in robots.toolkit.angles."""
 
 from __future__ import annotations
 

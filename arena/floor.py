@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from arena import kernels
+from arena.compiled import compiled
 from arena.level import Floor, Pose, Tiles
 from arena.rng import RandomTree
 
@@ -38,8 +38,29 @@ class Tilt:
         """Where a point `height` (per robot) above the base at (x, y) (steps, robots) stands off
         it, horizontally: a body set square on the floor stands along the floor's normal
         (-gx, -gy, 1) / |.|, (gx, gy) its slope there, so its top leans downhill by height x
-        sin(tilt) (compiled: arena.kernels.lean)."""
-        return kernels.lean(x, y, self.k, self.phase, self.amp, height)
+        sin(tilt) (compiled: `lean`)."""
+        return lean(x, y, self.k, self.phase, self.amp, height)
+
+
+@compiled()
+def lean(
+    x: np.ndarray, y: np.ndarray, k: np.ndarray, phase: np.ndarray, amp: float, height: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """`Tilt.lean`: how far a point `height` (per robot) above each base at (x, y)
+    (steps, robots) stands off it, on a floor of height amp sum cos(k . p + phase). A kernel of
+    its own, not the twin of a NumPy expression: its sines are the C library's."""
+    steps, robots = x.shape
+    dx, dy = np.empty((steps, robots)), np.empty((steps, robots))
+    for i in range(steps):
+        for j in range(robots):
+            gx, gy = 0.0, 0.0
+            for w in range(k.shape[0]):
+                s = -amp * math.sin(k[w, 0] * x[i, j] + k[w, 1] * y[i, j] + phase[w])
+                gx += s * k[w, 0]
+                gy += s * k[w, 1]
+            scale = height[j] / math.sqrt(1.0 + gx * gx + gy * gy)
+            dx[i, j], dy[i, j] = -gx * scale, -gy * scale
+    return dx, dy
 
 
 def tilt(floor: Floor, tree: RandomTree, ideal: bool) -> Tilt | None:

@@ -27,7 +27,7 @@ from llvmlite import ir
 from numba import carray, types
 from numba.extending import intrinsic
 
-from arena.kernels import compiled
+from arena.compiled import compiled
 
 # a drive's numbers in its row of the `drives` table
 WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)

@@ -24,7 +24,7 @@ from referee.sandbox.teams import resolve
 
 AREAS = [
     ("physics", ("pymunk", "_chipmunk", "arena/world.py", "arena/drive.py", "arena/chipmunk.py", "arena/stepping.py")),
-    ("sensing", ("arena/sensing.py", "arena/laser.py", "arena/detectors.py", "arena/angles.py")),
+    ("sensing", ("arena/sensing/", "arena/angles.py")),
     ("referee checks", ("referee/match/tasks.py", "referee/match/rules.py", "referee/match/estimates.py")),
     ("replay", ("referee/records/replay.py", "gzip", "zlib", "json/", "TextIOWrapper")),
     ("exchange", ("referee/sandbox/", "robots/protocol.py", "select", "subprocess", "msgspec", "BufferedWriter")),

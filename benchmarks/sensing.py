@@ -14,7 +14,7 @@ import time
 import levels
 from arena.loader import load_level
 from arena.rng import RandomTree
-from arena.sensing import Sensing
+from arena.sensing.pipeline import Sensing
 from arena.world import World
 
 

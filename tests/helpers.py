@@ -20,7 +20,7 @@ import levels
 from arena.level import Level
 from arena.loader import parse_level
 from arena.rng import RandomTree
-from arena.sensing import Sensing
+from arena.sensing.pipeline import Sensing
 from arena.world import World
 from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, StartInfo, TaskInfo
 

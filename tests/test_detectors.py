@@ -154,7 +154,7 @@ def test_sensor_array_counter_clock_and_delivery_window():
     # 50 ns ticks; each batch's events fall after the previous flush and by this one, though
     # the optics make pulses fire before the crossings that find them
     from arena.rng import RandomTree
-    from arena.sensing import Sensing
+    from arena.sensing.pipeline import Sensing
 
     w = make(
         "sensor_array",
@@ -191,7 +191,7 @@ def test_flash_detector_encoder_angles_and_incidence_limit():
         bearing, _ = bearing_from(w, 0, e.beacon)
         assert e.angle == pytest.approx((bearing - h0) % (2 * math.pi), abs=1e-9)
     # the incidence limit falls with range: 44 deg at 1 ft, 27 deg at 7 ft (linear between)
-    from arena.detectors import flash_limit
+    from arena.sensing.flash_detector import flash_limit
 
     p = w.level.beacons.params
     limits = flash_limit(np.array([0.3048, 4 * 0.3048, 7 * 0.3048]), p)
@@ -311,7 +311,7 @@ def test_sensor_array_false_pulses_are_poisson_and_labelled():
 
 def test_flash_limit_is_held_outside_the_measured_ranges():
     # "44 deg at 1 foot away and 27 deg at 7 feet away": linear between, never extrapolated
-    from arena.detectors import flash_limit
+    from arena.sensing.flash_detector import flash_limit
 
     w = make("flash_detector", omega=60.0)
     ft = 0.3048
@@ -397,7 +397,7 @@ def test_bac_array_fire_chance_by_hand():
     """The closed-form chance that a sweep fires, at three points computed by hand from the
     levels' figures: w = 1.5 mm + 0.99484 mrad x r, a = 3 mm cos i, S = gain 2^-(i / 65 deg)^2,
     need = max(eta w / min(w, a), 2 eta w / (w + a - v 11.1 us)), P = Phi(ln(S / need) / 0.05)."""
-    from arena import detectors as det
+    from arena.sensing import sensor_array as det
 
     p = dict(level_params("bac-static"))
     chance = lambda r, v, i, gain: float(  # noqa: E731
@@ -419,7 +419,7 @@ def test_bac_array_fire_chance_by_hand():
 def test_bac_array_fires_as_often_as_the_closed_form_says():
     """At Table 1's point array C fires on the share of sweeps `array_fire_chance` gives (its
     light drawn per sweep, log-normal), within binomial error; the other three on every sweep."""
-    from arena import detectors as det
+    from arena.sensing import sensor_array as det
 
     p = level_params("bac-static")
     events = bac_still_at(1.16, 0.53, 60.0, seed=4)
@@ -554,7 +554,7 @@ def test_simi_detects_every_sweep_well_inside_its_limits():
 
 def simi_crossing(distance: float, incidence: float, omega: float) -> tuple:
     """One synthetic crossing of Simi's detector 2 (facing +x) at this range and incidence."""
-    from arena.laser import Crossings
+    from arena.sensing.crossings import Crossings
 
     one = lambda v: np.array([v], dtype=float)  # noqa: E731
     c = Crossings(
@@ -567,27 +567,27 @@ def simi_crossing(distance: float, incidence: float, omega: float) -> tuple:
 def test_simi_fires_half_the_sweeps_at_the_measured_limit():
     """At the seed's stated limit the median sweep's light is exactly the comparator's
     threshold, so with log-normal light a sweep fires with probability one half."""
-    from arena import detectors as det
+    from arena.sensing import hardware, optics
 
     p = dict(simi_at(57.46535, -58.11582).beacons.params)
     for feet, limit_deg in ((1, 44), (4, 35.5), (7, 27)):
         r = feet * 12 * IN
         c, facing = simi_crossing(r, math.radians(limit_deg), 188.5)
-        inc = det.incidence(c, facing)
-        sens = det.sensitivity("flash_detector", c, inc, p)
+        inc = optics.incidence(c, facing)
+        sens = hardware.sensitivity("flash_detector", c, inc, p)
         w = p["beam_diameter"] + p["beam_divergence"] * r
         share = min(1.0, p["aperture"] * math.cos(math.radians(limit_deg)) / w)
         assert sens[0] * share == pytest.approx(p["trigger_fraction"], rel=1e-9), feet
         # a light factor just above 1 fires, just below does not: P(fire) = P(f >= 1) = 1/2
-        assert det.optics(c, inc, sens * 1.001, p)[0][0]
-        assert not det.optics(c, inc, sens * 0.999, p)[0][0]
+        assert optics.optics(c, inc, sens * 1.001, p)[0][0]
+        assert not optics.optics(c, inc, sens * 0.999, p)[0][0]
 
 
 def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
     """The comparator fires at an overlap eta w / (S f): a sweep with light factor f fires
     eta w (1 / f - 1) / (S v) after the median sweep, by hand; the same light scatter thus
     spreads the trigger more where S (the margin over the threshold) is smaller."""
-    from arena import detectors as det
+    from arena.sensing import hardware, optics
 
     p = dict(simi_at(57.46535, -58.11582).beacons.params)
     omega, r = 188.5, 4 * 12 * IN
@@ -596,9 +596,9 @@ def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
     spreads = []
     for inc_deg in (0.0, 20.0, 30.0):
         c, facing = simi_crossing(r, math.radians(inc_deg), omega)
-        inc = det.incidence(c, facing)
-        s = det.sensitivity("flash_detector", c, inc, p)
-        t = {f: det.optics(c, inc, s * f, p)[1][0] for f in (1.0, 1.2, 1.5)}
+        inc = optics.incidence(c, facing)
+        s = hardware.sensitivity("flash_detector", c, inc, p)
+        t = {f: optics.optics(c, inc, s * f, p)[1][0] for f in (1.0, 1.2, 1.5)}
         for f in (1.2, 1.5):
             assert t[1.0] - t[f] == pytest.approx(p["trigger_fraction"] * w * (1 - 1 / f) / (s[0] * v), rel=1e-9)
         spreads.append(t[1.0] - t[1.5])
@@ -606,7 +606,7 @@ def test_simi_trigger_delay_grows_as_the_light_margin_shrinks():
 
 
 def test_merge_measurements_matches_the_rule_pulse_by_pulse():
-    from arena import kernels
+    from arena.sensing.sensor_array import merge
 
     # the compiled merge against the
     # rule read one pulse at a time: SplitMix64 of (key, robot, revolution) in plain integers,
@@ -627,7 +627,7 @@ def test_merge_measurements_matches_the_rule_pulse_by_pulse():
         turn = g.integers(-3, 40, n).astype(float)
         times = np.sort(g.uniform(0, 1, n))
         key, rate = int(g.integers(1 << 62)), float(g.choice([0.05, 0.5]))
-        got, _ = kernels.merge(times, robot, beacon, turn, 4, rate, np.uint64(key))
+        got, _ = merge(times, robot, beacon, turn, 4, rate, np.uint64(key))
         want = times.copy()
         for i in range(1, n):
             h = splitmix(key, int(robot[i]), int(turn[i]))

@@ -11,9 +11,9 @@ import sys
 import numpy as np
 import pytest
 
-from arena import kernels
 from arena.angles import wrap_angle
-from arena.laser import Trajectory, find_crossings
+from arena.sensing import occlusion, optics, sensor_array, spin
+from arena.sensing.crossings import Trajectory, find_crossings
 
 # ---- the NumPy expressions, as they were ----------------------------------------------------
 
@@ -159,7 +159,7 @@ def test_occlusion_is_numpys_bit_for_bit():
         silhouette = g.uniform(0.02, 0.2, traj.x.shape[1])
         args = (c.robot, c.step, c.s, c.x, c.y, bx[c.beacon], by[c.beacon])
         want = numpy_blocked(traj, *args, 0.02, reach, silhouette)
-        got = kernels.blocked(
+        got = occlusion.blocked(
             c.x, c.y, bx[c.beacon], by[c.beacon], 0.02, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
         )
         for w, v in zip(want, got):
@@ -179,12 +179,12 @@ def test_merged_pulses_are_numpys_bit_for_bit():
             beacon = g.integers(0, 4, m)
             key = int(g.integers(1 << 62))
             want = numpy_merge(times, robot, beacon, turn, 4, rate, key)
-            got, _ = kernels.merge(times, robot, beacon, turn, 4, rate, np.uint64(key))
+            got, _ = sensor_array.merge(times, robot, beacon, turn, 4, rate, np.uint64(key))
             assert got.tobytes() == want.tobytes()
 
 
 def numpy_phases(omega, dt, phi0, heading, noise, wobble, spin):
-    """Sensing._phases as NumPy wrote it (closed-form first-order filters, accumulated sums)."""
+    """Spin.phases as NumPy wrote it (closed-form first-order filters, accumulated sums)."""
 
     def first_order(a, y0, drive):
         powers = a ** np.arange(1, len(drive) + 1)[:, None]
@@ -227,7 +227,7 @@ def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
         w0, lag0, body0 = g.normal(0, 0.003, n), g.normal(0, 0.5, n), g.normal(0, 1, n)
         noise = g.normal(size=(steps, n)) if wobbles else None
         want = numpy_phases(omega, dt, phi0, heading, noise, (wa, w0), (sa, coupling, lag0, body0))
-        got = kernels.laser_phases(
+        got = spin.laser_phases(
             omega,
             dt,
             phi0,
@@ -249,7 +249,7 @@ def test_optics_and_incidence_are_numpys_bit_for_bit():
     sens = np.where(g.random(n) < 0.1, 0.0, g.uniform(0, 1, n))
     hardware = (0.0015, 1e-3, 0.003, 0.5, 1.11e-5)
     inc = np.abs(wrap_angle(bearing + np.pi - facing[beacon]))
-    assert kernels.incidence(bearing, facing, beacon).tobytes() == inc.tobytes()
+    assert optics.incidences(bearing, facing, beacon).tobytes() == inc.tobytes()
     d, div, ap, eta, rise = hardware
     with np.errstate(divide="ignore", invalid="ignore"):
         v = np.abs(rate) * distance
@@ -261,7 +261,7 @@ def test_optics_and_incidence_are_numpys_bit_for_bit():
         dwell = (across - 2.0 * x) / v
         offset = np.where(v > 0, (x - across / 2.0) / v, 0.0)
     ok = (peak >= eta * (1 - 1e-9)) & lit & (dwell >= rise)
-    got_ok, got_offset = kernels.optics(distance, rate, np.cos(inc), sens, hardware)
+    got_ok, got_offset = optics.sweep_optics(distance, rate, np.cos(inc), sens, hardware)
     assert got_ok.tobytes() == ok.tobytes() and 0 < ok.sum() < n
     assert got_offset.tobytes() == np.where(ok, offset, 0.0).tobytes()
 
@@ -272,8 +272,8 @@ def test_kernels_compile_where_no_cache_folder_can_be_written():
         "import numba.core.caching as c\n"
         "c.CacheImpl._locator_classes = []\n"  # what numba finds for such a user: no place to cache
         "import numpy as np\n"
-        "from arena import kernels\n"
-        "ex, ey = kernels.toward(np.ones((8, 2)), np.array([0.5, 0.25]))\n"
+        "from arena.sensing import crossings\n"
+        "ex, ey = crossings.toward(np.ones((8, 2)), np.array([0.5, 0.25]))\n"
         "print(ex.tolist(), ey.tolist())\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

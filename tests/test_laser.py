@@ -161,7 +161,7 @@ def test_the_laser_lags_when_the_body_starts_turning():
 
 
 def test_first_order_closed_form_matches_the_recursion():
-    from arena import kernels
+    from arena.sensing.spin import first_order
 
     rng = np.random.default_rng(3)
     y0, drive = np.array([0.4, -1.0]), rng.normal(size=(50, 2))
@@ -171,9 +171,9 @@ def test_first_order_closed_form_matches_the_recursion():
             y = a * y + drive[k]
             want.append(y.copy())
         powers = np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, 51)[:, None], drive.shape))
-        assert np.allclose(kernels.first_order(a, powers, y0, drive), want, rtol=1e-9, atol=1e-12)
+        assert np.allclose(first_order(a, powers, y0, drive), want, rtol=1e-9, atol=1e-12)
         # without powers (a time constant so short that a^k underflows), the recursion itself
-        assert np.array_equal(kernels.first_order(a, np.zeros((0, 0)), y0, drive), np.array(want))
+        assert np.array_equal(first_order(a, np.zeros((0, 0)), y0, drive), np.array(want))
 
 
 @pytest.mark.parametrize("omega", [20.0, -81.0])

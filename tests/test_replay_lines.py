@@ -107,7 +107,7 @@ def test_numbers_at_once_are_each_number_as_json_writes_it(values):
 
 def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
     """Frames and one robot's detections, written a control period at a time."""
-    from arena.detectors import Detection
+    from arena.sensing.events import Detection
 
     path = tmp_path / "r.replay"
     w = writer(path)

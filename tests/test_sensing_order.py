@@ -6,7 +6,8 @@ import pytest
 from helpers import exact_starts, variant
 
 from arena.rng import RandomTree
-from arena.sensing import Sensing, event_order
+from arena.sensing.events import event_order
+from arena.sensing.pipeline import Sensing
 from arena.world import World
 
 CASES = {

@@ -9,7 +9,7 @@ import pytest
 from helpers import ARRAYS, table_brief, variant
 
 from arena.rng import RandomTree
-from arena.sensing import Sensing
+from arena.sensing.pipeline import Sensing
 from arena.world import World
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
@@ -53,10 +53,10 @@ def test_a_sweep_while_another_laser_holds_the_line_low_makes_no_flank():
     # one comparator per array: the first sweep pulls the line low for its 50 us, the second
     # lands inside that and is lost; a sweep of another array, or after the line let go, is kept
     _, sensing = shared_sensing()
-    kept = sensing._flanks([1.0, 1.00002, 1.00001, 1.0001], [0, 0, 1, 0], [5e-5] * 4)
+    kept = sensing.lines.flanks([1.0, 1.00002, 1.00001, 1.0001], [0, 0, 1, 0], [5e-5] * 4)
     assert kept == [True, False, True, True]
     # the line is still low at the start of the next batch
-    assert sensing._flanks([1.00013, 1.0002], [0, 0], [5e-5, 5e-5]) == [False, True]
+    assert sensing.lines.flanks([1.00013, 1.0002], [0, 0], [5e-5, 5e-5]) == [False, True]
 
 
 def test_every_controller_hears_every_pulse_and_the_same_false_pulses():

@@ -18,10 +18,10 @@ from pathlib import Path
 
 from arena import floor, placement
 from arena.angles import wrap
-from arena.detectors import Detection
 from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
-from arena.sensing import Sensing
+from arena.sensing.events import Detection
+from arena.sensing.pipeline import Sensing
 from arena.world import Watch, World
 from referee.errors import LaserArenaWarning
 from referee.match.drawings import DrawingBudget, Warnings

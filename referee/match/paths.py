@@ -1,6 +1,6 @@
 """The ideal path of a waypoint task as a polyline, and where a robot's positions stand to it:
 the next point within a target's radius, and the distance to the path (cross-track error).
-The loops are compiled (arena.kernels.compiled) with NumPy's bits: the distances are scores.
+The loops are compiled (arena.compiled) with NumPy's bits: the distances are scores.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from arena.kernels import compiled
+from arena.compiled import compiled
 
 
 class Polyline:

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pygame
 
-from arena import detectors as det
 from arena.draw import BACKGROUND, BEACON
-from arena.laser import Crossings
 from arena.level import Level
+from arena.sensing import hardware as det
+from arena.sensing.crossings import Crossings
 from arena.world import CAT_OBSTACLE, World
 
 NO_FIX = (90, 90, 96)

@@ -322,7 +322,7 @@ class ReplayWriter:
             self._flush()
 
     def events(self, slot: int, detections: Sequence[Any]) -> None:
-        """The `e` records of robot `slot`'s detections (arena.detectors.Detection), at once."""
+        """The `e` records of robot `slot`'s detections (arena.sensing.events.Detection), at once."""
         try:
             self._lines += _event_lines(slot, detections)
         except (TypeError, ValueError):  # a value the encoder must write: one record at a time

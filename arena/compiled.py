@@ -1,0 +1,76 @@
+"""Compiling a loop with NumPy's own numbers (decision 0025): numba's `njit` with NumPy's
+division rule, and the scalar forms of the NumPy calls the compiled loops of the arena share
+(maximum, minimum, sign, and arena.angles' wrap), in one place.
+
+- arithmetic is written in NumPy's order of operations; numba neither reorders nor fuses it
+  (no fast-math, no fused multiply-add), and `hypot`, `sqrt` and `rint` are the C library's,
+  as NumPy's are;
+- `arctan2`, `arcsin`, `exp2` and `cos` stay NumPy calls between kernels: NumPy takes its own
+  SIMD code for most of them on most processors, which differs from the C library's in the
+  last bit;
+- `np.maximum` and `np.minimum` keep their NaN rule (`maximum`, `minimum`), and a division by
+  zero gives an infinity or a NaN, as in NumPy (`error_model="numpy"`), not an exception.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Literal, TypeVar, cast
+
+import numpy as np
+from numba import njit
+
+from arena.angles import TWO_PI
+
+F = TypeVar("F", bound=Callable)
+
+PER_TURN = 1.0 / TWO_PI
+
+
+def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
+    """numba's `njit` with NumPy's division rule, cached beside the function's module (or in
+    the user's cache folder); where neither can be written, compiled afresh in each process instead."""
+
+    def wrap(f: F) -> F:
+        try:
+            return cast(F, njit(cache=True, error_model="numpy", inline=inline)(f))
+        except RuntimeError:  # "cannot cache function ...: no locator available"
+            return cast(F, njit(error_model="numpy", inline=inline)(f))
+
+    return wrap
+
+
+@compiled(inline="always")
+def maximum(a: float, b: float) -> float:
+    """np.maximum of two floats: a NaN in either wins."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@compiled(inline="always")
+def minimum(a: float, b: float) -> float:
+    """np.minimum of two floats: a NaN in either wins."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
+
+
+@compiled(inline="always")
+def sign(v: float) -> float:
+    """np.sign of one float: 0, -0 and NaN are their own sign."""
+    if v > 0.0:
+        return 1.0
+    if v < 0.0:
+        return -1.0
+    return v
+
+
+@compiled(inline="always")
+def wrap_angle(a: float) -> float:
+    """arena.angles.wrap_angle of one angle, to [-pi, pi], in a compiled loop."""
+    return a - TWO_PI * np.rint(a * PER_TURN)

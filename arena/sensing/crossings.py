@@ -1,0 +1,321 @@
+"""Exact beam-beacon crossing times inside physics steps, by root finding.
+
+Within one physics step pymunk moves every body at constant velocity (its integrator
+updates velocity, then position), so the robot's pose is exactly linear in time across the
+step; the laser's phase relative to the body is linear too (its rate is constant within a
+step). The beam's world angle is heading(t) + phase(t). A crossing with beacon b is a time
+at which that angle equals the bearing from the laser to b (mod 2 pi). We never step the
+beam: for each step we compare the wrapped difference beam - bearing at the step's ends,
+and where it passes zero we solve for the instant by Newton's method with the analytic
+derivative. All of it runs over steps x robots x beacons at once, in compiled loops (here,
+with NumPy's bits: arena.compiled) with NumPy's arc functions between them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from arena.angles import TWO_PI
+from arena.compiled import compiled, maximum, minimum, sign, wrap_angle
+
+NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
+_NO_SHIFT, _NO_OFFSET = np.zeros((0, 0, 0)), np.zeros(0)  # for beams on their spin axis
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Robot states at the ends of consecutive physics steps: `t` (n+1,), the rest (n+1, R).
+    `h` is the unwrapped body heading, `phi` the unwrapped laser phase relative to the body."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    h: np.ndarray
+    phi: np.ndarray
+
+    def pose_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Interpolated (x, y, h) at fraction `s` of step `step` for robots `robot`."""
+
+        return (*self.position_at(step, s, robot), _lerp(self.h, step, s, robot))
+
+    def position_at(self, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Interpolated (x, y) at fraction `s` of step `step` for robots `robot`."""
+        return _lerp(self.x, step, s, robot), _lerp(self.y, step, s, robot)
+
+
+def _lerp(a: np.ndarray, step: np.ndarray, s: np.ndarray, robot: np.ndarray) -> np.ndarray:
+    a0 = a[step, robot]
+    return a0 + s * (a[step + 1, robot] - a0)
+
+
+@dataclass(frozen=True)
+class Crossings:
+    """Every beam-beacon crossing found in a trajectory, as parallel arrays."""
+
+    robot: np.ndarray
+    beacon: np.ndarray
+    step: np.ndarray
+    s: np.ndarray  # fraction of the step
+    t: np.ndarray  # time (s)
+    x: np.ndarray  # laser position at the crossing (m)
+    y: np.ndarray
+    phi: np.ndarray  # laser phase relative to the body (unwrapped, rad)
+    beam_rate: np.ndarray  # world angular rate of the beam (rad/s)
+    distance: np.ndarray  # laser to beacon centre (m)
+    bearing: np.ndarray  # world bearing from the laser to the beacon (rad)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def take(self, mask: np.ndarray) -> Crossings:
+        """The crossings where `mask` is true (a boolean array or indices)."""
+        return Crossings(*(getattr(self, f)[mask] for f in self.__dataclass_fields__))
+
+
+def find_crossings(
+    traj: Trajectory, bx: np.ndarray, by: np.ndarray, beam_offset: np.ndarray | None = None
+) -> Crossings:
+    """All times at which a robot's beam points exactly at a beacon at (bx, by), in (step,
+    robot, beacon) order.
+
+    `beam_offset` (per robot, m, + = to the beam's left) is how far the beam line passes beside
+    the spin axis: it meets a beacon at range r when its direction is the bearing minus
+    asin(offset / r), which shifts every crossing by an amount that depends on the range.
+
+    d = wrap(beam - bearing) changes by well under pi per step (the loader bounds the beam's
+    turn per step), so the beam passes a beacon in step k exactly when d changes sign there
+    without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
+    hit at a step boundary is counted once, whichever way the beam turns. The loops are
+    compiled (below); the arc functions are NumPy's."""
+    dx, dy = laser_to_beacons(traj.x, traj.y, bx, by)
+    a = traj.h + traj.phi  # beam world angle (n+1, R)
+    off = beam_offset if beam_offset is not None and beam_offset.any() else None
+    shift = _NO_SHIFT if off is None else np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
+    step, robot, beacon, s, rows, ex, ey = first_guesses(
+        a, np.arctan2(dy, dx), shift, off is not None, dx, dy, traj.x, traj.y, traj.phi
+    )
+    o = _NO_OFFSET if off is None else off[robot]
+    for _ in range(NEWTON_ITERATIONS):
+        turn = _NO_OFFSET if off is None else np.arcsin(offset_ratio(ex, ey, o))
+        s, ex, ey = newton_step(rows, s, ex, ey, np.arctan2(ey, ex), o, turn, off is not None)
+    ex, ey, t, x, y, phi, beam_rate, distance = crossing_values(rows, s, ex, ey, step, beacon, traj.t, bx, by)
+    return Crossings(
+        robot=robot,
+        beacon=beacon,
+        step=step,
+        s=s,
+        t=t,
+        x=x,
+        y=y,
+        phi=phi,
+        beam_rate=beam_rate,
+        distance=distance,
+        bearing=np.arctan2(ey, ex),
+    )
+
+
+def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Times at which each robot's laser phase passes a multiple of 2 pi / per_turn.
+
+    `direction` is each robot's spin sign (the phase is monotonic). Returns (robot, step, s,
+    t, mark), sorted by time, with `mark` the signed count of such angles since phase 0;
+    `per_turn=1` gives the index switch (relative angle 0). Several marks may fall in one
+    step. Phase is linear within a step, so these times are exact."""
+    v = traj.phi * (direction * per_turn / TWO_PI)  # increasing
+    whole = np.floor(v)
+    count = (whole[1:] - whole[:-1]).astype(np.int64)
+    step, robot = np.nonzero(count)
+    n = count[step, robot]
+    step, robot = np.repeat(step, n), np.repeat(robot, n)
+    offset = np.arange(len(step)) - np.repeat(np.cumsum(n) - n, n)
+    mark = whole[step, robot] + 1 + offset
+    v0, v1 = v[step, robot], v[step + 1, robot]
+    s = (mark - v0) / (v1 - v0)
+    t = traj.t[step] + s * (traj.t[step + 1] - traj.t[step])
+    order = np.lexsort((robot, t))
+    signed = (mark * direction[robot]).astype(np.int64)
+    return robot[order], step[order], s[order], t[order], signed[order]
+
+
+# ---- the compiled loops ----------------------------------------------------------------------
+
+
+@compiled()
+def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The vectors from every laser (steps, robots) to every beacon: (steps, robots, beacons)."""
+    k, r, b = x.shape[0], x.shape[1], bx.shape[0]
+    dx, dy = np.empty((k, r, b)), np.empty((k, r, b))
+    for i in range(k):
+        for j in range(r):
+            for m in range(b):
+                dx[i, j, m] = bx[m] - x[i, j]
+                dy[i, j, m] = by[m] - y[i, j]
+    return dx, dy
+
+
+@compiled()
+def passes(
+    beam: np.ndarray, bearing: np.ndarray, shift: np.ndarray, shifted: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where the wrapped angle d = beam - bearing (+ shift) passes zero within a step, in
+    (step, robot, beacon) order: those indices and the linear first guess of the instant."""
+    k, r, b = bearing.shape
+    d = np.empty((k, r, b))
+    for i in range(k):
+        for j in range(r):
+            for m in range(b):
+                v = beam[i, j] - bearing[i, j, m]
+                if shifted:
+                    v = v + shift[i, j, m]
+                d[i, j, m] = wrap_angle(v)
+    count = 0
+    for pass_ in range(2):  # count, then fill
+        if pass_ == 1:
+            step, robot, beacon = np.empty(count, np.int64), np.empty(count, np.int64), np.empty(count, np.int64)
+            s = np.empty(count)
+            count = 0
+        for i in range(k - 1):
+            for j in range(r):
+                for m in range(b):
+                    d0, d1 = d[i, j, m], d[i + 1, j, m]
+                    s0, s1 = sign(d0), sign(d1)
+                    if s0 != 0.0 and s1 != s0 and abs(d1 - d0) < math.pi:
+                        if pass_ == 1:
+                            step[count], robot[count], beacon[count] = i, j, m
+                            s[count] = d0 / (d0 - d1)
+                        count += 1
+    return step, robot, beacon, s
+
+
+@compiled()
+def crossing_steps(
+    step: np.ndarray,
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    beam: np.ndarray,
+    phi: np.ndarray,
+) -> np.ndarray:
+    """Per crossing, its step as rows: laser -> beacon at the start (ex0, ey0), the changes over
+    the step (ddx, ddy, d beam, d phase) and the start's beam angle and phase: (8, crossings)."""
+    out = np.empty((8, step.shape[0]))
+    for n in range(step.shape[0]):
+        i, j, m = step[n], robot[n], beacon[n]
+        out[0, n], out[1, n] = dx[i, j, m], dy[i, j, m]
+        out[2, n] = x[i + 1, j] - x[i, j]
+        out[3, n] = y[i + 1, j] - y[i, j]
+        out[4, n] = beam[i + 1, j] - beam[i, j]
+        out[5, n] = phi[i + 1, j] - phi[i, j]
+        out[6, n], out[7, n] = beam[i, j], phi[i, j]
+    return out
+
+
+@compiled()
+def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Laser -> beacon at fraction `s` of each crossing's step."""
+    n = s.shape[0]
+    ex, ey = np.empty(n), np.empty(n)
+    for c in range(n):
+        ex[c] = rows[0, c] - s[c] * rows[2, c]
+        ey[c] = rows[1, c] - s[c] * rows[3, c]
+    return ex, ey
+
+
+@compiled()
+def first_guesses(
+    beam: np.ndarray,
+    bearing: np.ndarray,
+    shift: np.ndarray,
+    shifted: bool,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    phi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`passes`, then `crossing_steps` and `toward` of the first guesses, in one call: (step,
+    robot, beacon, s, rows, ex, ey)."""
+    step, robot, beacon, s = passes(beam, bearing, shift, shifted)
+    rows = crossing_steps(step, robot, beacon, dx, dy, x, y, beam, phi)
+    ex, ey = toward(rows, s)
+    return step, robot, beacon, s, rows, ex, ey
+
+
+@compiled()
+def offset_ratio(ex: np.ndarray, ey: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """clip(offset / range, -1, 1): what the beam's offset asks of arcsin."""
+    n = ex.shape[0]
+    out = np.empty(n)
+    for c in range(n):
+        r = math.sqrt(ex[c] * ex[c] + ey[c] * ey[c])
+        out[c] = minimum(maximum(offset[c] / r, -1.0), 1.0)
+    return out
+
+
+@compiled()
+def newton_step(
+    rows: np.ndarray,
+    s: np.ndarray,
+    ex: np.ndarray,
+    ey: np.ndarray,
+    bearing: np.ndarray,
+    offset: np.ndarray,
+    shift: np.ndarray,
+    shifted: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One Newton step of each crossing's instant, clipped to its step (`find_crossings`), and
+    laser -> beacon there (`toward`)."""
+    n = s.shape[0]
+    out = np.empty(n)
+    for c in range(n):
+        ddx, ddy, da = rows[2, c], rows[3, c], rows[4, c]
+        r2 = ex[c] * ex[c] + ey[c] * ey[c]
+        f = rows[6, c] + s[c] * da - bearing[c]
+        slope = da - (ey[c] * ddx - ex[c] * ddy) / r2
+        if shifted:
+            o = offset[c]
+            r = math.sqrt(r2)
+            f = f + shift[c]
+            slope = slope + o * (ex[c] * ddx + ey[c] * ddy) / (r2 * r * math.sqrt(maximum(1.0 - o * o / r2, 1e-12)))
+        f = wrap_angle(f)
+        out[c] = minimum(maximum(s[c] - f / (1.0 if slope == 0.0 else slope), 0.0), 1.0)
+    ex, ey = toward(rows, out)
+    return out, ex, ey
+
+
+@compiled()
+def crossing_values(
+    rows: np.ndarray,
+    s: np.ndarray,
+    exs: np.ndarray,
+    eys: np.ndarray,
+    step: np.ndarray,
+    beacon: np.ndarray,
+    t: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+) -> np.ndarray:
+    """Per crossing at its instant (laser -> beacon there: exs, eys): laser -> beacon, time,
+    laser (x, y), phase, the beam's world rate and the range, as rows (8, crossings)."""
+    n = s.shape[0]
+    out = np.empty((8, n))
+    for c in range(n):
+        ddx, ddy = rows[2, c], rows[3, c]
+        ex, ey = exs[c], eys[c]
+        d2 = ex * ex + ey * ey
+        k = step[c]
+        dt = t[k + 1] - t[k]
+        out[0, c], out[1, c] = ex, ey
+        out[2, c] = t[k] + s[c] * dt
+        out[3, c] = bx[beacon[c]] - ex
+        out[4, c] = by[beacon[c]] - ey
+        out[5, c] = rows[7, c] + s[c] * rows[5, c]
+        out[6, c] = (rows[4, c] - (ey * ddx - ex * ddy) / d2) / dt
+        out[7, c] = math.sqrt(d2)
+    return out

@@ -1,0 +1,298 @@
+"""Sensing: every robot's spinning laser against the level's beacons, batch by batch.
+
+`record()` runs after every physics step and only stores each robot's pose (cheap);
+`flush()` runs at each control tick and turns the steps since the last tick into
+detections, all at once, calling each stage once, in order: the laser phases (spin: speed
+wobble and the lag when the body turns), where each beam leaves (the body's position, leaned
+by the floor's tilt: arena.floor), exact crossing times (crossings), occlusion by other robots'
+silhouettes at the crossing instant and by obstacles (occlusion), the gates and optics of the
+level's beacon kind (hardware, optics), the pulses as the hardware reads them (pulses), then
+false pulses, index clicks, and the lights' scans (light).
+"""
+
+from __future__ import annotations
+
+from itertools import chain, repeat
+from types import SimpleNamespace
+from typing import cast
+
+import numpy as np
+
+from arena import floor
+from arena.angles import TWO_PI
+from arena.rng import RandomTree
+from arena.sensing import hardware, reflector, sensor_array
+from arena.sensing.crossings import Crossings, Trajectory, find_crossings, find_phase_marks
+from arena.sensing.events import NEW_DETECTION, Detection, event_order
+from arena.sensing.light import Turrets
+from arena.sensing.occlusion import Occlusion
+from arena.sensing.optics import fluctuation, incidence, optics
+from arena.sensing.pulses import pulses
+from arena.sensing.readout import false_times, first_tick_after, quantize_angle
+from arena.sensing.spin import Spin
+from arena.world import World
+
+_NONE = np.zeros(0)  # a kernel's array argument that is not there
+
+
+class Sensing:
+    """The lasers and beacon hardware of one match."""
+
+    def __init__(self, world: World, rng: RandomTree, ideal: bool = False):
+        level = world.level
+        self.world = world
+        self.ideal = ideal
+        self.kind = level.beacons.kind
+        self.params = hardware.effective_params(level.beacons.params, ideal)
+        self.crosstalk = level.beacons.crosstalk
+        items = level.beacons.items
+        self.ids = [b.id for b in items]
+        # where the detectors really are: the map's coordinates, off by the surveying error
+        # (uniform in a disc of radius `placement_error`, drawn once per match)
+        g = rng.stream("beacons", "placement")
+        spread = self.params.get("placement_error", 0.0) * np.sqrt(g.random(len(items)))
+        angle = TWO_PI * g.random(len(items))
+        self.bx = np.array([b.x for b in items]) + spread * np.cos(angle)
+        self.by = np.array([b.y for b in items]) + spread * np.sin(angle)
+        self.facing = np.array([b.facing for b in items])
+        # each detector's response relative to the nominal one (Bac's hand-trimmed arrays); none when ideal
+        gains = np.array([b.gain for b in items])
+        self.gain = None if ideal or (gains == 1.0).all() else gains
+        robots = level.robots
+        self.n = len(robots)
+        self.omega = np.array([r.laser.angular_velocity for r in robots])
+        self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
+        self._offsets = self.beam_offset if self.beam_offset.any() else None  # None: every beam on its axis
+        self.direction = np.sign(self.omega)
+        # a tilted floor leans each robot: its beam leaves `laser.height` above its base, off it
+        height = np.array([r.laser.height for r in robots])
+        self.tilt = floor.tilt(level.floor, rng, ideal) if height.any() else None
+        self.height = height
+        self.index = np.array([r.laser.index for r in robots])
+        self._any_index = bool(self.index.any())
+        self.occlusion = Occlusion(world, self.bx, self.by)
+        self.dt = world.dt
+        self.rng = {
+            name: [rng.stream("robot", r, name) for r in range(self.n)]
+            for name in ("wobble", "detector", "timing", "false", "light")
+        }
+        self.spin = Spin(self.omega, self.dt, self.params, self.rng["wobble"])
+        self.turrets = Turrets(self.params, self.direction, self.rng["light"], self.occlusion)
+        self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
+        # shared crosstalk: each array's one line, and the table's false pulses, one stream for every controller
+        self.lines = sensor_array.SharedLines(len(items))
+        self.table_false = rng.stream("beacons", "false")
+        p = self.params
+        self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
+        self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
+        self._clock_hz = float(p.get("clock_hz", 0.0))
+        # Bac's merged measurements (arena.sensing.sensor_array.merge), as `pulses` takes them
+        merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
+        self._merging = (merges[0], self.direction, len(self.ids), merges[1], np.uint64(self.merge_key))
+        self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
+        self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
+        self._last = world.state
+        self._last_t = world.time
+        if not _loaded:
+            _load_kernels(world, ideal)
+
+    def record(self) -> None:
+        """Store the robots' poses after a physics step."""
+        self._rows.append(self.world.state)
+
+    def record_many(self, states: np.ndarray) -> None:
+        """Store the world's states after several physics steps (`World.run`: a row each)."""
+        self._rows.append(states)
+
+    def moved(self) -> None:
+        """The world's robots were carried to new poses (`World.place`) right after a flush:
+        the next batch starts from where they now stand, so no beam sweeps across the move."""
+        if self._rows:
+            raise RuntimeError("robots may be moved only at a control tick, after the flush")
+        self._last = self.world.state
+        self.spin.moved()
+        self.turrets.moved()  # a turret's turn begun before the move is no scan of where it now stands
+
+    def flush(self) -> list[list[Detection]]:
+        """Detections per robot for the steps recorded since the last flush, in event order
+        (`event_order`). Each source of events (hits, false returns, index clicks, scans)
+        yields its own events in that order; only a robot that got events from two sources,
+        or hits at one time, needs a sort."""
+        rows = self._rows
+        if not rows:
+            return [[] for _ in range(self.n)]
+        if all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
+            flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
+        else:  # runs of states (`record_many`), or both
+            flat = np.vstack([self._last, *rows])
+        poses = flat.reshape(-1, self.n, 3)
+        steps = len(poses) - 1
+        t = self._last_t + self._ramp(steps)
+        t[-1] = self.world.time  # exact at the end, so batches join without drift
+        heading = poses[:, :, 2]
+        traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=heading, phi=self.spin.phases(heading))
+        self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
+        lasers = traj if self.tilt is None else self._leaned(traj)
+
+        sources = [self.turrets.scan(traj, lasers) if self.kind == "light" else self._hits(traj, lasers)]
+        if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
+            if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
+                sources.append(self._to_everyone(self._table_false_pulses(traj)))
+            else:
+                sources.append([self._false_returns(traj, r) for r in range(self.n)])
+        if self._any_index:
+            sources.append(self._index(traj))
+        out = []
+        for r in range(self.n):
+            lists = [events[r] for events in sources if events[r]]
+            if len(lists) == 1:
+                out.append(lists[0])
+                continue
+            merged = [d for events in lists for d in events]
+            merged.sort(key=event_order)  # stable: what the sources yield in order stays so
+            out.append(merged)
+        return out
+
+    def _leaned(self, traj: Trajectory) -> Trajectory:
+        """Where the beams leave, step by step: each body's position, leaned by the floor's tilt
+        there (arena.floor); the body itself (`traj`) is what the score and other beams see."""
+        assert self.tilt is not None
+        dx, dy = self.tilt.lean(traj.x, traj.y, self.height)
+        return Trajectory(t=traj.t, x=traj.x + dx, y=traj.y + dy, h=traj.h, phi=traj.phi)
+
+    def _ramp(self, steps: int) -> np.ndarray:
+        """Step-end times of a batch of `steps` steps from its start (cached per length)."""
+        ramp = self._ramps.get(steps)
+        if ramp is None:
+            ramp = self._ramps[steps] = np.arange(steps + 1) * self.dt
+        return ramp
+
+    # ---- beam-beacon hits -----------------------------------------------------------------
+
+    def _detected(self, traj: Trajectory, lasers: Trajectory) -> tuple[Crossings, np.ndarray, np.ndarray]:
+        """The crossings of the beams leaving from `lasers`, which of them the detector model
+        detects (not blocked by the bodies of `traj`, through the kind's gates and optics), and
+        when each fires relative to its crossing."""
+        c = find_crossings(lasers, self.bx, self.by, self._offsets)
+        if not len(c):
+            return c, _NONE, np.zeros(0, dtype=bool)
+        p = self.params
+        keep: np.ndarray | None = ~self.occlusion.blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
+        keep &= hardware.visible(self.kind, c, self.facing, p)
+        if self._light_noise and not keep.all():
+            c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone
+        offset, detected = _NONE, keep
+        if self.kind != "reflector" and len(c):  # finite beam and detector widths
+            inc = incidence(c, self.facing)
+            sens = hardware.sensitivity(self.kind, c, inc, p, self.gain)
+            ok, offset = optics(c, inc, fluctuation(c, sens, p.get("light_noise", 0.0), self.rng["detector"]), p)
+            detected = ok if keep is None else ok & keep
+        if len(offset) != len(c):
+            offset = np.zeros(len(c))
+        if detected is None:
+            detected = np.ones(len(c), dtype=bool)
+        return c, offset, detected
+
+    def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
+        """The beacons' pulses: the detected crossings (`_detected`) as the hardware reads them."""
+        out: list[list[Detection]] = [[] for _ in range(self.n)]
+        c, offset, detected = self._detected(traj, lasers)
+        if not detected.any():
+            return out
+        p = self.params
+        draws = _NONE
+        if self._timing_noise:  # one draw per pulse from its robot's stream
+            counts = np.bincount(c.robot[detected], minlength=self.n).tolist()
+            draws = np.concatenate(
+                [g.normal(0.0, self._timing_noise, size=k) for g, k in zip(self.rng["timing"], counts) if k]
+            )
+        window = (float(traj.t[0]), float(traj.t[-1]))
+        source, robot, beacon, times, phase, (counts_, tied_) = pulses(
+            c.t, offset, detected, c.robot, c.beacon, c.phi, draws, window, self.omega,
+            self.kind == "reflector", self._clock_hz, first_tick_after(window[0], p), self._merging,
+        )  # fmt: skip
+        counts = counts_.tolist()
+        steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
+        latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
+        m = len(source)
+        if self.kind == "reflector" and steps:  # a stepped head: what it reads is the step, and when it got there
+            times = reflector.step_time(times, phase, self.omega[robot], steps, window[0])
+        angles = quantize_angle(phase, steps).tolist() if latched else [None] * m
+        labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
+        beams = zip(c.x[source].tolist(), c.y[source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
+        robots, times_ = robot.tolist(), times.tolist()
+        if self.crosstalk == "shared":
+            low = (p.get("rise_time", 0.0) - 2 * offset[source]).tolist()  # the optics' dwell, and the release
+            kept = self.lines.flanks(times_, beacon.tolist(), low)
+            heard = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
+            return self._to_everyone(heard)
+        fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
+        events = list(map(NEW_DETECTION, fields))
+        # times never decrease within a robot; hits at one time go by their keys (a stepped head's
+        # times, moved back to their steps, may reorder two returns of one step: sorted too)
+        stepped = self.kind == "reflector" and bool(steps)
+        start = 0
+        for r, (k, tied) in enumerate(zip(counts, tied_.tolist())):
+            out[r] = events[start : start + k]
+            start += k
+            if tied or stepped:
+                out[r].sort(key=event_order)
+        return out
+
+    def _to_everyone(self, heard: list[tuple]) -> list[list[Detection]]:
+        """Every controller gets every pulse (robot, time, label, angle, beam): an array's
+        output says which array fired, not whose laser it was."""
+        out: list[list[Detection]] = [[] for _ in range(self.n)]
+        for r, t, label, angle, beam in heard:
+            for rx in range(self.n):
+                out[rx].append(Detection(rx, t, "hit", label, angle, (), r, beam))
+        for events in out:
+            events.sort(key=event_order)
+        return out
+
+    # ---- false pulses and the index switch ---------------------------------------------------
+
+    def _false_returns(self, traj: Trajectory, r: int) -> list[Detection]:
+        """Robot `r`'s spurious pulses in this batch, as its kind reports them."""
+        g = self.rng["false"][r]
+        times = false_times(g, self.params["false_rate"], traj.t[0], traj.t[-1])
+        if not len(times):
+            return []
+        if self.kind == "sensor_array":
+            return sensor_array.false_pulses(r, times, g, self.ids, self.params)
+        return reflector.false_returns(traj, r, times, self.omega, self.params)
+
+    def _table_false_pulses(self, traj: Trajectory) -> list[tuple]:
+        """Shared crosstalk's false pulses in this batch, one stream for the whole table."""
+        times = false_times(self.table_false, self.params["false_rate"], traj.t[0], traj.t[-1])
+        if not len(times):
+            return []
+        return sensor_array.table_false_pulses(times, self.table_false, self.ids, self.params)
+
+    def _index(self, traj: Trajectory) -> list[list[Detection]]:
+        """Index clicks per robot, in time order."""
+        out: list[list[Detection]] = [[] for _ in range(self.n)]
+        robot, _, _, t, _ = find_phase_marks(traj, 1, self.direction)
+        for r, ti in zip(robot.tolist(), t.tolist()):
+            if self.index[r]:
+                out[r].append(Detection(r, ti, "index", source=r))
+        return out
+
+
+_loaded = False  # this process has run every sensing kernel once (numba loads them on first use)
+
+
+def _load_kernels(world: World, ideal: bool) -> None:
+    """Run one control period of a throwaway Sensing (its own random streams, the world's
+    poses held still while the lasers turn), so that numba loads the compiled kernels now, when
+    a match is made, rather than inside its first period: loading takes a tenth of a second or
+    more, which is no cost of sensing."""
+    global _loaded
+    _loaded = True
+    level = world.level
+    still = SimpleNamespace(level=level, dt=world.dt, state=world.state, time=0.0, space=world.space)
+    sensing = Sensing(cast(World, still), RandomTree(0), ideal)
+    still.time = level.steps_per_control * world.dt
+    for _ in range(level.steps_per_control):
+        sensing.record()
+    sensing.flush()

@@ -1,0 +1,147 @@
+"""The spinning lasers' phases relative to their bodies, batch by batch.
+
+The spin rate relative to the body wobbles as an Ornstein-Uhlenbeck process (relative std
+`wobble`, correlation time `wobble_time`), and it answers the body's turns (Bac: "the laser
+angular velocity was not constant while the robot turned"): the rotor's inertia keeps its rate
+in the world when the body's yaw rate changes, so the relative rate first drops by that change,
+then the motor brings it back, with time constant `spin_time`, to its steady value less
+`spin_coupling` x the body's yaw rate. Both recursions run compiled (arena.compiled).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from arena.compiled import compiled
+
+_NO_ROWS = np.zeros((0, 0))  # a kernel's array argument that is not there
+
+
+class Spin:
+    """Every robot's laser phase, wobble and spin lag across batches (steady rate `omega`, rad/s;
+    physics step `dt`; `streams`: each robot's wobble stream)."""
+
+    def __init__(self, omega: np.ndarray, dt: float, params: Mapping[str, float], streams: list[np.random.Generator]):
+        n = len(omega)
+        self.omega, self.dt, self.params, self.streams = omega, dt, params, streams
+        self.wobble = np.zeros(n)
+        self.spin_lag = np.zeros(n)  # the laser's relative rate minus its steady value (rad/s)
+        self.body_rate = np.zeros(n)  # the body's yaw rate in the last step (rad/s)
+        self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
+        self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
+
+    def moved(self) -> None:
+        """The robots were carried to new poses: no body turn carries over into the next batch."""
+        self.body_rate[:] = 0.0
+
+    def phases(self, heading: np.ndarray) -> np.ndarray:
+        """Unwrapped laser phases at the step ends, from the body headings there (steps + 1,
+        robots); the last row is where the next batch starts."""
+        steps, n = len(heading) - 1, len(self.omega)
+        p = self.params
+        noise = _NO_ROWS
+        wobble = (0.0, 0.0, _NO_ROWS, self.wobble)
+        if p["wobble"] > 0:
+            a = math.exp(-self.dt / p["wobble_time"])
+            noise = np.array([g.normal(size=steps) for g in self.streams]).T
+            wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
+        spin = (-1.0, 0.0, _NO_ROWS, self.spin_lag, self.body_rate)  # a negative decay: no lag
+        if p.get("spin_time", 0.0) > 0:
+            a = math.exp(-self.dt / p["spin_time"])
+            spin = (a, (1 - a) * p.get("spin_coupling", 0.0), self._powers_of(a, (steps, n)), *spin[3:])
+        phi, self.wobble, self.spin_lag, self.body_rate = laser_phases(
+            self.omega, self.dt, self.phi, heading, noise, wobble, spin
+        )
+        self.phi = phi[-1].copy()
+        return phi
+
+    def _powers_of(self, a: float, shape: tuple[int, int]) -> np.ndarray:
+        """a^1..a^steps per row for a batch of `shape` (cached), or none where a^steps
+        underflows (`first_order` then takes the recursion)."""
+        key = (a, shape)
+        powers = self._powers.get(key)
+        if powers is None:
+            if a ** shape[0] < 1e-150:
+                powers = _NO_ROWS
+            else:
+                powers = np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, shape[0] + 1)[:, None], shape))
+            self._powers[key] = powers
+        return powers
+
+
+@compiled()
+def first_order(a: float, powers: np.ndarray, y0: np.ndarray, drive: np.ndarray) -> np.ndarray:
+    """y[k] = a y[k-1] + drive[k] for k = 1..steps from y[0] = y0, per column. With `powers`
+    (a^1..a^steps per row) in closed form, y[k] = a^k (y0 + sum_j<=k a^-j drive[j]), as NumPy
+    summed it; with none (a^k would underflow), by the recursion."""
+    steps, n = drive.shape
+    out = np.empty((steps, n))
+    for r in range(n):
+        if powers.shape[0] == 0:
+            y = y0[r]
+            for k in range(steps):
+                y = a * y + drive[k, r]
+                out[k, r] = y
+            continue
+        acc = 0.0
+        for k in range(steps):
+            q = drive[k, r] / powers[k, r]
+            acc = q if k == 0 else acc + q
+            out[k, r] = powers[k, r] * (y0[r] + acc)
+    return out
+
+
+@compiled()
+def laser_phases(
+    omega: np.ndarray,
+    dt: float,
+    phi0: np.ndarray,
+    heading: np.ndarray,
+    noise: np.ndarray,
+    wobble: tuple[float, float, np.ndarray, np.ndarray],
+    spin: tuple[float, float, np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Unwrapped laser phases at the step ends (`Spin.phases`): the steady rate
+    `omega`, times 1 + the wobble when `noise` has rows (`wobble` = the noise's scale, the
+    decay per step, its powers, the wobble before), plus the spin lag when the spin's decay
+    per step is not negative (`spin` = that decay, (1 - decay) x coupling, its powers, the lag
+    and the body's yaw rate before). Returns the phases and the wobble, lag and yaw rate after."""
+    steps, n = heading.shape[0] - 1, omega.shape[0]
+    rate = np.empty((steps, n))
+    for k in range(steps):
+        rate[k] = omega
+    scale, a, powers, last_wobble = wobble
+    if noise.shape[0]:
+        w = first_order(a, powers, last_wobble, scale * noise)
+        for k in range(steps):
+            for r in range(n):
+                rate[k, r] = omega[r] * (1.0 + w[k, r])
+        last_wobble = w[steps - 1].copy()
+    a, coupled, powers, last_lag, last_body = spin
+    if a >= 0.0:
+        body = np.empty((steps, n))
+        drive = np.empty((steps, n))
+        for k in range(steps):
+            for r in range(n):
+                body[k, r] = (heading[k + 1, r] - heading[k, r]) / dt
+                change = body[k, r] - (last_body[r] if k == 0 else body[k - 1, r])
+                drive[k, r] = -a * change
+                if coupled != 0.0:  # a zero coupling adds only signed zeros, which vanish in the sums
+                    drive[k, r] = drive[k, r] - coupled * body[k, r]
+        lag = first_order(a, powers, last_lag, drive)
+        for k in range(steps):
+            for r in range(n):
+                rate[k, r] = rate[k, r] + lag[k, r]
+        last_lag, last_body = lag[steps - 1].copy(), body[steps - 1].copy()
+    phi = np.empty((steps + 1, n))
+    for r in range(n):
+        acc = 0.0
+        phi[0, r] = 0.0 + phi0[r]
+        for k in range(steps):
+            v = rate[k, r] * dt
+            acc = v if k == 0 else acc + v
+            phi[k + 1, r] = acc + phi0[r]
+    return phi, last_wobble, last_lag, last_body
