@@ -4,7 +4,7 @@ Where every array also latches other robots' pulses, a pulse is no longer its ow
 labelled. `Crowd` notices it (an array firing twice within half a turn, again and again) and
 from then on tells the tracker which pulses are its own: those that fall where its own beam is
 predicted (the EKF's gate, the nearest of the array's pulses close by, the others left alone:
-not counted as failures). The filter is lost when its own have come from fewer than two
+not counted as failures). The filter is lost when its own have come from fewer than `TRACKING`
 arrays for `SILENCE` turns, and it starts or restarts from the sets of pulses one laser near
 where it was (`one_laser`) could have made: four arrays that fit one pose, or three when it
 knows well where it was.
