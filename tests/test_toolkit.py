@@ -12,6 +12,7 @@ from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible, wrap
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Wheels, heading_change
+from robots.toolkit.revolution import revolution_fix
 from robots.toolkit.tracker import HitTracker
 
 
@@ -118,26 +119,30 @@ def test_tracker_starts_from_three_of_four_arrays():
     assert math.dist((x, y), (0.7, 0.5)) < 1e-6
 
 
+def revolution_of(tracker: HitTracker, recent: list[tuple[float, str]]):
+    """The fix the tracker would start from, the newest of `recent` closing its revolution."""
+    return revolution_fix(recent, tracker.beacons, tracker.omega + tracker.turn_rate, tracker.time_out)
+
+
 def test_tracker_checks_revolution_time_and_time_out():
     tracker = HitTracker(table_brief())
     hits = standing_hits(0.7, 0.5, 0.3, 81.0, 2)
-    tracker.recent = [(e.time, e.beacon) for e in hits[:5]]  # one revolution, closed by its first array
-    assert tracker.revolution_fix() is not None
-    (t0, b0), *rest = tracker.recent
-    smallest = min(b - a for (a, _), (b, _) in zip(tracker.recent, tracker.recent[1:]))
+    recent = [(e.time, e.beacon) for e in hits[:5]]  # one revolution, closed by its first array
+    assert revolution_of(tracker, recent) is not None
+    (t0, b0), *rest = recent
+    smallest = min(b - a for (a, _), (b, _) in zip(recent, recent[1:]))
     late = rest[-1][0] + 1.5 * smallest  # the closing pulse beyond the smallest pulse duration
-    tracker.recent = [(t0, b0), *rest[:-1], (late, rest[-1][1])]
-    assert tracker.revolution_fix() is None  # Bac's revolution-time filter
+    recent = [(t0, b0), *rest[:-1], (late, rest[-1][1])]
+    assert revolution_of(tracker, recent) is None  # Bac's revolution-time filter
     # the closing array missed a turn: its revolution spans two turns, beyond the 130 ms time-out
-    first, *between, _ = tracker.recent
+    first, *between, _ = recent
     period = 2 * math.pi / 81.0
-    tracker.recent = [first, *((t + period, b) for t, b in between), (first[0] + 2 * period, first[1])]
-    assert tracker.recent[-1][0] - tracker.recent[0][0] > 0.130
-    assert tracker.revolution_fix() is None
+    recent = [first, *((t + period, b) for t, b in between), (first[0] + 2 * period, first[1])]
+    assert recent[-1][0] - recent[0][0] > 0.130
+    assert revolution_of(tracker, recent) is None
     # at 31 rad/s a turn takes 203 ms: the time-out is the same share of a turn, not 130 ms
     slow = HitTracker(table_brief(omega=31.0))
-    slow.recent = [(e.time, e.beacon) for e in standing_hits(0.7, 0.5, 0.3, 31.0, 2)[:5]]
-    assert slow.revolution_fix() is not None
+    assert revolution_of(slow, [(e.time, e.beacon) for e in standing_hits(0.7, 0.5, 0.3, 31.0, 2)[:5]]) is not None
 
 
 def test_tracker_drops_merged_pulses_and_recovers_when_lost():

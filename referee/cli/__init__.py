@@ -1,4 +1,5 @@
-"""The `laserarena` command line: thin argument parsing over the other rooms (`main`), the
+"""The `laserarena` command line: the entry point and its exits (`main`), each command's
+arguments (`arguments`) and its thin implementation over the other rooms (`commands`), the
 console score table (`summary`), and the starter kit that `laserarena new` writes
 (`starter_kit`). Every error path ends in `referee.errors`, printed as one line.
 

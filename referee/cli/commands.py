@@ -1,4 +1,5 @@
-"""The `laserarena` commands and their arguments (`parser`); `referee.cli.main` runs them.
+"""The `laserarena` commands, one `cmd_NAME` each over the rooms; `referee.cli.arguments`
+parses their arguments and `referee.cli.main` runs them.
 
 Bad input (a level file, a team spec, a path) prints one line to stderr and exits 2.
 """
@@ -11,7 +12,6 @@ import time
 import warnings
 from dataclasses import asdict
 from pathlib import Path
-from typing import NoReturn
 
 import numpy as np
 
@@ -19,12 +19,11 @@ import levels
 from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
-from referee.errors import EXIT_BAD_INPUT, LaserArenaWarning, UserError
+from referee.errors import LaserArenaWarning, UserError
 from referee.match.loop import NO_LIMITS, run_match
 from referee.records.canonical import dumps
 from referee.sandbox.teams import controller_problem, fill_slots
 from referee.terminal import safe
-from referee.version import __version__
 
 
 def cmd_levels(args: argparse.Namespace) -> int:
@@ -88,13 +87,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-class _NoSecretOnTheCommandLine(argparse.Action):
-    """`--secret S`, gone: every local process can read a command line (/proc/PID/cmdline)."""
-
-    def __call__(self, parser, namespace, values, option_string=None) -> NoReturn:
-        raise UserError("--secret is gone (other processes can read a command line); use --secret-file FILE")
-
-
 def _secret(args: argparse.Namespace) -> str | None:
     """The noise secret read from --secret-file, or None (the journal's own)."""
     if not args.secret_file:
@@ -146,17 +138,6 @@ def cmd_grade(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     return 0
-
-
-def _at_least_one(text: str) -> int:
-    """A count given on the command line: a whole number, 1 or more (argparse's type)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
@@ -298,156 +279,3 @@ def cmd_new(args: argparse.Namespace) -> int:
     print(f"wrote {folder}/: controller.py, test_controller.py, README.md")
     print(f"next: cd {folder} && laserarena run bac-line --team controller.py")
     return 0
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with its errors on one line (no usage block) and exit code 2, like every other
-    bad input; `--help` still shows the usage."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
-
-
-def _contest_flags(s: argparse.ArgumentParser) -> None:
-    """The options `grade` and `tournament` share: the noise secret, and playing unsandboxed."""
-    s.add_argument(
-        "--secret-file",
-        metavar="FILE",
-        help="read the noise secret from FILE (default: the journal's own, made on first use); "
-        "every match's noise derives from it (docs/integrity.md)",
-    )
-    s.add_argument("--secret", nargs="?", action=_NoSecretOnTheCommandLine, help=argparse.SUPPRESS)
-    s.add_argument(
-        "--unsandboxed",
-        action="store_true",
-        help="play even where no kernel sandbox can be made (controllers then share the machine "
-        "with few limits); the journal, leaderboard and report say so",
-    )
-
-
-def parser() -> argparse.ArgumentParser:
-    p = _Parser(
-        prog="laserarena", description="LaserArena: spinning-laser beacon navigation contests, simulated and refereed."
-    )
-    p.add_argument("--version", action="version", version=f"laserarena {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-
-    s = sub.add_parser("run", help="run one match headless and print its score table")
-    s.add_argument("level", help="a level file or built-in level name")
-    s.add_argument(
-        "--team",
-        action="append",
-        metavar="T",
-        help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class",
-    )
-    s.add_argument("--seed", type=int, help="match seed (default: the level's)")
-    s.add_argument(
-        "--json", metavar="OUT", help="write the result JSON here (- for stdout; the table then goes to stderr)"
-    )
-    s.add_argument("--replay", metavar="OUT", help="write the replay here")
-    s.add_argument(
-        "--ideal",
-        action="store_true",
-        help="ideal sensors and drive: no noise, no missed or false pulses, no quantization, no drive errors",
-    )
-    s.add_argument(
-        "--in-process",
-        action="store_true",
-        help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
-        "runs with the referee's rights (never for grading); same results within budget",
-    )
-    s.add_argument(
-        "--logs",
-        metavar="DIR",
-        help="keep each controller's output here (slotN.log); without it, nothing is written "
-        "(a fault's message and its traceback's tail are in the table and the result)",
-    )
-    s.add_argument("--no-limits", action="store_true", help="no time or memory limits for the controllers (debugging)")
-    s.add_argument("--quiet", action="store_true", help="print nothing on success")
-    s.set_defaults(func=cmd_run)
-
-    s = sub.add_parser("check", help="validate level files")
-    s.add_argument("level", nargs="+")
-    s.set_defaults(func=cmd_check)
-
-    what = "grade teams x levels x seeds headless, resumable, into a leaderboard"
-    s = sub.add_parser("grade", help=what, description=f"{what[0].upper()}{what[1:]} (docs/contests.md).")
-    s.add_argument("level", nargs="+", help="level names or level files")
-    s.add_argument("--team", action="append", required=True, metavar="T", help="a team spec (repeat)")
-    s.add_argument("--seeds", type=_at_least_one, default=3, help="seeds 1..N per team and level (default 3)")
-    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
-    s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
-    _contest_flags(s)
-    s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_grade)
-
-    what = "rated heats of teams racing each other on levels, resumable, into a report folder"
-    s = sub.add_parser("tournament", help=what, description=f"{what[0].upper()}{what[1:]} (docs/contests.md).")
-    s.add_argument("level", nargs="+", help="level names or level files (their robot slots are the heats' lanes)")
-    s.add_argument("--team", action="append", required=True, metavar="T", help="a rated team spec (repeat)")
-    s.add_argument(
-        "--rounds", type=_at_least_one, default=1, help="rounds; in each, every team starts once from every slot"
-    )
-    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
-    s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
-    _contest_flags(s)
-    s.add_argument(
-        "--out", default="tournament", help="the report folder: index.html, standings, heats, replays, viewer pages"
-    )
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_tournament)
-
-    s = sub.add_parser("render", help="render a replay to PNG frames, an MP4 or a web page, headless")
-    s.add_argument("replay")
-    s.add_argument("--out", help="a folder (PNG frames), FILE.mp4, or FILE.html (a page that plays it)")
-    s.add_argument("--html", metavar="OUT", help="write a self-contained web page that plays the replay")
-    s.add_argument("--fps", type=int, default=30)
-    s.add_argument("--size", default="960x640", help="WIDTHxHEIGHT in pixels")
-    s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")
-    s.add_argument("--to", type=float, default=None, metavar="T", help="end time (s)")
-    s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=cmd_render)
-
-    s = sub.add_parser("watch", help="watch a level live or play a replay in a window")
-    s.add_argument("target", help="a level (file or built-in name) or a replay file")
-    s.add_argument("--team", action="append", metavar="T", help="for a level: the controller of each slot")
-    s.add_argument("--seed", type=int)
-    s.add_argument("--speed", type=float, default=1.0, help="playback speed (x real time)")
-    s.add_argument("--size", default="960x700")
-    s.add_argument("--frames", type=int, help="close after this many frames (for scripts and tests)")
-    s.set_defaults(func=cmd_watch)
-
-    s = sub.add_parser("map", help="draw where a beacon layout localizes well (Cramer-Rao bound)")
-    s.add_argument("level")
-    s.add_argument("--out", default="map.png")
-    s.add_argument("--compare", metavar="LEVEL", help="a second layout, drawn beside on the same scale")
-    s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
-    s.set_defaults(func=cmd_map)
-
-    s = sub.add_parser("plot", help="plot each robot's position and heading error over a replay")
-    s.add_argument("replay")
-    s.add_argument("--out", default="errors.png", help="the PNG to write (default errors.png)")
-    s.add_argument("--width", type=int, default=960, help="picture width in pixels")
-    s.set_defaults(func=cmd_plot)
-
-    s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
-    s.add_argument("replay")
-    s.add_argument("--team", action="append", metavar="T", help="where a team's controller is here (in slot order)")
-    s.set_defaults(func=cmd_verify)
-
-    s = sub.add_parser("new", help="write a starter controller package for a team")
-    s.add_argument("name")
-    s.add_argument("--dir", default=".", help="where to create it (default: here)")
-    s.add_argument(
-        "--from-policy",
-        metavar="WEIGHTS.npz",
-        help="write a package team that plays this trained policy instead (docs/rl.md)",
-    )
-    s.set_defaults(func=cmd_new)
-
-    s = sub.add_parser("levels", help="list the built-in levels")
-    s.set_defaults(func=cmd_levels)
-    return p

@@ -1,5 +1,5 @@
-"""The `laserarena` entry point: runs a command (referee.cli.commands) and turns every way it
-can end into one line and an exit code (docs/cli.md). It imports almost nothing itself, so
+"""The `laserarena` entry point: runs a command (referee.cli.commands, its arguments parsed by
+referee.cli.arguments) and turns every way it can end into one line and an exit code (docs/cli.md). It imports almost nothing itself, so
 that a Ctrl-C that comes while the commands' modules are still loading ends quietly too.
 """
 
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     warnings.showwarning = _show_warning
     try:
-        from referee.cli.commands import parser
+        from referee.cli.arguments import parser
 
         args = parser().parse_args(argv)
         return int(args.func(args))

@@ -13,22 +13,15 @@ three levels:
   merged pulse at another time, a pulse from a turning laser that the model does not follow);
 - when hits keep failing the gate (half of the last `window` or more: the robot was pushed,
   or slipped more than the filter allows), or when every closed-form fix for over a
-  revolution, the robot not turning, disagrees with the filter by more than 25 mm plus a revolution's travel (a filter that explains the
-  pulses with a wrong laser phase and position), the tracker restarts from a closed-form fix. For labelled hits that is the
-  fix of the last revolution that passes
-  Bac's checks: a revolution runs from one pulse of an array to its next pulse, within the
-  130 ms time-out (scaled to the laser's rate); its time must agree with the laser's period within its smallest pulse
-  duration ("The algorithm selected the smallest pulse duration ... as a difference
-  tolerance"); three of the four arrays are enough ("the system uses the remaining three
-  pulses"). A fix with four arrays must also be self-consistent. Hardware without labels
-  brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule between index clicks.
+  revolution, the robot not turning, disagrees with the filter by more than 25 mm plus a
+  revolution's travel (a filter that explains the pulses with a wrong laser phase and
+  position), the tracker restarts from a closed-form fix. For labelled hits that is the fix
+  of the last revolution that passes Bac's checks (robots.toolkit.revolution). Hardware
+  without labels brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule
+  between index clicks.
 Where every array also latches other robots' pulses (shared crosstalk), a pulse is no longer
-its own by being labelled. The tracker notices it (an array firing twice within half a turn,
-again and again) and from then on takes a pulse only if it falls where its own beam is
-predicted (the EKF's gate, the nearest of the array's pulses close by, the others left alone:
-not counted as failures); it is lost when its own have come from fewer than two arrays for `SILENCE` turns, and it
-starts or restarts from the sets of pulses one laser near where it was (`one_laser`) could
-have made: four arrays that fit one pose, or three when it knows well where it was.
+its own by being labelled: robots.toolkit.crowd notices it, and from then on says which
+pulses are its own and when the filter must restart among the others'.
 A stopping robot can instead judge its standing turns itself: `fit_turn` is a filter of one
 standing turn alone, as sure of the pose as that turn's geometry makes it (not a fixed guess),
 and `adopt` restarts from it. A head at rest that latches the same angle again brings nothing
@@ -52,51 +45,17 @@ from collections.abc import Callable
 
 from robots.api import Brief, SensorEvent
 from robots.toolkit.angles import wrap
-from robots.toolkit.associate import one_laser
+from robots.toolkit.crowd import CROWDED_Q, CROWDED_RESTART_HEADING, CROWDED_WANDER, Crowd
 from robots.toolkit.ekf import BearingEKF
 from robots.toolkit.motion import Pose, Wheels, advance
-from robots.toolkit.solvers import least_squares
+from robots.toolkit.revolution import STEADY_TURN, TIME_OUT_TURNS, revolution_fix
 
-# "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
-# same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
-TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
-STEADY_TURN = 0.3  # rad/s: turning slower, a closed-form fix may check the filter
 UNKNOWN_HEADING = 0.5  # rad: a heading less sure than this (one sd) does not say which way the robot drives
 LEARN_TRACK = 0.01  # m: "only when the distance between two consecutive positions was larger than 1 cm"
 # s: a robot that drives a way it does not know moves, to its filter, as a random walk whose
 # spread grows by the distance it drives in WANDER, so that the pulses lead its position
 WANDER = 1.0
 VAGUE = 1.0  # m^2, rad^2: the variances of a pose known only from the returns about to come
-FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
-# Other lasers on the table (Bac's arrays latch every robot's pulse): an array that fires again
-# within CROWD_GAP of a turn, CROWD_EVIDENCE times within CROWD_WINDOW s, hears more than one laser
-# (one laser alone does so only by a false pulse, a few a minute at most)
-CROWD_GAP, CROWD_EVIDENCE, CROWD_WINDOW = 0.5, 3, 1.0
-# Among other lasers' pulses the gate must be about as wide as the pulses really scatter: the
-# default process noise, ample where every pulse is one's own, widens it several times over
-# (on asabe-race, the middle 95 % of the innovations lie within 0.35-0.97 of their predicted sd); these
-# bring it to 0.8-1.3 (q_heading rad^2 per rad turned, q_drift rad^2 per m driven)
-CROWDED_Q = dict(q_heading=0.003, q_drift=0.002)
-# s: and a robot driving a way it does not know spreads, between two of its pulses, about as far
-# as it drives (WANDER's random walk would spread it three times as far in a turn)
-CROWDED_WANDER = 0.1
-CROWDED_RESTART_HEADING = 0.02  # rad^2 added to the heading's variance by a restart among others' pulses
-BEAM_CHECK = 0.03  # rad: a fix's beam this far from the filter's says the filter follows another laser
-# a restart among others' pulses waits for a second fix, CONFIRM_GAP to CONFIRM_WITHIN turns later,
-# that lies as far from the first as the odometry moved (within CONFIRM m and CONFIRM_SLIP of it)
-CONFIRM_GAP, CONFIRM_WITHIN, CONFIRM, CONFIRM_SLIP = 0.9, 3.0, 0.01, 0.2
-SEPARATION = 3.0  # sd: a rival pulse this much further from the prediction is not its own
-# sd: the gate among other lasers' pulses, whose sd is now what the pulses scatter (on asabe-race-shared,
-# seeds 1-3, 99.8 % of a robot's own pulses fall within it, and 20 % fewer of the others' than within 4)
-CROWDED_GATE = 3.0
-# rad: but never wider than this, where others' pulses come too often (a filter that unsure of its
-# beam takes a whole turn's pulses at once: a restart from `one_laser`)
-WIDEST = 0.04
-# turns in which fewer than TRACKING arrays gave a pulse of its own: the filter has lost its laser
-# among the others (one array alone may be another laser in step with the filter's wrong phase)
-SILENCE, TRACKING = 4.0, 3
-PRIOR_MIN, PRIOR_MAX = 0.02, 0.15  # m: how far from where it was thought to be a restart may look
-SURE_PRIOR = 0.05  # m: a prior this good may restart from three arrays among others' pulses
 
 
 # A closed-form fix from an event and those before it: (x, y, the beam's world angle now,
@@ -158,17 +117,8 @@ class HitTracker:
         self.track_check, self.heading_check = track_check, heading_check
         self.first_fix = first_fix or self._labelled_fix
         self._own_fix = first_fix is None  # the labelled fix: it has no state, so it may be skipped
-        self.field = brief.field
         self.start = brief.start  # where a first fix among other lasers' pulses looks (None once moved)
-        self.crowded = False  # other lasers' pulses reach these arrays too (shared crosstalk)
-        self.last_pulse: dict[str, float] = {}  # each array's last pulse, anyone's
-        self.doubles: deque[float] = deque(maxlen=CROWD_EVIDENCE)  # when an array fired again within CROWD_GAP
-        self.heard: list[tuple[float, str]] = []  # every labelled pulse of the last turns, anyone's
-        self.own: dict[str, float] = {}  # crowded: when each array last gave a pulse taken as its own
-        self.checked = -math.inf  # crowded: when a fix from anyone's pulses last checked the filter
-        # crowded: the last fix that disagreed with the filter, to be confirmed before a restart:
-        # (time, x, y, and the odometry's x, y then)
-        self.candidate: tuple[float, float, float, float, float] | None = None
+        self.crowd = Crowd(brief, self.beacons, self.period, self.time_out, self.fix_check)
         self.run_from: tuple[float, float] | None = None  # where the current straight run began
         self.ekf: BearingEKF | None = None
         start = brief.start
@@ -195,10 +145,14 @@ class HitTracker:
         self.turn_rate = 0.0
         self.disagree_since = None
         self.run_from = None
-        self.heard.clear()
-        self.own.clear()
-        self.candidate = None
+        self.crowd.reset()
         self.start = None  # carried elsewhere: the announced start says nothing of where
+
+    @property
+    def crowded(self) -> bool:
+        """Whether other lasers' pulses reach these arrays too (shared crosstalk): once
+        noticed, for good."""
+        return self.crowd.shared
 
     @property
     def heading_sd(self) -> float:
@@ -233,8 +187,8 @@ class HitTracker:
             if e.kind not in ("hit", "index") or (e.beacon is not None and e.beacon not in self.beacons):
                 continue
             self._advance(e.time)
-            if e.kind == "hit" and e.beacon is not None and self._own_fix:
-                self._hear(e)
+            if e.kind == "hit" and e.beacon is not None and self._own_fix and self.crowd.hear(e.time, e.beacon):
+                self._share()
             if self.crowded and e.kind == "hit" and e.beacon is not None:
                 self._crowded_hit(e, pulses[e.beacon])
             else:
@@ -297,11 +251,15 @@ class HitTracker:
         else:
             self.ekf.predict(dt, v, w)
 
+    def _keep(self, time: float, beacon: str) -> None:
+        """A hit among those of the last revolutions, for a restart."""
+        self.recent.append((time, beacon))
+        while self.recent[0][0] < time - 2 * self.time_out:
+            self.recent.pop(0)
+
     def _event(self, e: SensorEvent) -> None:
         if e.kind == "hit" and e.beacon is not None:
-            self.recent.append((e.time, e.beacon))
-            while self.recent[0][0] < e.time - 2 * self.time_out:
-                self.recent.pop(0)
+            self._keep(e.time, e.beacon)
         ekf = self.ekf
         lost = ekf is None or not self._update(ekf, e)
         if not lost and self.disagree_since is None and abs(self.turn_rate) > STEADY_TURN and self._own_fix:
@@ -331,78 +289,26 @@ class HitTracker:
             return True
         return False
 
-    # ---- other lasers' pulses on the same arrays (shared crosstalk) ----------------------
-
-    def _hear(self, e: SensorEvent) -> None:
-        """Keep a labelled pulse (a start among others' pulses needs the whole turn before it
-        noticed them), and count an array that fires again within `CROWD_GAP` of a turn; enough
-        of them, and the tracker takes the table to be shared from now on."""
-        assert e.beacon is not None
-        self.heard.append((e.time, e.beacon))
-        while self.heard[0][0] < e.time - 2 * self.time_out:
-            self.heard.pop(0)
-        last = self.last_pulse.get(e.beacon)
-        self.last_pulse[e.beacon] = e.time
-        if self.crowded or last is None or e.time - last >= CROWD_GAP * self.period:
-            return
-        self.doubles.append(e.time)
-        if len(self.doubles) == CROWD_EVIDENCE and e.time - self.doubles[0] <= CROWD_WINDOW:
-            self.crowded = True
-            self.recent.clear()  # anyone's pulses: from now on, only its own
-            self.q.update(CROWDED_Q)
-            if self.ekf is not None:
-                self.ekf.q = (self.q["q_xy"], self.q["q_heading"], self.q["q_drift"])
-            self.own = dict.fromkeys(self.beacons, e.time)  # a running filter gets its silence's grace
+    def _share(self) -> None:
+        """The arrays turned out to hear other lasers too: from now on, only its own pulses
+        count, and the filter is told how little they really scatter."""
+        self.recent.clear()  # anyone's pulses: from now on, only its own
+        self.q.update(CROWDED_Q)
+        if self.ekf is not None:
+            self.ekf.q = (self.q["q_xy"], self.q["q_heading"], self.q["q_drift"])
 
     def _crowded_hit(self, e: SensorEvent, times: list[float]) -> None:
         """A labelled pulse that may be any laser's (`times`: its array's pulses this period)."""
         assert e.beacon is not None
         ekf = self.ekf
-        mine = ekf is not None and self._mine(ekf, e, times)
-        if mine:
-            assert ekf is not None
+        if ekf is not None and self.crowd.mine(ekf, e, times, self.var, self.turn_rate):
             ekf.hit(*self.beacons[e.beacon], self.var, self.gate)
-            self.recent.append((e.time, e.beacon))
-            while self.recent[0][0] < e.time - 2 * self.time_out:
-                self.recent.pop(0)
-            self.own[e.beacon] = e.time
-        tracking = ekf is not None and e.time - self.heard_from(TRACKING) <= SILENCE * self.period
-        if tracking and self.candidate is None and e.time - self.checked < self.period:
-            return  # a filter that tracks is checked once a turn
-        found = self._crowded_fix(e.time)
-        self.checked = e.time
-        if found is None:
-            return
-        (x, y, beam), pulses = found
-        if tracking and ekf is not None and self._agrees(ekf, x, y, beam):
-            self.candidate = None
-            return
-        if self._confirmed(x, y, e.time):
-            self._crowded_restart(x, y, beam)
-            self.recent, self.own, self.candidate = pulses, {b: e.time for _, b in pulses}, None
-
-    def _agrees(self, ekf: BearingEKF, x: float, y: float, beam: float) -> bool:
-        """Whether a fix from anyone's pulses agrees with the filter: its position within
-        `fix_check`, its beam within BEAM_CHECK of the filter's (a filter that took another
-        laser's pulse for its own is off in its beam first). Turning, fixes are poor: no check."""
-        if abs(self.turn_rate) > STEADY_TURN:
-            return True
-        off = abs(wrap(beam - float(ekf.s[2] + ekf.s[3])))
-        return math.dist((x, y), ekf.pose[:2]) <= self.fix_check and off <= BEAM_CHECK
-
-    def _confirmed(self, x: float, y: float, time: float) -> bool:
-        """Whether a fix from anyone's pulses is confirmed by the one before it, a turn or more
-        earlier (pulses of another turn): apart by as much as the robot's own wheels moved it
-        meanwhile. Another robot near the prior makes its fixes too, but they move as it moves.
-        This fix becomes the one the next must confirm."""
-        last = self.candidate
-        if last is not None and time - last[0] < CONFIRM_GAP * self.period:
-            return False  # the same turn's pulses, much the same fix: it would confirm nothing
-        self.candidate = (time, x, y, self.odometry[0], self.odometry[1])
-        if last is None or time - last[0] > CONFIRM_WITHIN * self.period:
-            return False
-        moved = math.dist(self.odometry[:2], last[3:])
-        return abs(math.dist((x, y), last[1:3]) - moved) <= CONFIRM + CONFIRM_SLIP * moved
+            self._keep(e.time, e.beacon)
+            self.crowd.own[e.beacon] = e.time
+        found = self.crowd.restart_fix(e.time, ekf, self.start, self.wheels.speeds, self.turn_rate, self.odometry)
+        if found is not None:
+            self._crowded_restart(*found[0])
+            self.recent = found[1]
 
     def _crowded_restart(self, x: float, y: float, beam: float) -> None:
         """Restart at a fix among other lasers' pulses. A filter lost there has mostly taken
@@ -416,63 +322,6 @@ class HitTracker:
         self.restarts += 1
         self.verdicts.clear()
         self.disagree_since = None
-
-    def heard_from(self, arrays: int) -> float:
-        """Since when pulses taken as its own have come from at least `arrays` arrays."""
-        times = sorted(self.own.values(), reverse=True)
-        return times[arrays - 1] if len(times) >= arrays else -math.inf
-
-    def _mine(self, ekf: BearingEKF, e: SensorEvent, times: list[float]) -> bool:
-        """Whether a pulse is this robot's own: within the EKF's gate of where its beam should
-        meet that array, and clearly nearer to it than any other pulse of that array within the
-        gate (`times`: those of this period; the earlier ones heard): two pulses both about where
-        its own should be are two lasers in step, and neither can be told for its own."""
-        assert e.beacon is not None
-        innovation, var = ekf.hit_innovation(*self.beacons[e.beacon], self.var)
-        gate = min(CROWDED_GATE * math.sqrt(var), WIDEST)
-        if abs(innovation) > gate:
-            return False
-        rate = float(ekf.s[4]) + self.turn_rate  # how fast the predicted beam sweeps the world
-        rivals = {t for t in times if t != e.time} | {t for t, b in self.heard if b == e.beacon and t != e.time}
-        for t in rivals:
-            if abs(t - e.time) < self.period / 4:
-                other = wrap(innovation - rate * (t - e.time))  # that pulse's innovation
-                if abs(other) <= gate and other * other - innovation * innovation < SEPARATION * SEPARATION * var:
-                    return False
-        return True
-
-    def _prior(self, now: float) -> tuple[tuple[float, float], float]:
-        """Where the robot should be, and within what radius (m), for a (re)start among other
-        lasers' pulses: the filter's position, less sure the longer its own pulses have been
-        missing; else the announced start; else anywhere on the field."""
-        if self.ekf is not None:
-            sd = math.sqrt(max(float(self.ekf.P[0, 0]), float(self.ekf.P[1, 1])))
-            missing = self.top * (now - self.heard_from(TRACKING))
-            return self.ekf.pose[:2], min(PRIOR_MAX, PRIOR_MIN + 3 * sd + missing)
-        xmin, ymin, xmax, ymax = self.start.region if self.start and self.start.region else self.field
-        if self.start is not None and self.start.region is None:
-            return (self.start.x, self.start.y), PRIOR_MIN + self.start.position_spread
-        return ((xmin + xmax) / 2, (ymin + ymax) / 2), PRIOR_MIN + math.dist((xmin, ymin), (xmax, ymax)) / 2
-
-    def _crowded_fix(self, now: float) -> tuple[tuple[float, float, float], list[tuple[float, str]]] | None:
-        """(x, y, beam world angle now) and its pulses, from the last turn's pulses that one
-        laser near the prior could have made (`one_laser`): the set of four arrays that fits
-        one pose nearest the prior, else, if the prior is sure enough, of three."""
-        prior, radius = self._prior(now)
-        reach = radius + max(map(abs, self.wheels.speeds)) * self.period  # and it moves while the turn lasts
-        best: tuple[int, float, tuple[float, float, float], list[tuple[float, str]]] | None = None
-        for pulses in one_laser(self.heard, self.beacons, prior, reach, self.omega + self.turn_rate):
-            if best is not None and len(pulses) < best[0]:
-                break
-            if len(pulses) < 4 and radius > SURE_PRIOR:
-                break
-            fix = self._solve(pulses)
-            if fix is None or math.dist(fix[:2], prior) > reach:
-                continue
-            far = math.dist(fix[:2], prior)
-            if best is None or far < best[1]:
-                best = (len(pulses), far, fix, pulses)
-        return None if best is None else (best[2], best[3])
 
     def _update(self, ekf: BearingEKF, e: SensorEvent) -> bool:
         """The EKF update of `ekf` for one event; False once the filter is lost."""
@@ -549,45 +398,5 @@ class HitTracker:
     def _labelled_fix(self, e: SensorEvent) -> tuple[float, float, float, None] | None:
         if e.kind != "hit" or e.beacon is None or not self.recent:
             return None
-        fix = self.revolution_fix()
+        fix = revolution_fix(self.recent, self.beacons, self.omega + self.turn_rate, self.time_out)
         return None if fix is None else (*fix, None)
-
-    def revolution_fix(self) -> tuple[float, float, float] | None:
-        """(x, y, beam world angle now) from the revolution that the newest hit closes, or None
-        if it fails Bac's checks."""
-        end, closing = self.recent[-1]
-        before = [k for k, (t, b) in enumerate(self.recent[:-1]) if b == closing]
-        if not before:
-            return None
-        begin = before[-1]
-        duration = end - self.recent[begin][0]
-        rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
-        if duration > self.time_out:
-            return None  # a pulse of the closing array itself went missing
-        hits = self.recent[begin + 1 :]
-        times = [self.recent[begin][0]] + [t for t, _ in hits]
-        smallest = min(b - a for a, b in zip(times, times[1:]))
-        if abs(duration - 2 * math.pi / rate) > smallest or len({b for _, b in hits}) != len(hits) or len(hits) < 3:
-            return None
-        return self._solve(hits)
-
-    def _solve(self, hits: list[tuple[float, str]]) -> tuple[float, float, float] | None:
-        """(x, y, beam world angle at the last hit) from one turn's hits of distinct arrays, by
-        least squares; None if it fails, or if four or more fit it badly."""
-        end = hits[-1][0]
-        rate = abs(self.omega + self.turn_rate)  # the beam turns with the robot
-        sign = math.copysign(1.0, self.omega + self.turn_rate)
-        points = [self.beacons[b] for _, b in hits]
-        bearings = [sign * rate * (t - end) for t, _ in hits]  # relative to the beam now
-        fix = least_squares(points, bearings, sigma=1e-3)
-        if not fix.ok:
-            return None
-        if (
-            len(hits) > 3
-            and max(
-                abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a)) for (bx, by), a in zip(points, bearings)
-            )
-            > FIT_RESIDUAL
-        ):
-            return None
-        return fix.x, fix.y, fix.heading
