@@ -281,6 +281,7 @@ class Match:
         return result
 
     def _result(self) -> MatchResult:
+        """The result of the match as it stands (`end` calls it once the rules are finished)."""
         robots = [
             robot_result(
                 slot,
@@ -312,7 +313,7 @@ def run_match(
 ) -> MatchResult:
     """Run one match and return its result. `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
-    their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
+    their own; `limits` replaces the level's controller limits (`fleet.NO_LIMITS` for debugging);
     `logs` is a folder for each controller's output (`slotN.log`), tracebacks included;
     `noise_key` (hex) mixes a secret into every random stream, so the public seed alone cannot
     reproduce the noise."""
