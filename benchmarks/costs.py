@@ -26,7 +26,17 @@ AREAS = [
     ("physics", ("pymunk", "_chipmunk", "arena/world.py", "arena/drive.py", "arena/chipmunk.py", "arena/stepping.py")),
     ("sensing", ("arena/sensing/", "arena/angles.py")),
     ("referee checks", ("referee/match/tasks.py", "referee/match/rules.py", "referee/match/estimates.py")),
-    ("replay", ("referee/records/replay.py", "gzip", "zlib", "json/", "TextIOWrapper")),
+    (
+        "replay",
+        (
+            "referee/records/replay_writer.py",
+            "referee/records/replay_lines.py",
+            "gzip",
+            "zlib",
+            "json/",
+            "TextIOWrapper",
+        ),
+    ),
     ("exchange", ("referee/sandbox/", "robots/protocol.py", "select", "subprocess", "msgspec", "BufferedWriter")),
     ("controllers", ("robots/",)),
 ]

@@ -36,8 +36,10 @@ from arena.level import Level
 from arena.loader import parse_level
 from arena.robot_models import ROBOT_MODELS
 from referee.match.loop import Match
+from referee.match.views import replay_header
 from referee.media import error_series
-from referee.records.replay import MemoryRecorder, Replay
+from referee.records.replay_format import Replay
+from referee.records.replay_writer import MemoryRecorder
 from referee.sandbox.teams import resolve
 
 IN = 0.0254  # m
@@ -95,8 +97,9 @@ def exactly_at(name: str, scale: Scale = (), robot: dict[str, Any] | None = None
 def play(level: Level, teams: list[str], seed: int, ideal: bool = False) -> Replay:
     """A match in this process (the reference controllers give the same bytes isolated), its
     replay kept in memory."""
-    recorder = MemoryRecorder(level, level.text, seed, ideal, [(t, t) for t in teams])
-    Match(level, [resolve(t) for t in teams], seed=seed, ideal=ideal, isolate=False, recorder=recorder).run()
+    resolved = [resolve(t) for t in teams]
+    recorder = MemoryRecorder(replay_header(level, resolved, seed, ideal, None))
+    Match(level, resolved, seed=seed, ideal=ideal, isolate=False, recorder=recorder).run()
     return recorder.replay
 
 

@@ -14,7 +14,8 @@ import time
 
 import levels
 from arena.loader import load_level
-from referee.match.loop import Match, brief_for
+from referee.match.loop import Match
+from referee.match.views import brief_for
 from referee.sandbox.process import ProcessBot, exchange
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
@@ -66,7 +67,7 @@ class _Sequential(Match):
     def _control_tick(self) -> None:
         for slot, obs in enumerate(self.observe()):
             if obs is not None:
-                self.answer(slot, self.bots[slot].step(obs))
+                self.answer(slot, self.fleet.bots[slot].step(obs))
 
 
 def match_time(controller: str, mode: str) -> float:
@@ -80,7 +81,7 @@ def match_time(controller: str, mode: str) -> float:
         Match(level, teams).run()
     else:
         match = _Sequential(level, teams)
-        match.bots = [ProcessBot(t, level.limits, slot=i, forked=False) for i, t in enumerate(teams)]
+        match.fleet.bots = [ProcessBot(t, level.limits, slot=i, forked=False) for i, t in enumerate(teams)]
         match.run()
     return time.perf_counter() - start
 

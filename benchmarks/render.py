@@ -22,7 +22,7 @@ from arena.draw import Painter
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 SIZE = (960, 640)

@@ -17,7 +17,7 @@ import time
 
 import levels
 from arena.loader import load_level
-from referee.match.loop import brief_for
+from referee.match.views import brief_for
 from referee.sandbox import forkserver, kernel
 from referee.sandbox.privacy import slot_uid
 from referee.sandbox.process import ProcessBot

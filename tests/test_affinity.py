@@ -10,7 +10,7 @@ import pytest
 from helpers import variant
 
 from referee.match.loop import Match
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox import affinity
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
@@ -42,12 +42,12 @@ def test_a_lone_controller_shares_its_referees_cpu(tmp_path, forked):
     before = os.sched_getaffinity(0)
     level = variant("asabe", "short.yaml", time_limit=3)
     match = Match(level, [reporter(tmp_path)], replay=tmp_path / "m.replay")
-    match.bots = [ProcessBot(match.teams[0], level.limits, slot=0, forked=forked)]
+    match.fleet.bots = [ProcessBot(match.teams[0], level.limits, slot=0, forked=forked)]
     try:
         match.begin()
-        assert match.cpu is not None
-        assert os.sched_getaffinity(0) == {match.cpu.cpu}  # the referee thread, pinned
-        cpu = match.cpu.cpu
+        assert match.fleet.cpu is not None
+        assert os.sched_getaffinity(0) == {match.fleet.cpu.cpu}  # the referee thread, pinned
+        cpu = match.fleet.cpu.cpu
         while not match.ended:
             match._control_tick()
             match.advance()

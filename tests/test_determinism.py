@@ -8,7 +8,8 @@ import levels
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
-from referee.records.replay import load
+from referee.records.replay_reader import load
+from referee.records.results import MatchResult
 from referee.sandbox.teams import resolve
 
 
@@ -29,9 +30,9 @@ def test_two_processes_give_identical_bytes(tmp_path):
     # the replay carries a frame per record period and ends with the same result
     rep = load(replay)
     assert rep.header["seed"] == 7 and rep.header["level"]["hash"] == level.hash
-    assert rep.result == json.loads(outs[0][0])
+    assert rep.result == MatchResult.from_json(outs[0][0])
     # (a frame every record period from t = 0; a match may end between two)
-    end_tick = round(rep.result["end_time"] * level.physics_rate)
+    end_tick = round(rep.result.end_time * level.physics_rate)
     assert len(rep.frames) == end_tick // level.steps_per_record + 1
     assert rep.events and rep.estimates
 

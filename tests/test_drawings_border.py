@@ -9,7 +9,7 @@ import json
 import pytest
 from helpers import MINI_LEVEL, run_cli
 
-from referee.records.replay import load
+from referee.records.replay_reader import load
 
 BAD = """from robots.api import Command, Controller, Drawing
 

@@ -1,7 +1,7 @@
 """The golden replay: a change detector, as the replay issue asks.
 
 It fails when a change alters simulation results (physics, sensing, noise, controllers,
-scoring) without a bump of the replay format version or of `referee.records.replay.BEHAVIOUR`. After a
+scoring) without a bump of the replay format version or of `referee.records.replay_format.BEHAVIOUR`. After a
 deliberate change, bump BEHAVIOUR and regenerate: `python tests/test_golden.py`.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 from helpers import variant
 
 from referee.match.loop import run_match
-from referee.records.replay import BEHAVIOUR, VERSION
+from referee.records.replay_format import BEHAVIOUR, VERSION
 from referee.sandbox.teams import resolve
 
 GOLDEN = Path(__file__).parent / "golden" / "replay.json"
@@ -49,7 +49,7 @@ def test_golden_replay():
     )
     assert content_hash() == golden["sha256"], (
         "simulation results changed without a version bump: if that is intended, bump "
-        "referee.records.replay.BEHAVIOUR and regenerate with `python tests/test_golden.py`"
+        "referee.records.replay_format.BEHAVIOUR and regenerate with `python tests/test_golden.py`"
     )
 
 

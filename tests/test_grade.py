@@ -128,7 +128,7 @@ def test_two_teams_whose_names_clean_up_alike_keep_their_own_replays(shared_dir,
     assert (
         run_grade(tmp_path, "--team", a, "--team", b, "--seeds", "1", "--secret-file", secret_file("s")).returncode == 0
     )
-    from referee.records.replay import load
+    from referee.records.replay_reader import load
 
     got = {load(r[4]).header["teams"][0]["spec"]: r[0] for r in rows(tmp_path / "r.sqlite")}
     assert got == {a: a, b: b}  # each row's replay holds that row's team
@@ -225,7 +225,7 @@ def test_graded_noise_comes_from_the_secret_not_the_seed(tmp_path):
     import hmac
     import stat
 
-    from referee.records.replay import load
+    from referee.records.replay_reader import load
 
     assert run_grade(tmp_path, "--team", "ref:bac", "--seeds", "1").returncode == 0
     db = tmp_path / "r.sqlite"

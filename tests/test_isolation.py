@@ -18,7 +18,7 @@ from arena.level import ControllerLimits
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 
@@ -351,7 +351,7 @@ def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(
     """`exchange` runs the referee's `meanwhile` work after sending and before reading: an
     answer that waited on that work is timed to when the work began, so it draws nothing from
     the bank; an answer that came after it is timed in full."""
-    from referee.match.loop import brief_for
+    from referee.match.views import brief_for
     from referee.sandbox.process import ProcessBot, exchange
     from robots.api import Command, Observation
 
@@ -391,7 +391,7 @@ def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(
 def test_a_load_error_names_the_teams_own_path(tmp_path, monkeypatch, sandboxed):
     # the folder its files were put in (the sandbox's /team, a temporary folder without one)
     # is no business of the team's: its message names its file as it gave it
-    from referee.match.loop import brief_for
+    from referee.match.views import brief_for
     from referee.sandbox import process
 
     monkeypatch.setattr(process, "drop_to", lambda: None)  # without a sandbox: as this user (a 0700 checkout)

@@ -252,8 +252,8 @@ def test_the_replay_written_while_controllers_compute_is_the_replay_written_at_o
         while not m.ended:
             for slot, obs in enumerate(m.observe()):
                 if obs is not None:
-                    m.answer(slot, m.bots[slot].step(obs))
-            assert m.writer is not None and not m.unwritten  # nothing put off in this driver
+                    m.answer(slot, m.fleet.bots[slot].step(obs))
+            assert m.writer is not None and not m.deferred.pending  # nothing put off in this driver
             m.advance()
         m.end()
     finally:

@@ -15,8 +15,9 @@ from arena.level_checks import footprint
 from arena.loader import load_level, parse_level
 from arena.placement import draw, starts, trial_poses
 from arena.rng import RandomTree
-from referee.match.loop import Match, announced_start, brief_for
-from referee.records.replay import load
+from referee.match.loop import Match
+from referee.match.views import announced_start, brief_for
+from referee.records.replay_reader import load
 from referee.sandbox.teams import Team
 from robots.api import Command, StartInfo
 

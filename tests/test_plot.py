@@ -13,7 +13,7 @@ from arena.draw import color
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 CRASH = """\

@@ -13,7 +13,7 @@ from helpers import run_cli
 
 pytest.importorskip("gymnasium", reason="the rl extra is not installed: pip install '.[rl]'")
 
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from robots.toolkit.policy import Policy
 
 

@@ -101,7 +101,7 @@ def mutations(rng: random.Random, base: bytes) -> bytes:
 
 def a_setup_message() -> dict:
     from arena.loader import load_level
-    from referee.match.loop import brief_for
+    from referee.match.views import brief_for
 
     return {"type": "setup", "brief": protocol.to_plain(brief_for(load_level(levels.path("asabe-race")), 1))}
 

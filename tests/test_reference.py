@@ -40,7 +40,7 @@ def ticks(level, team, ideal=False):
     lv = load_level(levels.path(level))
     m = Match(lv, [resolve(team)] * len(lv.robots), isolate=False, ideal=ideal)
     out = []
-    bot = m.bots[0]
+    bot = m.fleet.bots[0]
     step = bot.step
     began = {0: 0.0}
 

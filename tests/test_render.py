@@ -11,7 +11,7 @@ from arena.draw import BEACON, FIELD, Painter, color
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes, render
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 

@@ -15,7 +15,7 @@ from helpers import MINI_LEVEL
 from arena.loader import parse_level
 from referee.errors import EXIT_BAD_INPUT
 from referee.match.loop import run_match
-from referee.records.replay import MAX_RECORD, MAX_REPLAY
+from referee.records.replay_format import MAX_RECORD, MAX_REPLAY
 from referee.sandbox.teams import resolve
 
 GIB = 1 << 30

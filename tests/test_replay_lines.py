@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 
 from arena.loader import parse_level
 from referee.records.canonical import DECIMALS
-from referee.records.replay import ReplayWriter
+from referee.records.replay_format import Header, TeamEntry
+from referee.records.replay_writer import ReplayWriter
 
 AWKWARD = [0.0, -0.0, 1e-07, -7.31e-07, 2.5e-05, 1e-05, 0.1, 1e16, 1.2345678901234568e17, 1e22, 5e-324, 123.456789012]
 AWKWARD += [1e-4, -1e-4, 0.000099999999999, 0.0001000000005, 999999.9999999999, 1e6, -999999.999999999, 0.1 + 0.2]
@@ -36,7 +37,11 @@ def rounded(values):
 def writer(path):
     """A replay writer of a mini level's match, to `path`."""
     level = parse_level(MINI_LEVEL.encode(), "mini.yaml")
-    return ReplayWriter(path, level, MINI_LEVEL, 1, False, [("a", "ref:idle", "")], "test")
+    teams = (TeamEntry("a", "ref:idle", ""),)
+    header = Header(
+        level.name, level.hash, MINI_LEVEL, 1, False, level.record_rate, level.control_period, teams, "test"
+    )
+    return ReplayWriter(path, header)
 
 
 def test_hot_records_are_what_json_writes(tmp_path):
@@ -78,14 +83,14 @@ def test_hot_records_are_what_json_writes(tmp_path):
 
 @given(st.floats(allow_nan=True, allow_infinity=True) | st.floats(min_value=-2e6, max_value=2e6))
 def test_a_number_is_what_json_writes_for_it_rounded(value):
-    from referee.records.replay import _number
+    from referee.records.replay_lines import number
 
     rounded = round(value, DECIMALS)
     if math.isfinite(rounded):
-        assert _number(value) == json.dumps(rounded)
+        assert number(value) == json.dumps(rounded)
     else:
         try:
-            _number(value)
+            number(value)
         except TypeError:
             return
         raise AssertionError("a non-finite value must go to JSON's own encoder")
@@ -93,13 +98,13 @@ def test_a_number_is_what_json_writes_for_it_rounded(value):
 
 @given(st.lists(st.floats(allow_nan=True, allow_infinity=True) | st.sampled_from(AWKWARD), max_size=40))
 def test_numbers_at_once_are_each_number_as_json_writes_it(values):
-    from referee.records.replay import _numbers
+    from referee.records.replay_lines import numbers
 
     if all(math.isfinite(v) for v in values):
-        assert _numbers(values) == [json.dumps(round(v, DECIMALS)) for v in values]
+        assert numbers(values) == [json.dumps(round(v, DECIMALS)) for v in values]
         return
     try:  # a NaN or an infinity anywhere: the encoder writes the record, as for one number
-        _numbers(values)
+        numbers(values)
     except TypeError:
         return
     raise AssertionError("a non-finite value must go to JSON's own encoder")

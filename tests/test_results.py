@@ -12,14 +12,15 @@ from helpers import MINI_LEVEL, edited, variant
 from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
-from referee.records.results import SCHEMA_FILE, MatchResult, schema_text
+from referee.records.result_schema import SCHEMA_FILE, schema_text
+from referee.records.results import MatchResult
 from referee.sandbox.teams import resolve
 
 SCHEMA = Path(__file__).resolve().parent.parent / "docs" / "schema" / SCHEMA_FILE
 
 
 def test_the_committed_schema_is_the_generated_one():
-    assert SCHEMA.read_text() == schema_text(), "run: python -m referee.records.results docs/schema"
+    assert SCHEMA.read_text() == schema_text(), "run: python -m referee.records.result_schema docs/schema"
 
 
 @pytest.fixture(scope="module")

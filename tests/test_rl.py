@@ -17,7 +17,8 @@ from helpers import exact_starts, variant  # noqa: E402
 
 import levels  # noqa: E402
 from arena.loader import parse_level  # noqa: E402
-from referee.match.loop import brief_for, run_match  # noqa: E402
+from referee.match.loop import run_match  # noqa: E402
+from referee.match.views import brief_for  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402
 from robots.api import Observation  # noqa: E402
 from robots.controllers.dead_reckoning import DeadReckoning  # noqa: E402
@@ -206,7 +207,7 @@ def test_env_replays_load_and_plot(tmp_path):
     """An episode's replay, even one left before its end, is a whole replay: it loads and plots."""
     from referee.gym import LaserArenaEnv
     from referee.media.plot import error_figure
-    from referee.records.replay import load
+    from referee.records.replay_reader import load
 
     path = tmp_path / "episode.replay"
     env = LaserArenaEnv(level="bac-line", replay=path, report_estimate=True)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from helpers import run_cli
 
-from referee.records.replay import load
+from referee.records.replay_reader import load
 
 
 def test_new_kit_and_its_readme_commands_work(shared_dir):

@@ -25,7 +25,7 @@ from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
 from referee.media.viewer import write_viewer
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"

@@ -20,7 +20,8 @@ from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
-from referee.match.loop import NO_LIMITS, run_match
+from referee.match.fleet import NO_LIMITS
+from referee.match.loop import run_match
 from referee.records.canonical import dumps
 from referee.sandbox.teams import controller_problem, fill_slots
 from referee.terminal import safe

@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from arena.level import Level
-from referee.match.loop import Match, brief_for
+from referee.match.loop import Match
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
+from referee.match.views import brief_for
 from referee.records.results import MatchResult
 from referee.sandbox.teams import Team, controller_problem, fill_slots
 from robots.api import Command
@@ -120,7 +121,7 @@ class AgentSession:
             if obs is None:
                 continue
             if slot in self.others:
-                m.answer(slot, m.bots[slot].step(obs))
+                m.answer(slot, m.fleet.bots[slot].step(obs))
             else:
                 self.encoders[slot].take(obs)
         return {s: self.encoders[s].encode(m.world.time) for s in self.agents}

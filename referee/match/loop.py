@@ -7,93 +7,38 @@ after each physics step (sensing, which fills each robot's inbox of events; task
 the rules; replay frames) is worked out for the whole period at once from the states of its
 steps, with the same results. The match ends at the time limit, or as soon as every robot has
 finished its task or been stopped by a fault.
+
+This is the turn pipeline alone: the controllers' launch and close are the `fleet`'s, what a
+team is told is built in `views`, the result is assembled in `result`, and the replay's writes
+go to a `Recorder`, put off while the controllers compute (`deferral`).
 """
 
 from __future__ import annotations
 
 import functools
-import warnings
-from collections.abc import Callable
 from pathlib import Path
 
 from arena import floor, placement
-from arena.angles import wrap
 from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
-from arena.sensing.events import Detection
 from arena.sensing.pipeline import Sensing
 from arena.world import Watch, World
-from referee.errors import LaserArenaWarning
+from referee.match.deferral import Deferral
 from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
+from referee.match.fleet import Fleet
+from referee.match.result import match_result, robot_result
 from referee.match.rules import Rules
-from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
-from referee.records.replay import ReplayWriter
-from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
-from referee.sandbox import affinity
-from referee.sandbox.bot import Fault, InProcessBot
-from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
+from referee.match.views import brief_for, poses, replay_header, to_event
+from referee.records.replay_writer import Recorder, ReplayWriter
+from referee.records.results import MatchResult
+from referee.sandbox.bot import Fault
+from referee.sandbox.process import exchange
 from referee.sandbox.teams import Team
-from referee.version import __version__
-from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, StartInfo, TaskInfo
-
-NO_LIMITS = ControllerLimits(
-    setup_time=float("inf"),
-    step_time=float("inf"),
-    step_deadline=float("inf"),
-    overage_bank=float("inf"),
-    max_skips=1 << 62,
-    think_budget=float("inf"),
-    memory=0,
-    log_bytes=0,
-)
-
+from robots.api import Command, Observation, SensorEvent
 
 EVERY_STEP = Watch((), 0.0)  # no robot still driving: the match ends at the next step
-
-
-def announced_start(level: Level, slot: int) -> StartInfo | None:
-    """What the rules announce of robot `slot`'s start: its nominal pose and how far the true
-    start may lie from it (never the true start itself), or nothing."""
-    r = level.robots[slot]
-    if not r.start_known:
-        return None
-    p = r.placement
-    return StartInfo(r.start.x, r.start.y, r.start.heading, p.position, p.heading, p.region)
-
-
-def brief_for(level: Level, slot: int) -> Brief:
-    """What robot `slot`'s team may know: the map, its hardware, its task, and what the rules
-    announce of its start; never its true pose."""
-    r = level.robots[slot]
-    m = r.model
-    f = level.field
-    task = level.task
-    goal = (task.goal.x, task.goal.y) if task.goal else None
-    return Brief(
-        slot=slot,
-        field=(f.xmin, f.ymin, f.xmax, f.ymax),
-        beacon_kind=level.beacons.kind,
-        beacons=tuple(BeaconInfo(b.id, b.x, b.y) for b in level.beacons.items),
-        laser=LaserInfo(r.laser.angular_velocity, r.laser.index),
-        robot=RobotInfo(m.name, m.length, m.width, m.track, m.max_wheel_speed, m.max_wheel_accel),
-        task=TaskInfo(task.kind, task.radius, r.path, goal, task.trials.count),
-        control_period=level.control_period,
-        time_limit=level.time_limit,
-        start=announced_start(level, slot),
-    )
-
-
-def to_event(d: Detection) -> SensorEvent:
-    """An arena detection as the team sees it (nothing about which laser caused it)."""
-    return SensorEvent(d.time, d.kind, d.beacon, d.angle, d.samples)  # by position: half the cost of keywords
-
-
-def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
-    """Every robot's (x, y, heading wrapped to (-pi, pi]) from a world `state`."""
-    return [(state[i], state[i + 1], wrap(state[i + 2])) for i in range(0, len(state), 3)]
 
 
 class Match:
@@ -109,7 +54,7 @@ class Match:
         isolate: bool = True,
         limits: ControllerLimits | None = None,
         logs: Path | None = None,
-        recorder=None,
+        recorder: Recorder | None = None,
         noise_key: str | None = None,
     ):
         if len(teams) != len(level.robots):
@@ -128,19 +73,7 @@ class Match:
         self.world = World(level, None if ideal else tree, self.starts)
         self.sensing = Sensing(self.world, tree, ideal)
         limits = level.limits if limits is None else limits
-        reason = isolation_unavailable() if isolate else None
-        if reason:  # said once per match, in one line; the match still runs
-            warnings.warn(
-                f"controllers run in this process ({reason}): nothing isolates them", LaserArenaWarning, stacklevel=2
-            )
-            isolate = False
-        if isolate:
-            make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [
-            ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate else InProcessBot(t)
-            for i, t in enumerate(teams)
-        ]
-        self.cpu: affinity.Claim | None = None  # the CPU a lone controller shares with this thread
+        self.fleet = Fleet(teams, limits, logs, isolate)
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
@@ -153,21 +86,10 @@ class Match:
         # 0.5 m/s for a push or a bounce on top (the match can only end near a final target)
         top = max((r.model.max_wheel_speed for r in level.robots), default=0.0)
         self.reach = (2 * top + 0.5) * level.control_period
-        self.writer = recorder  # anything with ReplayWriter's frame(s) / events / record / close
-        # replay writing put off until controllers compute (run() turns it on; a step-wise
-        # driver that shows the replay as it grows leaves it None: everything is written at once)
-        self.unwritten: list[Callable[[], None]] | None = None
+        self.writer: Recorder | None = recorder
         if replay is not None:
-            self.writer = ReplayWriter(
-                replay,
-                level,
-                level.text,
-                self.seed,
-                ideal,
-                [(t.label, t.spec, t.code_hash) for t in teams],
-                __version__,
-                noise_key,
-            )
+            self.writer = ReplayWriter(replay, replay_header(level, teams, self.seed, ideal, noise_key))
+        self.deferred = Deferral()  # run() holds the replay's writes until the controllers compute
         self.end_reason = "time_limit"
 
     def _fault(self, slot: int, fault: Fault) -> None:
@@ -190,9 +112,9 @@ class Match:
         for slot, detections in enumerate(self.sensing.flush()):
             self.inbox[slot].extend(map(to_event, detections))
             if self.writer and detections:
-                self._write(functools.partial(self.writer.events, slot, detections))
+                self.deferred.put(functools.partial(self.writer.events, slot, detections))
         out: list[Observation | None] = []
-        for slot in range(len(self.bots)):
+        for slot in range(len(self.teams)):
             if self.stopped[slot]:
                 self.estimates[slot].add(self.world.pose(slot), None)
                 out.append(None)
@@ -203,7 +125,7 @@ class Match:
 
     def answer(self, slot: int, out: Command | Fault) -> None:
         """The second half of a control tick for one robot: take its controller's answer."""
-        self.write_unwritten()
+        self.deferred.flush()
         time, truth = self.world.time, self.world.pose(slot)
         if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
             self._fault(slot, out)
@@ -221,24 +143,10 @@ class Match:
             if drawings:
                 self.writer.record("dbg", t=time, r=slot, d=drawings)
 
-    def _write(self, record: Callable[[], None]) -> None:
-        """Write to the replay now, or once controllers are computing (see `unwritten`)."""
-        if self.unwritten is None:
-            record()
-        else:
-            self.unwritten.append(record)
-
-    def write_unwritten(self) -> None:
-        """Write, in order, what was put off; the replay's bytes are the same as written at once."""
-        if self.unwritten:
-            for record in self.unwritten:
-                record()
-            self.unwritten.clear()
-
     def _control_tick(self) -> None:
         # every controller gets its observation before any answer is awaited: they compute at
         # once, and meanwhile the referee writes the replay of the period just stepped
-        for slot, out in enumerate(exchange(self.bots, self.observe(), meanwhile=self.write_unwritten)):
+        for slot, out in enumerate(exchange(self.fleet.bots, self.observe(), meanwhile=self.deferred.flush)):
             if out is not None:
                 self.answer(slot, out)
 
@@ -246,13 +154,13 @@ class Match:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
             self.begin()
-            self.unwritten = []
+            self.deferred.hold()
             while not self.ended:
                 self._control_tick()
                 self.advance()
             return self.end()
         except BaseException:
-            if hasattr(self.writer, "discard"):
+            if self.writer is not None:
                 self.writer.discard()  # an interrupted match leaves no half-written replay
             raise
         finally:
@@ -260,31 +168,14 @@ class Match:
 
     def close(self) -> None:
         """End every controller (their processes, if isolated) and give back the CPU, if one was claimed."""
-        try:
-            try:
-                for bot in self.bots:  # told all at once, they end side by side
-                    bot.ask_to_end()
-            finally:
-                for bot in self.bots:
-                    bot.close()
-        finally:
-            if self.cpu is not None:
-                affinity.release(self.cpu)
-                self.cpu = None
+        self.fleet.close()
 
     def begin(self) -> None:
         """Start the controllers, give each its brief, record the first frame. A step-wise
         driver (referee.gym) then repeats observe / answer / advance until `ended`, and calls `end()`."""
         level, world = self.level, self.world
-        processes = [bot for bot in self.bots if isinstance(bot, ProcessBot)]
-        if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
-            self.cpu = affinity.claim()
-            if self.cpu is not None:
-                processes[0].cpus = [self.cpu.cpu]
-        for bot in self.bots:
-            bot.launch()
-        for slot, bot in enumerate(self.bots):
-            fault = bot.setup(brief_for(level, slot))
+        faults = self.fleet.start([brief_for(level, slot) for slot in range(len(self.teams))])
+        for slot, fault in enumerate(faults):
             if fault:
                 self._fault(slot, fault)
         if self.writer:
@@ -305,7 +196,7 @@ class Match:
         self.sensing.moved()
         self.rules.moved()
         if self.writer:
-            self._write(functools.partial(self.writer.record, "trial", t=self.world.time, n=self.trial))
+            self.deferred.put(functools.partial(self.writer.record, "trial", t=self.world.time, n=self.trial))
 
     def advance(self) -> None:
         """Step physics up to the next control tick, or to the end of the match: the time limit,
@@ -360,19 +251,20 @@ class Match:
         if self.writer:
             start = -first % every  # the first step of this run that is recorded
             if start < len(table):
-                self._write(functools.partial(self._frames, first + start, table[start::every].tolist()))
+                recorded = table[start::every].tolist()
+                self.deferred.put(functools.partial(self._frames, self.writer, first + start, recorded))
         return len(table)
 
-    def _frames(self, tick: int, recorded: list[tuple[float, ...]]) -> None:
+    def _frames(self, writer: Recorder, tick: int, recorded: list[tuple[float, ...]]) -> None:
         """The replay's frames of `recorded` states, one every `steps_per_record` from `tick`."""
         rate, every = self.level.physics_rate, self.level.steps_per_record
-        self.writer.frames([((tick + every * i) / rate, poses(state)) for i, state in enumerate(recorded)])
+        writer.frames([((tick + every * i) / rate, poses(state)) for i, state in enumerate(recorded)])
 
     def end(self) -> MatchResult:
         """Finish the rules, write the replay's last records, and return the result. A robot
         stopped by a fault is counted without an estimate to the time limit: a controller that
         faults on purpose ends nothing early (a match whose robots are all stopped ends at once)."""
-        self.write_unwritten()
+        self.deferred.flush()
         world = self.world
         for slot, stopped in enumerate(self.stopped):
             if stopped:
@@ -389,35 +281,23 @@ class Match:
         return result
 
     def _result(self) -> MatchResult:
-        robots = []
-        for slot, team in enumerate(self.teams):
-            pose = self.world.pose(slot)
-            stats = self.estimates[slot]
-            robots.append(
-                RobotResult(
-                    slot=slot,
-                    team=team.label,
-                    score=score(self.tracker, slot, stats, self.rules.fouls[slot], self.level.time_limit),
-                    task=self.tracker.summary(slot),
-                    localization=stats.summary(),
-                    fouls=[f.to_record() for f in self.rules.fouls[slot]],
-                    faults=[f.to_record() for f in self.faults[slot]],
-                    stopped=self.stopped[slot],
-                    final_pose=[pose.x, pose.y, pose.heading],
-                    **({"warnings": self.warnings[slot].records()} if self.warnings[slot].kinds else {}),
-                )
+        """The result of the match as it stands (`end` calls it once the rules are finished)."""
+        robots = [
+            robot_result(
+                slot,
+                team.label,
+                self.world.pose(slot),
+                self.tracker,
+                self.estimates[slot],
+                self.rules.fouls[slot],
+                self.faults[slot],
+                self.stopped[slot],
+                self.warnings[slot],
+                self.level.time_limit,
             )
-        return MatchResult(
-            format=RESULT_FORMAT,
-            version=RESULT_VERSION,
-            software=__version__,
-            level=LevelRef(name=self.level.name, hash=self.level.hash),
-            seed=self.seed,
-            ideal=self.ideal,
-            end_time=self.world.time,
-            end_reason=self.end_reason,
-            robots=robots,
-        )
+            for slot, team in enumerate(self.teams)
+        ]
+        return match_result(self.level, self.seed, self.ideal, self.world.time, self.end_reason, robots)
 
 
 def run_match(
@@ -433,7 +313,7 @@ def run_match(
 ) -> MatchResult:
     """Run one match and return its result. `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
-    their own; `limits` replaces the level's controller limits (NO_LIMITS for debugging);
+    their own; `limits` replaces the level's controller limits (`fleet.NO_LIMITS` for debugging);
     `logs` is a folder for each controller's output (`slotN.log`), tracebacks included;
     `noise_key` (hex) mixes a secret into every random stream, so the public seed alone cannot
     reproduce the noise."""

@@ -9,8 +9,8 @@ from pathlib import Path
 from arena.loader import parse_level
 from referee.errors import UserError
 from referee.match.loop import run_match
-from referee.records.replay import controller_hash, lines, load
-from referee.sandbox.teams import resolve
+from referee.records.replay_reader import lines, load
+from referee.sandbox.teams import code_hash, resolve
 
 
 def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, str]:
@@ -29,7 +29,7 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
         raise UserError(f"{path} has {len(h['teams'])} teams; got {len(specs)} --team")
     teams = []
     for spec, recorded in zip(specs, h["teams"]):
-        if controller_hash(spec) != recorded["hash"]:
+        if code_hash(spec) != recorded["hash"]:
             return False, f"controller {spec} differs from the one recorded ({recorded['label']})"
         teams.append(resolve(spec))
     with tempfile.TemporaryDirectory() as d:

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 from arena.angles import wrap
 from referee.match.estimates import tick_quality
-from referee.records.replay import Replay
+from referee.records.replay_format import Replay
 
 
 def truth_at(

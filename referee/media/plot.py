@@ -16,7 +16,7 @@ from pathlib import Path
 from arena.draw import color
 from referee.errors import UserError
 from referee.media.error_series import tracks
-from referee.records.replay import load
+from referee.records.replay_reader import load
 
 BACKGROUND, AXIS, GRID, TEXT = (255, 255, 255), (60, 60, 60), (225, 225, 225), (30, 30, 30)
 FOUL, FAULT, FIX = (220, 50, 40), (150, 60, 200), (120, 120, 120)

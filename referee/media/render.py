@@ -17,7 +17,8 @@ from arena.level import Level
 from arena.loader import parse_level
 from referee.errors import UserError
 from referee.media.standings import Standings
-from referee.records.replay import Replay, load
+from referee.records.replay_format import Replay
+from referee.records.replay_reader import load
 from referee.terminal import Progress
 
 TRAIL = 8.0  # s of trail behind each robot
@@ -103,7 +104,7 @@ class Scenes:
         """One line per robot; at the end of a finished replay, the referee's own scores."""
         result = self.rep.result
         if result and t >= self.duration - 1e-9:
-            return tuple(f"{r['slot']} {r['team']}   final score {r['score']['total']:.1f}" for r in result["robots"])
+            return tuple(f"{r.slot} {r.team}   final score {r.score.total:.1f}" for r in result.robots)
         return tuple(self.standings.line(slot, team, t) for slot, team in enumerate(self.teams))
 
 

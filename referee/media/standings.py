@@ -21,7 +21,7 @@ from arena.level import Level, Pose
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.match.tasks import TaskTracker
 from referee.media.error_series import ErrorTrack
-from referee.records.replay import Replay
+from referee.records.replay_format import Replay
 
 
 class Standings:
@@ -68,8 +68,7 @@ class Standings:
     def match_ticks(self, slot: int) -> int:
         """The control ticks Q is the mean over: the result's, else the time limit's."""
         result = self.rep.result
-        localization = result["robots"][slot].get("localization") if result else None
-        return localization["ticks"] if localization else self.level.control_ticks
+        return result.robots[slot].localization.ticks if result else self.level.control_ticks
 
     def error_now(self, slot: int, t: float) -> tuple[float, float] | None:
         """Position (m) and heading (rad) error of the latest estimate reported by time `t`."""

@@ -20,7 +20,7 @@ from referee.errors import UserError
 from referee.match import scoring
 from referee.match.tasks import TaskTracker
 from referee.media import render
-from referee.records.replay import load
+from referee.records.replay_reader import load
 
 WEB = Path(__file__).with_name("web")
 # a line of HUD-like text: the page sizes its font so that this line is as wide as pygame draws it

@@ -131,7 +131,8 @@ def watch(
         raise UserError(f"watch: {problem}; {ELSEWHERE}")
 
     from referee.media.render import Scenes
-    from referee.records.replay import MemoryRecorder, load
+    from referee.records.replay_reader import load
+    from referee.records.replay_writer import MemoryRecorder
 
     live = None
     path = Path(target)
@@ -143,13 +144,12 @@ def watch(
     else:
         from arena.loader import find_level
         from referee.match.loop import Match
+        from referee.match.views import replay_header
         from referee.sandbox.teams import controller_problem, fill_slots
 
         level = find_level(target, controllers=controller_problem)
         resolved = fill_slots(level, teams)
-        recorder = MemoryRecorder(
-            level, level.text, level.seed if seed is None else seed, False, [(t.label, t.spec) for t in resolved]
-        )
+        recorder = MemoryRecorder(replay_header(level, resolved, level.seed if seed is None else seed, False, None))
         match = Match(level, resolved, seed=seed, recorder=recorder)
         live = threading.Thread(target=match.run, daemon=True)
         live.start()

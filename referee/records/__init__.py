@@ -1,6 +1,9 @@
-"""What a match leaves behind: canonical JSON (`canonical`), the replay writer and reader
-(`replay`), and the typed result records and their JSON Schema (`results`).
+"""What a match leaves behind: canonical JSON (`canonical`), the typed result records
+(`results`) and their published JSON Schema (`result_schema`), and the replay: its format,
+header and in-memory form (`replay_format`), its hot lines formatted by hand (`replay_lines`),
+the writer and the in-memory recorder (`replay_writer`), and the reader (`replay_reader`).
 
-It may import `arena.level` (a replay carries its level) and `referee.errors`; never the match
-loop, the sandbox, contest, media or cli, so anything may read a record.
+It may import `referee.errors`, and `arena.schema_file` for the schema's one text form
+(`result_schema` only); never `arena`'s world, the match loop, the sandbox, contest, media or
+cli, so anything may read a record. A replay's header is plain data its caller builds.
 """

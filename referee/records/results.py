@@ -1,11 +1,11 @@
-"""The result of a match as typed, frozen records (format `laserarena-result`, version 2).
+"""The result of a match as typed, frozen records (format `laserarena-result`, version 3).
 
 Every record is a frozen msgspec Struct (its lists are plain lists, as in the JSON): attribute access for Python (`r.robots[0].score.total`),
 read-only access by the result JSON's own field names for scripts written against the JSON
 (`r["robots"][0]["score"]["total"]`), `to_dict()` for the plain data, and one serialiser,
 `referee.records.canonical.dumps`, which writes the same bytes as always. Fields that exist
 only for some task kinds or foul kinds are `UNSET` when absent and left out of the JSON.
-`python -m referee.records.results` writes the JSON Schema generated from these types to
+`referee.records.result_schema` publishes the JSON Schema generated from these types in
 docs/schema/; docs/results.md describes each field.
 """
 
@@ -16,10 +16,7 @@ from typing import Any
 import msgspec
 from msgspec import UNSET, UnsetType
 
-from arena import schema_file
-
 RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 3  # 3: localization quality; the time bonus scaled by it
-SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"
 
 
 class Record(msgspec.Struct, frozen=True, kw_only=True):
@@ -177,22 +174,3 @@ class MatchResult(Record, frozen=True):
     def from_dict(cls, data: dict[str, Any]) -> MatchResult:
         """A result from plain data (a replay's last record, a journal row), checked."""
         return msgspec.convert(data, type=cls)
-
-
-def schema() -> dict[str, Any]:
-    """The JSON Schema of a result, generated from the records."""
-    generated: dict[str, Any] = msgspec.json.schema(MatchResult)
-    return {
-        "$schema": schema_file.DRAFT,
-        "title": f"{RESULT_FORMAT} version {RESULT_VERSION}",
-        **generated,
-    }
-
-
-def schema_text() -> str:
-    """The schema as the file in docs/schema/ holds it."""
-    return schema_file.text(schema())
-
-
-if __name__ == "__main__":
-    raise SystemExit(schema_file.main(SCHEMA_FILE, schema()))

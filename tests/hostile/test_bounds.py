@@ -91,7 +91,7 @@ def test_memory_in_its_files_counts_against_its_limit(tmp_path, forked):
     limits = dataclasses.replace(FAST, memory=160 << 20)
     teams = [resolve(team_file(tmp_path, FILLER))] + [resolve(HONEST)] * 3
     match = Match(short_race(), teams, seed=2, limits=limits)
-    match.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
+    match.fleet.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
     assert_ended_for_memory(match.run(), 160)
 
 

@@ -9,7 +9,7 @@ import json
 
 from hostile.hostile_kit import FAST, assert_contained, assert_others_unharmed, hostile_match
 from referee.match.drawings import MATCH_BYTES, TICK_BYTES
-from referee.match.loop import NO_LIMITS
+from referee.match.fleet import NO_LIMITS
 from referee.records.canonical import dumps
 from robots.protocol import MAX_DRAWINGS, MAX_POINTS, MAX_TEXT
 

@@ -8,7 +8,7 @@ import sys
 
 from hostile.hostile_kit import FAST, HONEST, assert_contained, short_race, team_file
 from referee.match.loop import run_match
-from referee.records.replay import load
+from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
 
 

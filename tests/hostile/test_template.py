@@ -7,7 +7,8 @@ import os
 import pytest
 
 from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, team_file
-from referee.match.loop import brief_for, run_match
+from referee.match.loop import run_match
+from referee.match.views import brief_for
 from referee.sandbox import forkserver
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve

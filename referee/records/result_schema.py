@@ -1,0 +1,34 @@
+"""The result's published JSON Schema, generated from the typed records (`results`):
+`python -m referee.records.result_schema [FOLDER]` writes it to docs/schema/ (or FOLDER), in
+the one text form the level format's schema has too (`arena.schema_file`), so a test can
+hold the committed file to the generated one byte for byte."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgspec
+
+from arena import schema_file
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, MatchResult
+
+SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"
+
+
+def schema() -> dict[str, Any]:
+    """The JSON Schema of a result, generated from the records."""
+    generated: dict[str, Any] = msgspec.json.schema(MatchResult)
+    return {
+        "$schema": schema_file.DRAFT,
+        "title": f"{RESULT_FORMAT} version {RESULT_VERSION}",
+        **generated,
+    }
+
+
+def schema_text() -> str:
+    """The schema as the file in docs/schema/ holds it."""
+    return schema_file.text(schema())
+
+
+if __name__ == "__main__":
+    raise SystemExit(schema_file.main(SCHEMA_FILE, schema()))
