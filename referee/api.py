@@ -93,7 +93,7 @@ CLASS_TEAMS = "class-teams"  # beside a journal: the source each Controller clas
 @dataclass(frozen=True)
 class LeaderboardRow:
     """A team's line on one level of a grade: matches, mean score with the half-width of its
-    95 % interval, mean task progress, mean position RMS (mm, None without estimates), fouls
+    95 % interval, mean task progress, mean position RMS (m, None without estimates), fouls
     and faults. The fields are leaderboard.csv's columns."""
 
     team: str
@@ -102,7 +102,7 @@ class LeaderboardRow:
     score_mean: float
     score_ci95: float
     task_mean: float
-    position_rms_mm: float | None
+    position_rms: float | None
     fouls: int
     faults: int
 

@@ -1,8 +1,9 @@
 """The golden replay: a change detector, as the replay issue asks.
 
 It fails when a change alters simulation results (physics, sensing, noise, controllers,
-scoring) without a bump of the replay format version or of `referee.records.replay_format.BEHAVIOUR`. After a
-deliberate change, bump BEHAVIOUR and regenerate: `python tests/test_golden.py`.
+scoring) without a bump of the replay format version, of `referee.records.replay_format.BEHAVIOUR`
+or of the result format it ends with (`referee.records.results.RESULT_VERSION`). After a
+deliberate change, bump the one that changed and regenerate: `python tests/test_golden.py`.
 """
 
 import gzip
@@ -16,6 +17,7 @@ from helpers import variant
 
 from referee.match.loop import run_match
 from referee.records.replay_format import BEHAVIOUR, VERSION
+from referee.records.results import RESULT_VERSION
 from referee.sandbox.teams import resolve
 
 GOLDEN = Path(__file__).parent / "golden" / "replay.json"
@@ -44,8 +46,8 @@ def content_hash() -> str:
 
 def test_golden_replay():
     golden = json.loads(GOLDEN.read_text())
-    assert (golden["format"], golden["behaviour"]) == (VERSION, BEHAVIOUR), (
-        "the replay format or behaviour version changed: regenerate with `python tests/test_golden.py`"
+    assert (golden["format"], golden["behaviour"], golden["result"]) == (VERSION, BEHAVIOUR, RESULT_VERSION), (
+        "the replay format, behaviour or result version changed: regenerate with `python tests/test_golden.py`"
     )
     assert content_hash() == golden["sha256"], (
         "simulation results changed without a version bump: if that is intended, bump "
@@ -55,6 +57,9 @@ def test_golden_replay():
 
 if __name__ == "__main__":
     GOLDEN.write_text(
-        json.dumps({"format": VERSION, "behaviour": BEHAVIOUR, "sha256": content_hash()}, indent=2) + "\n"
+        json.dumps(
+            {"format": VERSION, "behaviour": BEHAVIOUR, "result": RESULT_VERSION, "sha256": content_hash()}, indent=2
+        )
+        + "\n"
     )
     print(f"wrote {GOLDEN}", file=sys.stderr)

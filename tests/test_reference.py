@@ -146,7 +146,7 @@ def test_bac_drives_the_asabe_letters_at_the_papers_speed():
     # robot stays on the letters' lines
     level = variant("asabe", **exact_starts("asabe"))
     ideal = run_match(level, [resolve("ref:bac")], ideal=True, isolate=False)["robots"][0]
-    assert ideal["task"]["finished"] is not None and ideal["task"]["cross_track_mm"]["max"] < 25
+    assert ideal["task"]["finished"] is not None and ideal["task"]["cross_track"]["max"] < 0.025
 
 
 def test_bac_race_keeps_every_robot_localized_while_they_block_each_others_beams():

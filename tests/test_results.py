@@ -52,7 +52,7 @@ def results(tmp_path_factory):
 def test_the_results_cover_every_optional_part(results):
     kinds = {r.robots[0].task.kind for r in results}
     assert kinds == {"waypoints", "localize", "goto", "race"}
-    assert any(r.robots[0].faults for r in results) and any(r.robots[0].task.get("cross_track_mm") for r in results)
+    assert any(r.robots[0].faults for r in results) and any(r.robots[0].task.get("cross_track") for r in results)
     assert "final_distance" in results[3].robots[0].task and "reached" not in results[3].robots[0].task
 
 

@@ -65,9 +65,9 @@ def test_waypoints_score_time_and_cross_track(tmp_path):
     assert blind["score"]["time"] == blind["score"]["localization"] == 0 and blind["score"]["total"] == 100
     # cross-track from the polyline (0.5,0.5)->(1.0,0.52)->(1.5,0.5) for a robot on y = 0.5:
     # 0 at the ends, 2 cm at x = 1.0 (distance to a line of slope 0.04 is 0.02 cos(atan 0.04) at most)
-    ct = r["task"]["cross_track_mm"]
-    assert ct["max"] == pytest.approx(20 / math.hypot(1, 0.04), abs=0.3)
-    assert 5 < ct["mean"] < 12 and ct["std"] > 0
+    ct = r["task"]["cross_track"]  # in m, as every length of a result
+    assert ct["max"] == pytest.approx(0.02 / math.hypot(1, 0.04), abs=0.0003)
+    assert 0.005 < ct["mean"] < 0.012 and ct["std"] > 0
 
 
 def test_goto_partial_credit_and_localize_scored_on_error(tmp_path):

@@ -213,7 +213,7 @@ def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
                 "score_mean": round(mean, 3),
                 "score_ci95": round(half, 3),
                 "task_mean": round(sum(r["score"]["task"] for r in robots) / len(robots), 3),
-                "position_rms_mm": round(1000 * sum(rms) / len(rms), 3) if rms else None,
+                "position_rms": round(sum(rms) / len(rms), 6) if rms else None,
                 "fouls": sum(len(r["fouls"]) for r in robots),
                 "faults": sum(len(r["faults"]) for r in robots),
             }
@@ -240,7 +240,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        rms = "-" if r["position_rms_mm"] is None else f"{r['position_rms_mm']:.1f}"
+        rms = "-" if r["position_rms"] is None else f"{1000 * r['position_rms']:.1f}"
         team = safe(r["team"]).replace("|", "\\|")
         md.append(
             f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "

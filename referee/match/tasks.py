@@ -131,14 +131,14 @@ class TaskTracker:
             if dev:
                 mean = sum(dev) / len(dev)
                 std = math.sqrt(sum((d - mean) ** 2 for d in dev) / len(dev))
-                cross = CrossTrack(mean=1000 * mean, std=1000 * std, max=1000 * max(dev))
+                cross = CrossTrack(mean=mean, std=std, max=max(dev))
             return TaskProgress(
                 kind=self.kind,
                 finished=finished,
                 reached=self.next[slot],
                 total=len(targets),
                 reached_at=list(self.reached_at[slot]),
-                cross_track_mm=cross,
+                cross_track=cross,
             )
         if self.kind == "goto":
             return TaskProgress(kind=self.kind, finished=finished, final_distance=self.final_distance[slot])

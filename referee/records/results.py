@@ -16,7 +16,7 @@ from typing import Any
 import msgspec
 from msgspec import UNSET, UnsetType
 
-RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 3  # 3: localization quality; the time bonus scaled by it
+RESULT_FORMAT, RESULT_VERSION = "laserarena-result", 4  # 4: every length in m (cross-track was in mm)
 
 
 class Record(msgspec.Struct, frozen=True, kw_only=True):
@@ -67,7 +67,7 @@ class Score(Record, frozen=True):
 
 
 class CrossTrack(Record, frozen=True):
-    """How far the robot strayed from the ideal polyline, in mm."""
+    """How far the robot strayed from the ideal polyline, in m."""
 
     mean: float
     std: float
@@ -82,7 +82,7 @@ class TaskProgress(Record, frozen=True):
     reached: int | UnsetType = UNSET
     total: int | UnsetType = UNSET
     reached_at: list[float] | UnsetType = UNSET
-    cross_track_mm: CrossTrack | UnsetType = UNSET
+    cross_track: CrossTrack | UnsetType = UNSET
     final_distance: float | None | UnsetType = UNSET
 
 
