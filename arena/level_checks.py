@@ -1,5 +1,7 @@
-"""Checks of a level beyond its schema: file size and YAML nesting, convex obstacles, start
-poses clear of everything, enough beacons for a fix, and a default controller that exists.
+"""Checks of a level beyond its schema: file size, YAML nesting and aliases, convex obstacles,
+start poses clear of everything, and enough beacons for a fix. (Whether the default controller
+exists is the referee's check, `referee.sandbox.teams.controller_problem`, which the referee
+passes to `arena.loader`.)
 
 Each check returns a `Problem` (the dotted key it concerns and a one-line message) or None;
 `arena.loader` turns the first problem into a `LevelError` with the key's file line.

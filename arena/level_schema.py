@@ -1,7 +1,7 @@
 """The level format as a JSON Schema, for editors (`# yaml-language-server: $schema=...`).
 
-Made from the loader itself: the built-in levels are read with `loader.SHAPES` set, so every
-mapping records the keys it allows, the converter each key went through, which keys it
+Made from the loader itself: the built-in levels are read with `arena.yaml_reader.SHAPES` set,
+so every mapping records the keys it allows, the converter each key went through, which keys it
 required and which held lists; each converter has its JSON Schema fragment here. A key no
 built-in level exercises is still listed (the loader allows it), with any value. The loader
 stays the authority: the schema checks what an editor can check (keys, types, signs), not the
@@ -18,27 +18,28 @@ from typing import Any
 import yaml
 
 import levels
-from arena import loader, schema_file
+from arena import level_geometry, loader, schema_file
+from arena import yaml_reader as yr
 
 SCHEMA_FILE = "level.schema.json"
 NUMBER: dict[str, Any] = {"type": "number"}
 POINT = {"type": "array", "items": NUMBER, "minItems": 2, "maxItems": 2}
 FRAGMENTS: dict[Callable[..., Any], dict[str, Any]] = {  # each converter's values
-    loader._number: NUMBER,
-    loader._length_signed: NUMBER,
-    loader._positive: {"type": "number", "exclusiveMinimum": 0},
-    loader._length: {"type": "number", "exclusiveMinimum": 0},
-    loader._nonnegative: {"type": "number", "minimum": 0},
-    loader._half_turn: {"type": "number", "minimum": 0, "maximum": 180},
-    loader._integer: {"type": "integer"},
-    loader._count: {"type": "integer", "minimum": 0},
-    loader._text: {"type": "string", "minLength": 1},
-    loader._flag: {"type": "boolean"},
-    loader._point: POINT,
-    loader._size: {**POINT, "items": {"type": "number", "exclusiveMinimum": 0}},
-    loader._pose: {"type": "array", "items": NUMBER, "minItems": 3, "maxItems": 3},
-    loader._rectangle: {"type": "array", "items": POINT, "minItems": 2, "maxItems": 2},
-    loader._points: {"type": "array", "items": POINT, "minItems": 1},
+    yr.number: NUMBER,
+    yr.length_signed: NUMBER,
+    yr.positive: {"type": "number", "exclusiveMinimum": 0},
+    yr.length: {"type": "number", "exclusiveMinimum": 0},
+    yr.nonnegative: {"type": "number", "minimum": 0},
+    yr.half_turn: {"type": "number", "minimum": 0, "maximum": 180},
+    yr.integer: {"type": "integer"},
+    yr.count: {"type": "integer", "minimum": 0},
+    yr.text: {"type": "string", "minLength": 1},
+    yr.flag: {"type": "boolean"},
+    yr.point: POINT,
+    yr.size: {**POINT, "items": {"type": "number", "exclusiveMinimum": 0}},
+    level_geometry.pose: {"type": "array", "items": NUMBER, "minItems": 3, "maxItems": 3},
+    yr.rectangle: {"type": "array", "items": POINT, "minItems": 2, "maxItems": 2},
+    yr.points: {"type": "array", "items": POINT, "minItems": 1},
 }
 
 BY_HAND: dict[tuple[str, str], dict[str, Any]] = {  # keys the loader reads without a converter
@@ -48,24 +49,24 @@ BY_HAND: dict[tuple[str, str], dict[str, Any]] = {  # keys the loader reads with
 
 
 def _fragment(conv: Callable[..., Any]) -> dict[str, Any]:
-    """The values a converter accepts: its fragment, an enum for a `_choice`, else any."""
+    """The values a converter accepts: its fragment, an enum for a `choice`, else any."""
     if conv in FRAGMENTS:
         return FRAGMENTS[conv]
-    if conv.__qualname__ == "_choice.<locals>.conv" and conv.__closure__:
+    if conv.__qualname__ == "choice.<locals>.conv" and conv.__closure__:
         return {"type": "string", "enum": list(conv.__closure__[0].cell_contents)}
     return {}
 
 
-def shapes() -> dict[str, loader.Shape]:
+def shapes() -> dict[str, yr.Shape]:
     """What reading the built-in levels recorded, by mapping path; then each key no level
     explored is tried, in each level, as an empty mapping and as a list of one, in a mapping
     whose other known keys hold sample values (each choice of a `kind` in turn), until
     nothing new is learnt: the loader records a key's converter before it checks the value,
     and a mapping's keys as it opens it. Which keys are required is learnt from the levels
     alone (a probe stops at its first error)."""
-    found: dict[str, loader.Shape] = {}
+    found: dict[str, yr.Shape] = {}
     docs = [yaml.safe_load(levels.path(name).read_text(encoding="utf-8")) for name in levels.names()]
-    token = loader.SHAPES.set(found)
+    token = yr.SHAPES.set(found)
     try:
         for doc in docs:
             _read(doc)
@@ -81,13 +82,13 @@ def shapes() -> dict[str, loader.Shape]:
                         for variant in _probes(doc, path, key, probe, found[path]):
                             _read(variant)
     finally:
-        loader.SHAPES.reset(token)
+        yr.SHAPES.reset(token)
     for path, shape in found.items():
         shape.reads, shape.required = counted.get(path, (shape.reads, {}))
     return found
 
 
-def _unexplored(found: dict[str, loader.Shape]) -> list[tuple[str, str]]:
+def _unexplored(found: dict[str, yr.Shape]) -> list[tuple[str, str]]:
     """(mapping path, key) of every key allowed with nothing known of its value."""
     out = []
     for path, shape in list(found.items()):
@@ -108,7 +109,7 @@ def _sample(fragment: dict[str, Any]) -> Any:
     return {"number": 0.1, "integer": 1, "string": "x", "boolean": False}.get(kind, 0.1)
 
 
-def _probes(doc: Any, path: str, key: str, value: Any, shape: loader.Shape) -> list[Any]:
+def _probes(doc: Any, path: str, key: str, value: Any, shape: yr.Shape) -> list[Any]:
     """Copies of the level document `doc` with `key` set to `value` in the mapping at `path`
     (made where missing; the first item of each list on the way), its other known keys given
     sample values where absent, once per choice of its first choice-valued key."""
@@ -150,7 +151,7 @@ def _read(doc: Any) -> None:
         pass
 
 
-def _object(path: str, found: dict[str, loader.Shape]) -> dict[str, Any]:
+def _object(path: str, found: dict[str, yr.Shape]) -> dict[str, Any]:
     shape = found[path]
     properties = {}
     for key in sorted(shape.keys):
@@ -161,7 +162,7 @@ def _object(path: str, found: dict[str, loader.Shape]) -> dict[str, Any]:
             properties[key] = {"type": "array", "items": _object(f"{child}[]", found)}
         elif key in shape.converters:
             forms: list[dict[str, Any]] = []
-            for conv in shape.converters[key]:  # a `_choice` is a new function at each call: one form each
+            for conv in shape.converters[key]:  # a `choice` is a new function at each call: one form each
                 if _fragment(conv) not in forms:
                     forms.append(_fragment(conv))
             properties[key] = forms[0] if len(forms) == 1 else {"anyOf": forms}
