@@ -1,0 +1,117 @@
+"""The rooms' borders are import-linter contracts (pyproject.toml) that `make lint` runs: each
+contract is shown failing on a copy of the tree given one import that breaks it, and the rules
+agree with the project's dependencies and with docs/architecture.md."""
+
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from importlib import metadata
+from pathlib import Path
+
+import pytest
+
+from robots.loading import STANDARD_VIEW
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = tomllib.loads((ROOT / "pyproject.toml").read_text())
+CONTRACTS = {c["name"]: c for c in CONFIG["tool"]["importlinter"]["contracts"]}
+LINT_IMPORTS = Path(sys.executable).parent / "lint-imports"
+
+
+def lint(tree: Path) -> subprocess.CompletedProcess:
+    """lint-imports over the packages of `tree` (not the installed ones), with the project's contracts."""
+    return subprocess.run(
+        [str(LINT_IMPORTS), str(tree / "pyproject.toml"), "--no-cache"],
+        cwd=tree,
+        env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+@pytest.fixture(scope="module")
+def tree(tmp_path_factory) -> Path:
+    """A copy of the three packages and pyproject.toml."""
+    out = tmp_path_factory.mktemp("tree")
+    for package in ("arena", "robots", "referee"):
+        shutil.copytree(ROOT / package, out / package, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", out)
+    return out
+
+
+def test_the_tree_keeps_every_contract(tree):
+    done = lint(tree)
+    assert done.returncode == 0, done.stdout[-3000:]
+    assert f"Contracts: {len(CONTRACTS)} kept, 0 broken." in done.stdout
+
+
+BREAKS = [
+    ("arena/world.py", "import referee.errors", "arena knows nothing of teams or scores"),
+    ("robots/api.py", "import referee.terminal", "robots runs in a team's process: no arena, no referee"),
+    ("robots/toolkit/ekf.py", "import yaml", "robots imports no third-party package but numpy and msgspec"),
+    ("referee/records/canonical.py", "import referee.match.scoring", "the referee's rooms, top to bottom"),
+    ("referee/sandbox/affinity.py", "import referee.records.canonical", "the referee's rooms, top to bottom"),
+    ("referee/media/plot.py", "import referee.contest.ratings", "the referee's rooms, top to bottom"),
+    ("referee/newroom/__init__.py", "", "the referee's rooms, top to bottom"),
+    ("referee/match/rules.py", "import robots.toolkit.ekf", "the match core runs team code only through the sandbox"),
+    ("referee/media/render.py", "import referee.sandbox.teams", "media shows records; it runs controllers only through the match core"),
+    ("referee/sandbox/affinity.py", "import arena.world", "the sandbox runs team code and knows the world only as a level"),
+    ("referee/records/canonical.py", "import arena.level", "records can be read by anyone: they import no world and no team code"),
+    ("referee/contest/schedule.py", "import robots.api", "contests ship team code as bytes and never import it"),
+    ("referee/match/scoring.py", "import gymnasium", "optional extras stay in their rooms"),
+    ("referee/media/plot.py", "import dask", "dask stays in the contest room"),
+]
+
+
+def test_every_contract_is_shown_broken():
+    assert {name for _, _, name in BREAKS} == set(CONTRACTS)
+
+
+@pytest.mark.parametrize("module, line, contract", BREAKS, ids=[f"{m}:{c[:30]}" for m, _, c in BREAKS])
+def test_an_import_across_a_border_fails_lint(tmp_path, tree, module, line, contract):
+    copy = tmp_path / "tree"
+    shutil.copytree(tree, copy)
+    target = copy / module
+    target.parent.mkdir(exist_ok=True)
+    target.write_text((target.read_text() if target.exists() else "") + f"\n{line}\n")
+    done = lint(copy)
+    assert done.returncode == 1, done.stdout[-2000:]
+    assert f"{contract} BROKEN" in done.stdout
+    assert f"Contracts: {len(CONTRACTS) - 1} kept, 1 broken." in done.stdout
+
+
+def _import_names(requirement: str) -> set[str]:
+    """The top-level modules a requirement such as `dask[distributed]>=2024.1` installs (with its extras)."""
+    m = re.match(r"([A-Za-z0-9_.-]+)(?:\[([^\]]*)\])?", requirement)
+    assert m
+    dists = [m.group(1)] + [e.strip() for e in (m.group(2) or "").split(",") if e.strip()]
+    tops = metadata.packages_distributions()
+    wanted = {re.sub(r"[-_.]+", "-", d).lower() for d in dists}
+    return {top for top, owners in tops.items() if any(re.sub(r"[-_.]+", "-", o).lower() in wanted for o in owners)}
+
+
+def test_the_team_side_may_import_what_its_sandbox_holds_and_nothing_else():
+    project = CONFIG["project"]
+    requirements = project["dependencies"] + [r for extra in ("dask", "rl") for r in project["optional-dependencies"][extra]]
+    installed = set().union(*(_import_names(r) for r in requirements))
+    installed = {m for m in installed if not m.startswith("_") and m.isidentifier()}
+    forbidden = set(CONTRACTS["robots imports no third-party package but numpy and msgspec"]["forbidden_modules"])
+    assert set(STANDARD_VIEW) <= installed
+    assert forbidden == installed - set(STANDARD_VIEW)
+
+
+def test_the_architecture_page_names_every_room_in_its_layer():
+    layers = CONTRACTS["the referee's rooms, top to bottom"]["layers"]
+    rooms = [set(layer.replace(" ", "").split("|")) for layer in layers]
+    packages = {p.parent.name for p in (ROOT / "referee").glob("*/__init__.py")}
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    table = {m.group(1): m.group(2) for m in re.finditer(r"^\| `referee/(\w+)/` \|.*\| (.*) \|$", text, re.M)}
+    assert set(table) == packages  # every room has its row
+    for room, may in table.items():
+        level = next(i for i, layer in enumerate(rooms) if room in layer)
+        named = {w for w in re.findall(r"(?<![.\w])(\w+)", may) if any(w in layer for layer in rooms)} - {room}
+        above = {r for layer in rooms[: level + 1] for r in layer}
+        assert not (named & above) or room == "cli", (room, named & above)
