@@ -17,7 +17,7 @@ from referee.records.results import FaultRecord
 from referee.sandbox.teams import Team
 from robots.api import API_VERSION, Brief, Command, Controller, Observation
 from robots.loading import LoadError, is_file_spec, load_class
-from robots.protocol import ProtocolError, api_problem, command_from, command_problem, sendable, to_plain
+from robots.protocol import FaultKind, ProtocolError, api_problem, command_problem, sendable, wired
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class Fault:
 
     tick: int
     time: float
-    kind: str  # load | exception | bad_command | memory | crash | timeout | output_flood | protocol | skipped_tick
+    kind: FaultKind
     message: str
     fatal: bool = True
     traceback: str | None = None  # the tail of the team's traceback, from its log, when there is one
@@ -35,9 +35,9 @@ class Fault:
     def to_record(self) -> FaultRecord:
         """The fault as it appears in the result and the replay."""
         if self.traceback is None:
-            return FaultRecord(tick=self.tick, time=self.time, kind=self.kind, message=self.message)
+            return FaultRecord(tick=self.tick, time=self.time, kind=self.kind.value, message=self.message)
         return FaultRecord(
-            tick=self.tick, time=self.time, kind=self.kind, message=self.message, traceback=self.traceback
+            tick=self.tick, time=self.time, kind=self.kind.value, message=self.message, traceback=self.traceback
         )
 
 
@@ -87,40 +87,44 @@ class InProcessBot:
                     sys.path.insert(0, home)
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
-            return Fault(0, 0.0, "load", str(e))
+            return Fault(0, 0.0, FaultKind.LOAD, str(e))
         problem = api_problem(getattr(cls, "api_version", API_VERSION))
         if problem:
-            return Fault(0, 0.0, "load", problem)
+            return Fault(0, 0.0, FaultKind.LOAD, problem)
         try:
             self.controller = controller = cls()
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
             return Fault(
-                0, 0.0, "exception", f"in setup: {one_line(e)}", traceback=traceback_tail(traceback.format_exc())
+                0,
+                0.0,
+                FaultKind.EXCEPTION,
+                f"in setup: {one_line(e)}",
+                traceback=traceback_tail(traceback.format_exc()),
             )
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
         if self.controller is None:
-            return Fault(obs.tick, obs.time, "protocol", "a step before the controller's setup")
+            return Fault(obs.tick, obs.time, FaultKind.PROTOCOL, "a step before the controller's setup")
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
             return Fault(
                 obs.tick,
                 obs.time,
-                "exception",
+                FaultKind.EXCEPTION,
                 f"in step: {one_line(e)}",
                 traceback=traceback_tail(traceback.format_exc()),
             )
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)
         if problem:
-            return Fault(obs.tick, obs.time, "bad_command", problem)
+            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
         try:  # the very checks and conversions of the wire (numpy scalars become floats, caps apply)
-            return command_from(to_plain(sent))
+            return wired(sent)  # type: ignore[arg-type]  # a Command: command_problem said so
         except ProtocolError as e:
-            return Fault(obs.tick, obs.time, "bad_command", str(e))
+            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
 
     def ask_to_end(self) -> None:
         """Nothing to tell: the match's end reaches a controller in this process by `close`."""

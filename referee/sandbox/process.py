@@ -46,8 +46,8 @@ from referee.sandbox.teams import Team
 from robots import protocol
 from robots.api import Brief, Command, Observation
 from robots.loading import is_file_spec
+from robots.protocol import PROTOCOL_VERSION, REPORTED, CommandMsg, FaultKind, FaultMsg, Loaded, Ready, Setup, Stop
 
-FAULT_KINDS = {"load", "exception", "memory", "bad_command"}  # what a controller may report of itself
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
 
 
@@ -242,7 +242,7 @@ class ProcessBot:
             raise RuntimeError("the controller process has no pipes")
         return stdin, stdout
 
-    def _send(self, msg: dict, timeout: float) -> str | None:
+    def _send(self, msg: protocol.Message, timeout: float) -> str | None:
         """Send one message within `timeout` seconds (`_write`)."""
         frame = io.BytesIO()
         protocol.write(frame, msg)
@@ -269,7 +269,7 @@ class ProcessBot:
             return "crash"
         return None
 
-    def _frame(self) -> dict | str | None:
+    def _frame(self) -> protocol.Message | str | None:
         """The next whole message already read, `protocol` for a malformed one, None if none yet."""
         if len(self.buf) < 4:
             return None
@@ -293,7 +293,7 @@ class ProcessBot:
         self.buf += chunk
         return bool(chunk)
 
-    def _receive(self, timeout: float) -> dict | str:
+    def _receive(self, timeout: float) -> protocol.Message | str:
         """The next message, or a fault kind: `timeout`, `crash` (the process ended), `protocol`."""
         deadline = time.monotonic() + timeout  # inf: wait for ever (--no-limits)
         fd = self._pipes()[1].fileno()
@@ -308,20 +308,24 @@ class ProcessBot:
             if ready and not self._read():
                 return "crash"
 
-    def _fault(self, tick: int, t: float, what: str | dict, where: str) -> Fault:
+    def _fault(self, tick: int, t: float, what: str | protocol.Message, where: str) -> Fault:
         """A Fault from a failed exchange; the process is ended."""
-        if isinstance(what, dict):
-            kind = str(what["kind"]) if what.get("kind") in FAULT_KINDS else "protocol"
-            message = str(what.get("message", ""))[:500]
-            if kind == "load":  # named as the team was given, not as the sandbox sees it
+        kind: FaultKind
+        if isinstance(what, FaultMsg):
+            kind = FaultKind(what.kind) if what.kind in REPORTED else FaultKind.PROTOCOL
+            message = what.message[:500]
+            if kind is FaultKind.LOAD:  # named as the team was given, not as the sandbox sees it
                 message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
             message = " ".join(self._own_paths(message).split()) or f"in {where}"
         elif what == "flood" or what == "crash" and self._flooded():
-            kind, message = "output_flood", f"in {where}: wrote more than {self.limits.log_bytes} bytes of output"
+            kind, message = (
+                FaultKind.OUTPUT_FLOOD,
+                f"in {where}: wrote more than {self.limits.log_bytes} bytes of output",
+            )
         elif what == "crash":
             kind, message = self._crash(where)
         elif what == "timeout":
-            kind = "timeout"
+            kind = FaultKind.TIMEOUT
             message = (
                 f"in {where}: {self.skips} skipped ticks in a row"
                 if self.skips >= self.limits.max_skips
@@ -333,7 +337,7 @@ class ProcessBot:
                 else f"in {where}: no answer within {self.limits.setup_time:g} s"
             )
         else:
-            kind, message = "protocol", f"in {where}: {self.problem or 'malformed message'}"
+            kind, message = FaultKind.PROTOCOL, f"in {where}: {self.problem or 'malformed message'}"
         tail = self._traceback()
         self.close()
         return Fault(tick, t, kind, message, traceback=tail)
@@ -357,23 +361,25 @@ class ProcessBot:
         """Whether the controller has written more output than `log_kb` allows."""
         return self.team_log is not None and self.team_log.flooded()
 
-    def _crash(self, where: str) -> tuple[str, str]:
+    def _crash(self, where: str) -> tuple[FaultKind, str]:
         """The fault kind and message once the controller's output has ended."""
         code = self._ended()
         if code is None:
-            return ("protocol" if self.loaded else "load"), f"in {where}: closed its output and did not exit"
+            return (
+                FaultKind.PROTOCOL if self.loaded else FaultKind.LOAD
+            ), f"in {where}: closed its output and did not exit"
         how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exited with code {code}"
         if code == -signal.SIGKILL and self.group is not None and self.group.oom_kills():
             how = f"killed for holding more than its {self.limits.memory / 2**20:g} MiB of memory (files in memory included)"
-            return ("memory" if self.loaded else "load"), (
+            return (FaultKind.MEMORY if self.loaded else FaultKind.LOAD), (
                 f"in {where}: {how}" if self.loaded else f"team {self.team.label}: {how}"
             )
         problem = getattr(self._process(), "problem", "")  # a forked slot's monitor that failed
         if problem:  # before the team's code ran: the sandbox's, said as it was
-            return "load", f"team {self.team.label}: its sandbox could not be made: {problem}"
+            return FaultKind.LOAD, f"team {self.team.label}: its sandbox could not be made: {problem}"
         if not self.loaded:
-            return "load", f"team {self.team.label}: {how} while its code was loading"
-        return "crash", f"in {where}: {how}"
+            return FaultKind.LOAD, f"team {self.team.label}: {how} while its code was loading"
+        return FaultKind.CRASH, f"in {where}: {how}"
 
     def _ended(self) -> int | None:
         """The status (`_status`) of a controller whose output has ended, or None if it still
@@ -408,22 +414,20 @@ class ProcessBot:
         self.launch()
         self.think_limit = self.limits.think_budget * brief.time_limit
         deadline = time.monotonic() + self.limits.setup_time
-        unsent = self._send({"type": "setup", "brief": protocol.to_plain(brief)}, self.limits.setup_time)
+        unsent = self._send(Setup(v=PROTOCOL_VERSION, brief=brief), self.limits.setup_time)
         if unsent:
             return self._fault(0, 0.0, unsent, "setup")
         reply = self._receive(deadline - time.monotonic())
-        if isinstance(reply, dict) and reply["type"] == "loaded":
+        if isinstance(reply, Loaded):
             self.loaded = True
-            problem = protocol.api_problem(reply["api"])
+            problem = protocol.api_problem(reply.api)
             if problem:
                 self.close()
-                return Fault(0, 0.0, "load", problem)
+                return Fault(0, 0.0, FaultKind.LOAD, problem)
             reply = self._receive(deadline - time.monotonic())
-        if isinstance(reply, dict) and reply["type"] == "ready" and self.loaded:
+        if isinstance(reply, Ready) and self.loaded:
             return self._fault(0, 0.0, "flood", "setup") if self._flooded() else None
-        return self._fault(
-            0, 0.0, reply if not isinstance(reply, dict) or reply["type"] == "fault" else "protocol", "setup"
-        )
+        return self._fault(0, 0.0, _trouble(reply), "setup")
 
     def _drain(self, obs: Observation) -> Fault | None:
         """Wait for the late answer to a skipped tick, charging the wait to the overage bank."""
@@ -433,12 +437,10 @@ class ProcessBot:
         self.thinking += time.monotonic() - start
         if reply == "timeout":
             return self._fault(obs.tick, obs.time, "timeout", "step")
-        if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == self.pending:
+        if isinstance(reply, CommandMsg) and reply.tick == self.pending:
             self.pending = None  # too late: dropped, the tick was skipped
             return None
-        return self._fault(
-            obs.tick, obs.time, reply if not isinstance(reply, dict) or reply["type"] == "fault" else "protocol", "step"
-        )
+        return self._fault(obs.tick, obs.time, _trouble(reply), "step")
 
     def step(self, obs: Observation) -> Command | Fault:
         """The controller's answer, a skipped tick (non-fatal Fault) or a fatal Fault.
@@ -470,7 +472,7 @@ class ProcessBot:
         self.sent = time.monotonic()
         return None
 
-    def judge(self, obs: Observation, reply: dict | str, took: float) -> Command | Fault:
+    def judge(self, obs: Observation, reply: protocol.Message | str, took: float) -> Command | Fault:
         """The second half of a step: the answer `reply` (or fault kind), `took` seconds after
         `send`, weighed against the allowances."""
         if self._flooded():  # all it wrote before this answer (or deadline) is counted by now
@@ -483,7 +485,11 @@ class ProcessBot:
             if self.skips >= self.limits.max_skips or self.bank <= 0 or self.thinking > self.think_limit:
                 return self._fault(obs.tick, obs.time, "timeout", "step")
             return Fault(
-                obs.tick, obs.time, "skipped_tick", f"no answer within {self.limits.step_deadline:g} s", fatal=False
+                obs.tick,
+                obs.time,
+                FaultKind.SKIPPED_TICK,
+                f"no answer within {self.limits.step_deadline:g} s",
+                fatal=False,
             )
         self.skips = 0
         if took > self.limits.step_time:
@@ -492,29 +498,27 @@ class ProcessBot:
                 return self._fault(obs.tick, obs.time, "timeout", "step")
         if self.thinking > self.think_limit:
             return self._fault(obs.tick, obs.time, "timeout", "step")
-        if isinstance(reply, dict) and reply["type"] == "command" and reply.get("tick") == obs.tick:
+        if isinstance(reply, CommandMsg) and reply.tick == obs.tick:
             try:
-                cmd = protocol.command_from(reply.get("command"))
+                cmd = protocol.decoded(reply.command, Command)
             except protocol.ProtocolError as e:
                 self.close()
-                return Fault(obs.tick, obs.time, "bad_command", str(e))
+                return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
             problem = protocol.command_problem(protocol.sendable(cmd))
             if problem:
                 self.close()
-                return Fault(obs.tick, obs.time, "bad_command", problem)
+                return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
             return cmd
-        if isinstance(reply, dict) and reply["type"] == "command":  # answered twice, or ahead
-            self.problem = f"an answer for tick {reply.get('tick')} when tick {obs.tick} was asked"
-        if isinstance(reply, dict) and reply["type"] != "fault":
-            reply = "protocol"
-        return self._fault(obs.tick, obs.time, reply, "step")
+        if isinstance(reply, CommandMsg):  # answered twice, or ahead
+            self.problem = f"an answer for tick {reply.tick} when tick {obs.tick} was asked"
+        return self._fault(obs.tick, obs.time, _trouble(reply), "step")
 
     def ask_to_end(self) -> None:
         """Tell the controller the match is over, without waiting for it (`close` waits): a
         match that tells all its controllers first lets them end side by side."""
         if self.proc is not None and not self.told_to_end and self.proc.poll() is None:
             self.told_to_end = True
-            self._send({"type": "stop"}, 0.0)  # no wait: an input left full is no reason to stay
+            self._send(Stop(v=PROTOCOL_VERSION), 0.0)  # no wait: an input left full is no reason to stay
 
     def close(self) -> None:
         """End the process and everything it started: in a sandbox, its init is killed, which
@@ -564,6 +568,12 @@ class ProcessBot:
             self.group = None
 
 
+def _trouble(reply: protocol.Message | str) -> FaultMsg | str:
+    """What a reply that is not the one awaited says: a fault it reports, the trouble met, or,
+    for any other message, a protocol fault."""
+    return reply if isinstance(reply, (FaultMsg, str)) else "protocol"
+
+
 def exchange(
     bots: list[Any], observations: list[Observation | None], meanwhile: Callable[[], None] | None = None
 ) -> list[Command | Fault | None]:
@@ -583,7 +593,7 @@ def exchange(
             out[slot] = fault
         else:
             waiting[slot] = bot
-    replies: dict[int, tuple[dict | str, float]] = {}
+    replies: dict[int, tuple[protocol.Message | str, float]] = {}
     if meanwhile is not None and waiting:
         began = time.monotonic()
         meanwhile()
