@@ -15,7 +15,8 @@ import time
 import levels
 from arena.loader import load_level
 from referee.match.loop import Match, brief_for
-from referee.sandbox.process import ProcessBot, exchange
+from referee.sandbox.exchange import exchange
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 

@@ -1,5 +1,5 @@
-"""The match core: the lockstep loop (`loop`), the rules that call fouls (`rules`), task
-progress (`tasks`) along the ideal path (`paths`), localization accuracy (`estimates`), the score (`scoring`), and re-running
+"""The match core: the lockstep loop (`loop`), the rules that call fouls (`rules`), a
+controller's fault as the result records it (`faults`), task progress (`tasks`) along the ideal path (`paths`), localization accuracy (`estimates`), the score (`scoring`), and re-running
 a recorded match to check it (`verify`).
 
 It may import `arena` (the world it referees), `robots.api` (the messages a controller

@@ -26,15 +26,20 @@ from arena.world import Watch, World
 from referee.errors import LaserArenaWarning
 from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
+from referee.match.faults import fault_record
 from referee.match.rules import Rules
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
 from referee.records.replay import ReplayWriter
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
 from referee.sandbox import affinity
-from referee.sandbox.bot import Fault, InProcessBot
+from referee.sandbox.bot import Bot
+from referee.sandbox.exchange import exchange
+from referee.sandbox.fault import Fault
+from referee.sandbox.in_process import InProcessBot
+from referee.sandbox.launch import isolation_unavailable
 from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot, exchange, isolation_unavailable
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import Team
 from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, StartInfo, TaskInfo
@@ -136,7 +141,7 @@ class Match:
             isolate = False
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots = [
+        self.bots: list[Bot] = [
             ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate else InProcessBot(t)
             for i, t in enumerate(teams)
         ]
@@ -384,7 +389,7 @@ class Match:
                 for foul in self.rules.fouls[slot]:
                     self.writer.record("foul", r=slot, **foul.to_record().to_dict())
                 for fault in self.faults[slot]:
-                    self.writer.record("fault", r=slot, **fault.to_record().to_dict())
+                    self.writer.record("fault", r=slot, **fault_record(fault).to_dict())
             self.writer.close(result)
         return result
 
@@ -401,7 +406,7 @@ class Match:
                     task=self.tracker.summary(slot),
                     localization=stats.summary(),
                     fouls=[f.to_record() for f in self.rules.fouls[slot]],
-                    faults=[f.to_record() for f in self.faults[slot]],
+                    faults=[fault_record(f) for f in self.faults[slot]],
                     stopped=self.stopped[slot],
                     final_pose=[pose.x, pose.y, pose.heading],
                     **({"warnings": self.warnings[slot].records()} if self.warnings[slot].kinds else {}),
