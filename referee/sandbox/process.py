@@ -35,11 +35,27 @@ STOP_TIME = 0.5  # seconds a controller told the match is over may take to exit 
 
 def exit_status(proc: subprocess.Popen[bytes] | forkserver.Forked, timeout: float) -> int | None:
     """The exit status of `proc` as Popen gives it (negative: killed by that signal) once it
-    has ended, waiting at most `timeout` seconds; None if it still runs."""
-    try:
-        return proc.wait(timeout)
-    except subprocess.TimeoutExpired:
-        return None
+    has ended, waiting at most `timeout` seconds; None if it still runs. A spawned process is
+    left unreaped: until `close` reaps it, its pid names it alone, so its process group can be
+    signalled without hitting another's."""
+    if isinstance(proc, forkserver.Forked) or proc.returncode is not None or not hasattr(os, "waitid"):
+        try:
+            return proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return None
+    deadline, delay = time.monotonic() + timeout, 0.0005
+    while True:
+        try:
+            ended = os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except ChildProcessError:  # reaped already
+            return proc.poll()
+        if ended is not None:
+            return -ended.si_status if ended.si_code in (os.CLD_KILLED, os.CLD_DUMPED) else ended.si_status
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return None
+        delay = min(delay * 2, left, 0.05)
+        time.sleep(delay)
 
 
 class ProcessBot:
@@ -292,8 +308,10 @@ class ProcessBot:
 
     def close(self) -> None:
         """End the process and everything it started: in a sandbox, its init is killed, which
-        kills every process of its PID namespace; bwrap returns once they are all gone."""
-        if self.started is not None:
+        kills every process of its PID namespace; bwrap returns once they are all gone. Safe to
+        call again (after a close an interrupt cut short too): a process reaped already is
+        never signalled, since its pid may by then name another."""
+        if self.started is not None and self.started.proc.returncode is None:
             self._end(self.started)
         if self._pipes is not None:
             self._pipes.close()
@@ -325,7 +343,7 @@ class ProcessBot:
         if isinstance(proc, forkserver.Forked):
             if proc.poll() is None:
                 proc.kill()  # its monitor kills its init: the PID namespace goes with it
-        else:
+        elif proc.returncode is None:  # unreaped: its pid names its session alone
             try:
                 os.killpg(proc.pid, signal.SIGKILL)  # its whole session, children included
             except (ProcessLookupError, PermissionError):
