@@ -28,7 +28,7 @@ from arena.loader import find_level, load_level
 from referee.errors import TeamError, UserError
 from referee.records.results import MatchResult
 from referee.sandbox.kernel import importable_in_sandbox
-from referee.sandbox.launch import isolation_unavailable
+from referee.sandbox.process import isolation_unavailable
 from referee.sandbox.teams import Team, controller_problem, resolve
 from referee.terminal import safe
 from robots.api import Controller

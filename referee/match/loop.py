@@ -37,9 +37,8 @@ from referee.sandbox.bot import Bot
 from referee.sandbox.exchange import exchange
 from referee.sandbox.fault import Fault
 from referee.sandbox.in_process import InProcessBot
-from referee.sandbox.launch import isolation_unavailable
 from referee.sandbox.privacy import make_undumpable
-from referee.sandbox.process import ProcessBot
+from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.sandbox.teams import Team
 from referee.version import __version__
 from robots.api import BeaconInfo, Brief, Command, LaserInfo, Observation, RobotInfo, SensorEvent, StartInfo, TaskInfo

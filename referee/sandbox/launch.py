@@ -43,12 +43,6 @@ def _warn_unsandboxed(reason: str) -> None:
     warnings.warn(f"no kernel sandbox, controllers are not isolated: {reason}", LaserArenaWarning, stacklevel=1)
 
 
-def isolation_unavailable() -> str | None:
-    """Why controllers cannot run in processes of their own here (None: they can). The
-    protocol waits on pipes with select(), which Windows offers for sockets only."""
-    return "Windows has no select() on pipes" if sys.platform == "win32" else None
-
-
 @dataclass
 class Launched:
     """A controller process just started, and what was made for it that its end must undo."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -31,6 +32,12 @@ from robots.protocol import PROTOCOL_VERSION, REPORTED, CommandMsg, FaultKind, F
 
 ENDING_TIME = 0.5  # seconds a controller whose output has ended may take to exit before it is killed
 STOP_TIME = 0.5  # seconds a controller told the match is over may take to exit before it is killed
+
+
+def isolation_unavailable() -> str | None:
+    """Why controllers cannot run in processes of their own here (None: they can). The
+    channel waits on pipes with select(), which Windows offers for sockets only."""
+    return "Windows has no select() on pipes" if sys.platform == "win32" else None
 
 
 def exit_status(proc: subprocess.Popen[bytes] | forkserver.Forked, timeout: float) -> int | None:
