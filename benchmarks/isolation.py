@@ -16,7 +16,8 @@ import levels
 from arena.loader import load_level
 from referee.match.loop import Match
 from referee.match.views import brief_for
-from referee.sandbox.process import ProcessBot, exchange
+from referee.sandbox.exchange import exchange
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 

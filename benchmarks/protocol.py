@@ -29,27 +29,31 @@ def per_call(n: int, f) -> float:
 
 
 def measure(n: int) -> dict:
-    def frame(msg: dict) -> bytes:
+    def frame(msg: protocol.Message) -> bytes:
         buf = io.BytesIO()
         protocol.write(buf, msg)
         return buf.getvalue()[4:]
 
-    obs_msg = {"type": "step", "obs": protocol.to_plain(OBS)}
-    cmd_msg = {"type": "command", "tick": 120, "command": protocol.to_plain(CMD)}
-    obs_bytes, cmd_bytes = frame(obs_msg), frame(cmd_msg)
+    obs_bytes = frame(protocol.Step(v=1, obs=OBS))
+    cmd_bytes = frame(protocol.CommandMsg(v=1, tick=120, command=CMD))
+    obs_plain, cmd_plain = json.loads(obs_bytes), json.loads(cmd_bytes)
+    step_buffer = bytearray()
 
     def referee() -> None:
-        protocol.write(io.BytesIO(), {"type": "step", "obs": protocol.to_plain(OBS)})
+        protocol.step_frame(OBS, step_buffer)
         msg = protocol.parse(cmd_bytes)
-        protocol.command_problem(protocol.command_from(msg["command"]))
+        assert isinstance(msg, protocol.CommandMsg)
+        protocol.command_problem(protocol.decoded(msg.command, Command))
 
     def runner() -> None:
-        protocol.observation_from(protocol.parse(obs_bytes)["obs"])
-        protocol.write(io.BytesIO(), {"type": "command", "tick": 120, "command": protocol.to_plain(CMD)})
+        msg = protocol.parse(obs_bytes)
+        assert isinstance(msg, protocol.Step)
+        protocol.decoded(msg.obs, Observation)
+        protocol.write(io.BytesIO(), protocol.CommandMsg(v=1, tick=120, command=CMD))
 
     def bare() -> None:
         json.loads(cmd_bytes), json.loads(obs_bytes)
-        json.dumps({"v": 1, **obs_msg}).encode(), json.dumps({"v": 1, **cmd_msg}).encode()
+        json.dumps(obs_plain).encode(), json.dumps(cmd_plain).encode()
 
     return {"referee_us": per_call(n, referee), "runner_us": per_call(n, runner), "bare_json_us": per_call(n, bare)}
 

@@ -3,7 +3,9 @@
 A controller gets a `Brief` once (`setup`) and an `Observation` every control period
 (`step`), and answers each step with a `Command`. It never sees its true pose: only the
 clock and the times at which its laser met beacons. Everything here is plain data
-(frozen dataclasses of numbers, text and tuples) so it can cross a process border.
+(frozen dataclasses of numbers, text and tuples) so it can cross a process border: these
+classes are the protocol's schema, and their annotations carry the bounds (`robots.bounds`)
+a message must keep.
 
 This module imports nothing from `arena` or `referee`: it runs inside a team's process.
 """
@@ -12,6 +14,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
+
+from msgspec import Meta
+
+from robots.bounds import Byte, Count, Name, Point, Real, Size
 
 API_VERSION = 2  # 2: the start announced with its spread (`StartInfo`), localize trials
 
@@ -20,9 +27,9 @@ API_VERSION = 2  # 2: the start announced with its spread (`StartInfo`), localiz
 class BeaconInfo:
     """A fixed beacon the team may know: its id and position (m)."""
 
-    id: str
-    x: float
-    y: float
+    id: Name
+    x: Real
+    y: Real
 
 
 @dataclass(frozen=True)
@@ -30,7 +37,7 @@ class LaserInfo:
     """The robot's spinning laser: angular velocity relative to the body (rad/s, + = CCW)
     and whether an index switch reports relative angle 0 (straight ahead)."""
 
-    angular_velocity: float
+    angular_velocity: Real
     index: bool
 
 
@@ -38,12 +45,12 @@ class LaserInfo:
 class RobotInfo:
     """The robot's model: footprint (m), wheel track (m) and wheel limits."""
 
-    model: str
-    length: float
-    width: float
-    track: float
-    max_wheel_speed: float  # m/s; commands are clipped to +-this
-    max_wheel_accel: float  # m/s^2; wheels ramp towards commands at this rate
+    model: Name
+    length: Real
+    width: Real
+    track: Real
+    max_wheel_speed: Real  # m/s; commands are clipped to +-this
+    max_wheel_accel: Real  # m/s^2; wheels ramp towards commands at this rate
 
 
 @dataclass(frozen=True)
@@ -53,11 +60,11 @@ class TaskInfo:
     `trials` how many trials a localize match holds (the referee moves the robot to a new
     secret pose at the start of each after the first: `Observation.trial` says which)."""
 
-    kind: str
-    radius: float
-    path: tuple[tuple[float, float], ...] = ()
-    goal: tuple[float, float] | None = None
-    trials: int = 1
+    kind: Name
+    radius: Real
+    path: Annotated[tuple[Point, ...], Meta(max_length=1 << 16)] = ()
+    goal: Point | None = None
+    trials: Annotated[int, Meta(ge=1, le=1 << 40)] = 1
 
 
 @dataclass(frozen=True)
@@ -68,12 +75,12 @@ class StartInfo:
     `heading_spread` (rad) either way of `heading`, and `heading_spread` pi means any heading
     at all. Spreads of 0: exactly this pose."""
 
-    x: float
-    y: float
-    heading: float
-    position_spread: float = 0.0
-    heading_spread: float = 0.0
-    region: tuple[float, float, float, float] | None = None
+    x: Real
+    y: Real
+    heading: Real
+    position_spread: Size = 0.0
+    heading_spread: Size = 0.0
+    region: tuple[Real, Real, Real, Real] | None = None
 
     @property
     def pose(self) -> tuple[float, float, float]:
@@ -90,15 +97,15 @@ class StartInfo:
 class Brief:
     """Everything a team may know before the match starts."""
 
-    slot: int
-    field: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax (m)
-    beacon_kind: str  # reflector | sensor_array | flash_detector | light
-    beacons: tuple[BeaconInfo, ...]
+    slot: Count
+    field: tuple[Real, Real, Real, Real]  # xmin, ymin, xmax, ymax (m)
+    beacon_kind: Name  # reflector | sensor_array | flash_detector | light
+    beacons: Annotated[tuple[BeaconInfo, ...], Meta(max_length=4096)]
     laser: LaserInfo
     robot: RobotInfo
     task: TaskInfo
-    control_period: float  # s
-    time_limit: float  # s
+    control_period: Real  # s
+    time_limit: Real  # s
     start: StartInfo | None = None  # what the rules announce of the start; None: nothing
 
 
@@ -114,11 +121,11 @@ class SensorEvent:
     latches it (an encoder, a stepped head), else `None`;
     `samples`: for a scan, brightness 0 (bright) .. 255 (dark) at relative angles 2 pi k / N."""
 
-    time: float
-    kind: str
-    beacon: str | None = None
-    angle: float | None = None
-    samples: tuple[int, ...] = ()
+    time: Real
+    kind: Name
+    beacon: Name | None = None
+    angle: Real | None = None
+    samples: Annotated[tuple[Byte, ...], Meta(max_length=1 << 16)] = ()
 
 
 @dataclass(frozen=True)
@@ -127,22 +134,23 @@ class Observation:
     tick, and the localize trial under way (0 first; when it grows, the robot was carried to
     a new pose at the start of this control period, and every event here was sensed there)."""
 
-    tick: int
-    time: float
-    events: tuple[SensorEvent, ...] = ()
-    trial: int = 0
+    tick: Count
+    time: Real
+    events: Annotated[tuple[SensorEvent, ...], Meta(max_length=1 << 16)] = ()
+    trial: Count = 0
 
 
 @dataclass(frozen=True)
 class Drawing:
     """A debug overlay drawn in the replay: `kind` is point | line | circle | text;
-    `points` in metres; `radius` for circles; `text` for labels; `color` as RGB."""
+    `points` in metres (a drawing without any is set aside with a warning); `radius` for
+    circles; `text` for labels; `color` as RGB."""
 
-    kind: str
-    points: tuple[tuple[float, float], ...]
-    radius: float = 0.0
-    text: str = ""
-    color: tuple[int, int, int] = (255, 0, 255)
+    kind: Name
+    points: Annotated[tuple[Point, ...], Meta(max_length=4096)] = ()
+    radius: Size = 0.0
+    text: Annotated[str, Meta(max_length=4096)] = ""
+    color: tuple[Byte, Byte, Byte] = (255, 0, 255)
 
 
 @dataclass(frozen=True)
@@ -150,10 +158,10 @@ class Command:
     """Wheel speeds (m/s, clipped to the robot's limits), an optional pose `estimate`
     (x, y, heading) that the referee scores against the truth, and optional debug drawings."""
 
-    left: float
-    right: float
-    estimate: tuple[float, float, float] | None = None
-    debug: tuple[Drawing, ...] = ()
+    left: Real
+    right: Real
+    estimate: tuple[Real, Real, Real] | None = None
+    debug: Annotated[tuple[Drawing, ...], Meta(max_length=4096)] = ()
 
 
 class Controller:

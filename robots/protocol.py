@@ -1,207 +1,221 @@
 """The message protocol between the referee and a controller process (version 1).
 
 Frames are a 4-byte big-endian length and a UTF-8 JSON object of at most `MAX_FRAME` bytes.
-Every message carries `"v": 1` and a `type`:
+Every message carries `"v": 1` and a `type`; each is a tagged Struct here:
 
-referee -> controller: `setup` {brief}, `step` {obs}, `stop`
-controller -> referee: `loaded` {api}, `ready`, `command` {tick, command}, `fault` {kind, message}
+referee -> controller: `Setup` {brief}, `Step` {obs}, `Stop`
+controller -> referee: `Loaded` {api}, `Ready`, `CommandMsg` {tick, command}, `FaultMsg` {kind, message}
 
-Decoding is typed (msgspec): every message has a fixed schema, every number must be finite
-and within `LIMIT`, every list and text has a length bound, and unknown fields are refused.
-So the decoded shape is bounded whatever bytes arrive, and a team's bytes can raise nothing
-but `ProtocolError`, whose message names the field. `parse` checks the envelope and leaves
-the payload (brief, obs, command) raw; `brief_from`, `observation_from` and `command_from`
-decode it into the API's dataclasses. docs/protocol.md describes each message.
+The payloads are the controller API's own dataclasses (`robots.api`): their annotations carry
+the bounds of `robots.bounds`, so they are the schema. Decoding is typed (msgspec): every
+number must be finite and within `LIMIT`, every list and text has a length bound, and unknown
+fields are refused. So the decoded shape is bounded whatever bytes arrive, and a team's bytes
+can raise nothing but `ProtocolError`, whose message names the field. `parse` checks the
+envelope and leaves the payload raw, so that a bad payload is told from a bad envelope;
+`decoded` checks it and gives the API's dataclass. docs/protocol.md describes each message.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import numbers
+import operator
 import struct
-from typing import IO, Annotated, Any, Literal
+import types
+import typing
+from enum import StrEnum
+from typing import IO, Annotated, Any, Final, Generic, Literal, TypeVar
 
 import msgspec
 
-from robots.api import (
-    API_VERSION,
-    BeaconInfo,
-    Brief,
-    Command,
-    Drawing,
-    LaserInfo,
-    Observation,
-    RobotInfo,
-    SensorEvent,
-    StartInfo,
-    TaskInfo,
-)
+from robots.api import API_VERSION, Brief, Command, Drawing, Observation
+from robots.bounds import LIMIT, Name
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION: Final = 1
 MAX_FRAME = 1 << 22  # 4 MiB: the largest honest message (a brief) is far below
-LIMIT = 1e6  # no number in a message may exceed this in size (m, s, rad, m/s)
 MAX_DRAWINGS, MAX_POINTS, MAX_TEXT = 256, 64, 80  # debug drawings beyond these are dropped
 
-# ---- the schema -----------------------------------------------------------------------------
 
-Real = Annotated[float, msgspec.Meta(ge=-LIMIT, le=LIMIT)]
-Count = Annotated[int, msgspec.Meta(ge=0, le=1 << 40)]
-Byte = Annotated[int, msgspec.Meta(ge=0, le=255)]
-Name = Annotated[str, msgspec.Meta(max_length=256)]
-Point = tuple[Real, Real]
+class FaultKind(StrEnum):
+    """What went wrong with a controller, as the result records it (str-valued: the same JSON)."""
 
-
-class _Data(msgspec.Struct, forbid_unknown_fields=True, frozen=True):
-    """A payload record: a fixed set of fields, nothing else."""
-
-
-class _Beacon(_Data, frozen=True):
-    id: Name
-    x: Real
-    y: Real
+    LOAD = "load"  # the first four a controller may report of itself (`REPORTED`)
+    EXCEPTION = "exception"
+    MEMORY = "memory"
+    BAD_COMMAND = "bad_command"
+    CRASH = "crash"  # the rest the referee finds
+    TIMEOUT = "timeout"
+    OUTPUT_FLOOD = "output_flood"
+    PROTOCOL = "protocol"
+    SKIPPED_TICK = "skipped_tick"
 
 
-class _Laser(_Data, frozen=True):
-    angular_velocity: Real
-    index: bool
+REPORTED = frozenset({FaultKind.LOAD, FaultKind.EXCEPTION, FaultKind.MEMORY, FaultKind.BAD_COMMAND})
+
+# ---- the messages ---------------------------------------------------------------------------
+
+P = TypeVar("P")  # a payload: the API's dataclass when sent, `msgspec.Raw` as `parse` leaves it
 
 
-class _Robot(_Data, frozen=True):
-    model: Name
-    length: Real
-    width: Real
-    track: Real
-    max_wheel_speed: Real
-    max_wheel_accel: Real
+class Message(msgspec.Struct, tag_field="type", forbid_unknown_fields=True, frozen=True):
+    """One message: its `type` is the tag, `v` the protocol version (required)."""
 
-
-class _Task(_Data, frozen=True):
-    kind: Name
-    radius: Real
-    path: Annotated[list[Point], msgspec.Meta(max_length=1 << 16)] = []
-    goal: Point | None = None
-    trials: Annotated[int, msgspec.Meta(ge=1, le=1 << 40)] = 1
-
-
-class _Start(_Data, frozen=True):
-    x: Real
-    y: Real
-    heading: Real
-    position_spread: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
-    heading_spread: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
-    region: tuple[Real, Real, Real, Real] | None = None
-
-
-class _Brief(_Data, frozen=True):
-    slot: Count
-    field: tuple[Real, Real, Real, Real]
-    beacon_kind: Name
-    beacons: Annotated[list[_Beacon], msgspec.Meta(max_length=4096)]
-    laser: _Laser
-    robot: _Robot
-    task: _Task
-    control_period: Real
-    time_limit: Real
-    start: _Start | None = None
-
-
-class _Event(_Data, frozen=True):
-    time: Real
-    kind: Name
-    beacon: Name | None = None
-    angle: Real | None = None
-    samples: Annotated[list[Byte], msgspec.Meta(max_length=1 << 16)] = []
-
-
-class _Observation(_Data, frozen=True):
-    tick: Count
-    time: Real
-    events: Annotated[list[_Event], msgspec.Meta(max_length=1 << 16)] = []
-    trial: Count = 0
-
-
-class _Drawing(_Data, frozen=True):
-    kind: Name
-    points: Annotated[list[Point], msgspec.Meta(max_length=4096)] = []
-    radius: Annotated[float, msgspec.Meta(ge=0, le=LIMIT)] = 0.0
-    text: Annotated[str, msgspec.Meta(max_length=4096)] = ""
-    color: tuple[Byte, Byte, Byte] = (255, 0, 255)
-
-
-class _Command(_Data, frozen=True):
-    left: Real
-    right: Real
-    estimate: tuple[Real, Real, Real] | None = None
-    debug: Annotated[list[_Drawing], msgspec.Meta(max_length=4096)] = []
-
-
-class _Message(msgspec.Struct, tag_field="type", forbid_unknown_fields=True):
     v: Literal[1]
 
 
-class _Setup(_Message, tag="setup"):
-    brief: msgspec.Raw
+class Setup(Message, Generic[P], tag="setup", frozen=True):
+    brief: P
 
 
-class _Step(_Message, tag="step"):
-    obs: msgspec.Raw
+class Step(Message, Generic[P], tag="step", frozen=True):
+    obs: P
 
 
-class _Stop(_Message, tag="stop"):
+class Stop(Message, tag="stop", frozen=True):
     pass
 
 
-class _Loaded(_Message, tag="loaded"):
+class Loaded(Message, tag="loaded", frozen=True):
     api: Annotated[int, msgspec.Meta(ge=0, le=1 << 30)]  # the controller API the team's class speaks
 
 
-class _Ready(_Message, tag="ready"):
+class Ready(Message, tag="ready", frozen=True):
     pass
 
 
-class _CommandMsg(_Message, tag="command"):
-    tick: Count
-    command: msgspec.Raw
+class CommandMsg(Message, Generic[P], tag="command", frozen=True):
+    tick: Annotated[int, msgspec.Meta(ge=0, le=1 << 40)]
+    command: P
 
 
-class _Fault(_Message, tag="fault"):
-    kind: Name
+class FaultMsg(Message, tag="fault", frozen=True):
+    kind: Name  # one of REPORTED, or the referee calls it a `protocol` fault
     message: Annotated[str, msgspec.Meta(max_length=4096)]
 
 
-_MESSAGE = msgspec.json.Decoder(_Setup | _Step | _Stop | _Loaded | _Ready | _CommandMsg | _Fault)
-_DECODERS: dict[type[_Data], msgspec.json.Decoder[Any]] = {
-    t: msgspec.json.Decoder(t) for t in (_Brief, _Observation, _Command)
-}
-_ENCODER = msgspec.json.Encoder()
+Raw = msgspec.Raw
+_MESSAGE = msgspec.json.Decoder(Setup[Raw] | Step[Raw] | Stop | Loaded | Ready | CommandMsg[Raw] | FaultMsg)
+PAYLOADS = {Brief: "brief", Observation: "obs", Command: "command"}  # each payload and its field
+
+
+def _number(v: Any) -> Any:
+    """A number of any real type (numpy scalars, what a numpy-based team computes) as a Python
+    int or float, on the sending side; anything else is refused by name."""
+    if isinstance(v, numbers.Integral):
+        return int(v)
+    if isinstance(v, numbers.Real):
+        return float(v)
+    raise TypeError(f"Encoding objects of type {type(v).__name__} is unsupported")
+
+
+_ENCODER = msgspec.json.Encoder(enc_hook=_number)
 
 
 class ProtocolError(Exception):
     """A malformed frame or message; the text names the field at fault."""
 
 
+# ---- strict payloads ------------------------------------------------------------------------
+
+
+def _strict(tp: Any) -> Any:
+    """The type `tp` with each API dataclass in it replaced by its strict twin (`_twin`)."""
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        return _twin(tp)
+    args, origin = typing.get_args(tp), typing.get_origin(tp)
+    if origin is Annotated:
+        return Annotated[(_strict(args[0]), *tp.__metadata__)]
+    swapped = tuple(a if a is Ellipsis else _strict(a) for a in args)
+    if swapped == args:
+        return tp
+    if origin in (types.UnionType, typing.Union):
+        return functools.reduce(operator.or_, swapped)
+    return origin[swapped]
+
+
+@functools.cache
+def _twin(cls: type) -> type:
+    """A frozen Struct with the fields, bounds and defaults of dataclass `cls`, refusing unknown
+    fields (msgspec refuses them for Structs only): a payload is checked against it first."""
+    hints = typing.get_type_hints(cls, include_extras=True)
+    return msgspec.defstruct(
+        cls.__name__,
+        [
+            (f.name, _strict(hints[f.name]))
+            if f.default is dataclasses.MISSING
+            else (f.name, _strict(hints[f.name]), f.default)
+            for f in dataclasses.fields(cls)
+        ],
+        forbid_unknown_fields=True,
+        frozen=True,
+    )
+
+
+# each payload's check (its twin: unknown fields refused), then its decoding into the dataclass
+_CHECKS: dict[type, msgspec.json.Decoder[Any]] = {cls: msgspec.json.Decoder(_twin(cls)) for cls in PAYLOADS}
+_DECODERS: dict[type, msgspec.json.Decoder[Any]] = {cls: msgspec.json.Decoder(cls) for cls in PAYLOADS}
+
+T = TypeVar("T", Brief, Observation, Command)
+
+
+def decoded(raw: bytes | msgspec.Raw, cls: type[T]) -> T:
+    """A payload (a message's `brief`, `obs` or `command`, raw as `parse` leaves it) as the API's
+    dataclass `cls`, checked: any failure is a ProtocolError naming the field. A Command's debug
+    drawings beyond the caps are dropped."""
+    what = PAYLOADS[cls]
+    _decode(_CHECKS[cls], raw, what)
+    out = _decode(_DECODERS[cls], raw, what)
+    if cls is Command and out.debug:
+        out = _capped(out)
+    return out
+
+
+def _capped(cmd: Command) -> Command:
+    """`cmd` with at most MAX_DRAWINGS drawings of at most MAX_POINTS points and MAX_TEXT characters."""
+    drawings = cmd.debug[:MAX_DRAWINGS]
+    return Command(
+        cmd.left,
+        cmd.right,
+        cmd.estimate,
+        tuple(Drawing(g.kind, g.points[:MAX_POINTS], g.radius, g.text[:MAX_TEXT], g.color) for g in drawings),
+    )
+
+
+def wired(cmd: Command) -> Command:
+    """`cmd` as the referee gets it over the wire (numbers of any real type made floats, the
+    checks and caps applied): for a controller in the referee's own process. ProtocolError if
+    it cannot cross."""
+    try:
+        data = _ENCODER.encode(cmd)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise ProtocolError(f"cannot encode a 'command' message: {e}") from None
+    return decoded(data, Command)
+
+
 # ---- frames ---------------------------------------------------------------------------------
 
 
-def write(stream: IO[bytes], msg: dict) -> None:
-    """Send one message (plain data: dicts, lists, tuples, text, numbers; see `to_plain`)."""
+def write(stream: IO[bytes], msg: Message) -> None:
+    """Send one message (its payload an API dataclass; numpy scalars are sent as numbers)."""
+    kind = msg.__struct_config__.tag
     try:
-        data = _ENCODER.encode({"v": PROTOCOL_VERSION, **msg})
+        data = _ENCODER.encode(msg)
     except (TypeError, ValueError, OverflowError) as e:
-        raise ProtocolError(f"cannot encode a {msg.get('type')!r} message: {e}") from None
+        raise ProtocolError(f"cannot encode a {kind!r} message: {e}") from None
     if len(data) > MAX_FRAME:
-        raise ProtocolError(f"a {msg.get('type')!r} message of {len(data)} bytes is over the {MAX_FRAME} limit")
+        raise ProtocolError(f"a {kind!r} message of {len(data)} bytes is over the {MAX_FRAME} limit")
     stream.write(struct.pack(">I", len(data)) + data)
     stream.flush()
 
 
-_STEP_HEAD = b'\0\0\0\0{"v":%d,"type":"step","obs":' % PROTOCOL_VERSION
+_STEP_HEAD = b'\0\0\0\0{"type":"step","v":%d,"obs":' % PROTOCOL_VERSION
 
 
 def step_frame(obs: Observation, buffer: bytearray) -> bytearray:
-    """The `step` message for `obs` as a whole frame, encoded into `buffer` (reused from tick to
-    tick): the same bytes `write` sends for `{"type": "step", "obs": to_plain(obs)}`, without
-    building the plain data first (msgspec encodes the dataclasses as they are)."""
+    """The `Step` message for `obs` as a whole frame, encoded into `buffer` (reused from tick to
+    tick): the same bytes `write` sends for it, without building the message first."""
     buffer[:] = _STEP_HEAD
     try:
         _ENCODER.encode_into(obs, buffer, -1)
@@ -215,7 +229,7 @@ def step_frame(obs: Observation, buffer: bytearray) -> bytearray:
     return buffer
 
 
-def read(stream: IO[bytes]) -> dict | None:
+def read(stream: IO[bytes]) -> Message | None:
     """Receive one message, or None at end of stream."""
     head = stream.read(4)
     if not head:
@@ -237,16 +251,12 @@ def _one_line(text: str, limit: int = 300) -> str:
     return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text[:limit])
 
 
-def _invalid(e: msgspec.ValidationError, what: str) -> ProtocolError:
-    return ProtocolError(_one_line(f"{what}: {e}".replace("`$", "`" + what)))
-
-
 def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
     """Typed decoding where any failure at all is a ProtocolError naming `what` and the field."""
     try:
         return decoder.decode(data)
     except msgspec.ValidationError as e:
-        raise _invalid(e, what) from None
+        raise ProtocolError(_one_line(f"{what}: {e}".replace("`$", "`" + what))) from None
     except msgspec.DecodeError as e:
         raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
     except RecursionError:
@@ -262,132 +272,13 @@ def api_problem(version: object) -> str | None:
     return f"the team's controller speaks API version {version}, this referee speaks {API_VERSION}"
 
 
-def parse(data: bytes) -> dict:
-    """Decode one frame's envelope: a dict with `v`, `type` and that type's fields, checked.
-    A payload (`brief`, `obs`, `command`) stays raw for its own `*_from` function."""
+def parse(data: bytes) -> Message:
+    """Decode one frame's envelope into its message, checked. A payload (`brief`, `obs`,
+    `command`) stays raw (`msgspec.Raw`) for `decoded`."""
     if len(data) > MAX_FRAME:
         raise ProtocolError(f"frame of {len(data)} bytes is over the {MAX_FRAME} limit")
-    msg = _decode(_MESSAGE, data, "message")
-    out = {"v": msg.v, "type": msg.__struct_config__.tag}
-    out.update((f, getattr(msg, f)) for f in msg.__struct_fields__ if f != "v")
-    return out
-
-
-def _payload(d: Any, cls: type[_Data], what: str) -> Any:
-    """A payload from raw JSON (as `parse` leaves it) or from plain data, decoded as `cls`."""
-    if type(d) is msgspec.Raw or isinstance(d, bytes):
-        return _decode(_DECODERS[cls], d, what)
-    try:
-        return msgspec.convert(d, cls)
-    except msgspec.ValidationError as e:
-        raise _invalid(e, what) from None
-    except RecursionError:
-        raise ProtocolError(f"{what}: nested too deeply") from None
-    except Exception as e:
-        raise ProtocolError(f"{what}: undecodable ({type(e).__name__})") from None
-
-
-# ---- plain data out -------------------------------------------------------------------------
-
-
-def _real(v: Any) -> Any:
-    """A number as a Python float (numpy scalars included); anything else unchanged, for the
-    other side to reject by name."""
-    return float(v) if isinstance(v, numbers.Real) and not isinstance(v, bool) else v
-
-
-def to_plain(obj: Any) -> Any:
-    """A Brief, Observation or Command as plain JSON-able data. Numbers of any real type
-    (numpy scalars, what a numpy-based team computes) become floats here, on the sending side."""
-    if isinstance(obj, Observation):
-        return {
-            "tick": obj.tick,
-            "time": obj.time,
-            "events": [
-                {"time": e.time, "kind": e.kind, "beacon": e.beacon, "angle": e.angle, "samples": e.samples}
-                for e in obj.events
-            ],
-            "trial": obj.trial,
-        }
-    if isinstance(obj, Command):
-        est = obj.estimate
-        return {
-            "left": _real(obj.left),
-            "right": _real(obj.right),
-            "estimate": tuple(map(_real, est)) if isinstance(est, (tuple, list)) else est,
-            "debug": [
-                {
-                    "kind": g.kind,
-                    "points": [tuple(map(_real, p)) for p in g.points],
-                    "radius": _real(g.radius),
-                    "text": g.text,
-                    "color": tuple(int(c) if isinstance(c, numbers.Integral) else c for c in g.color),
-                }
-                for g in obj.debug
-            ],
-        }
-    if isinstance(obj, Brief):
-        return msgspec.to_builtins(obj)
-    raise TypeError(f"to_plain: not a protocol payload: {type(obj).__name__}")
-
-
-# ---- checked payloads in --------------------------------------------------------------------
-
-
-def brief_from(d: Any) -> Brief:
-    """A Brief from raw JSON or plain data, checked."""
-    b = _payload(d, _Brief, "brief")
-    return Brief(
-        slot=b.slot,
-        field=b.field,
-        beacon_kind=b.beacon_kind,
-        beacons=tuple(BeaconInfo(x.id, x.x, x.y) for x in b.beacons),
-        laser=LaserInfo(b.laser.angular_velocity, b.laser.index),
-        robot=RobotInfo(
-            b.robot.model,
-            b.robot.length,
-            b.robot.width,
-            b.robot.track,
-            b.robot.max_wheel_speed,
-            b.robot.max_wheel_accel,
-        ),
-        task=TaskInfo(b.task.kind, b.task.radius, tuple(b.task.path), b.task.goal, b.task.trials),
-        control_period=b.control_period,
-        time_limit=b.time_limit,
-        start=None
-        if b.start is None
-        else StartInfo(
-            b.start.x, b.start.y, b.start.heading, b.start.position_spread, b.start.heading_spread, b.start.region
-        ),
-    )
-
-
-def observation_from(d: Any) -> Observation:
-    """An Observation from raw JSON or plain data, checked."""
-    o = _payload(d, _Observation, "obs")
-    return Observation(
-        tick=o.tick,
-        time=o.time,
-        events=tuple(SensorEvent(e.time, e.kind, e.beacon, e.angle, tuple(e.samples)) for e in o.events),
-        trial=o.trial,
-    )
-
-
-def command_from(d: Any) -> Command:
-    """A Command from raw JSON or plain data: wheel speeds and estimate finite and within
-    `LIMIT` (else ProtocolError naming the field); debug drawings beyond the caps dropped."""
-    c = _payload(d, _Command, "command")
-    if not c.debug:  # the common case, on the per-tick path
-        return Command(c.left, c.right, c.estimate)
-    return Command(
-        c.left,
-        c.right,
-        c.estimate,
-        tuple(
-            Drawing(g.kind, tuple(g.points[:MAX_POINTS]), g.radius, g.text[:MAX_TEXT], g.color)
-            for g in c.debug[:MAX_DRAWINGS]
-        ),
-    )
+    msg: Message = _decode(_MESSAGE, data, "message")
+    return msg
 
 
 def _bad_real(v: object) -> bool:

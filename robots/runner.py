@@ -17,9 +17,10 @@ import os
 import sys
 import traceback
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Final
 
 from robots import protocol
+from robots.api import Brief, Observation
 from robots.loading import LoadError, load_class
 
 
@@ -52,13 +53,11 @@ def _reader(stream):
     return Exact()
 
 
-def _fault(out, kind: str, where: str, e: BaseException) -> None:
+def _fault(out, kind: protocol.FaultKind, where: str, e: BaseException) -> None:
     traceback.print_exc(file=sys.stderr)
     text = " ".join(str(e).split())
-    protocol.write(
-        out,
-        {"type": "fault", "kind": kind, "message": f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")},
-    )
+    message = f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")
+    protocol.write(out, protocol.FaultMsg(v=protocol.PROTOCOL_VERSION, kind=kind, message=message))
 
 
 def _built(cls, brief):
@@ -73,9 +72,9 @@ def _guarded(out, where: str, call: Callable[..., Any], *args: object) -> tuple[
     try:
         return True, call(*args)
     except MemoryError as e:
-        _fault(out, "memory", where, e)
+        _fault(out, protocol.FaultKind.MEMORY, where, e)
     except BaseException as e:
-        _fault(out, "exception", where, e)
+        _fault(out, protocol.FaultKind.EXCEPTION, where, e)
     return False, None
 
 
@@ -158,41 +157,47 @@ def main(argv: list[str] | None = None) -> int:
         sys.path.append(path)
     raw_in, out = _private_channel()
     inp = _reader(raw_in)
+    v: Final = protocol.PROTOCOL_VERSION
     try:
         cls = load_class(spec)
     except LoadError as e:
-        protocol.write(out, {"type": "fault", "kind": "load", "message": str(e)})
+        protocol.write(out, protocol.FaultMsg(v=v, kind=protocol.FaultKind.LOAD, message=str(e)))
         return 1
     except BaseException as e:  # anything else the team's module does while it loads
-        _fault(out, "load", "loading", e)
+        _fault(out, protocol.FaultKind.LOAD, "loading", e)
         return 1
     api = getattr(cls, "api_version", None)
-    protocol.write(out, {"type": "loaded", "api": api if isinstance(api, int) and not isinstance(api, bool) else -1})
-    # from here on an exit is the controller's, not its loading's
+    protocol.write(out, protocol.Loaded(v=v, api=api if isinstance(api, int) and not isinstance(api, bool) else -1))
+    return _answer(cls, inp, out)
+
+
+def _answer(cls: type, inp, out) -> int:
+    """Answer the referee's messages with a controller of class `cls` until `stop` or end of
+    input (0), or until the team's code fails (1, its fault reported)."""
+    v: Final = protocol.PROTOCOL_VERSION
     controller = None
     while True:
-        msg = protocol.read(inp)
-        if msg is None or msg["type"] == "stop":
-            return 0
-        if msg["type"] == "setup":
-            brief = protocol.brief_from(msg["brief"])
-            ok, controller = _guarded(out, "setup", _built, cls, brief)
-            if not ok:
-                return 1
-            protocol.write(out, {"type": "ready"})
-        elif msg["type"] == "step" and controller is not None:
-            obs = protocol.observation_from(msg["obs"])
-            ok, cmd = _guarded(out, "step", controller.step, obs)
-            if not ok:
-                return 1
-            cmd = protocol.sendable(cmd)  # drawings that cannot be drawn travel as warnings
-            problem = protocol.command_problem(cmd)  # the same words as the referee-side check
-            if problem:
-                protocol.write(out, {"type": "fault", "kind": "bad_command", "message": problem})
-                return 1
-            protocol.write(out, {"type": "command", "tick": obs.tick, "command": protocol.to_plain(cmd)})
-        else:
-            raise protocol.ProtocolError(f"unexpected message {msg['type']!r}")
+        match protocol.read(inp):
+            case None | protocol.Stop():
+                return 0
+            case protocol.Setup(brief=raw):
+                ok, controller = _guarded(out, "setup", _built, cls, protocol.decoded(raw, Brief))
+                if not ok:
+                    return 1
+                protocol.write(out, protocol.Ready(v=v))
+            case protocol.Step(obs=raw) if controller is not None:
+                obs = protocol.decoded(raw, Observation)
+                ok, cmd = _guarded(out, "step", controller.step, obs)
+                if not ok:
+                    return 1
+                cmd = protocol.sendable(cmd)  # drawings that cannot be drawn travel as warnings
+                problem = protocol.command_problem(cmd)  # the same words as the referee-side check
+                if problem:
+                    protocol.write(out, protocol.FaultMsg(v=v, kind=protocol.FaultKind.BAD_COMMAND, message=problem))
+                    return 1
+                protocol.write(out, protocol.CommandMsg(v=v, tick=obs.tick, command=cmd))
+            case msg:
+                raise protocol.ProtocolError(f"unexpected message {msg.__struct_config__.tag!r}")
 
 
 if __name__ == "__main__":

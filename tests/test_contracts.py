@@ -57,9 +57,21 @@ BREAKS = [
     ("referee/media/plot.py", "import referee.contest.ratings", "the referee's rooms, top to bottom"),
     ("referee/newroom/__init__.py", "", "the referee's rooms, top to bottom"),
     ("referee/match/rules.py", "import robots.toolkit.ekf", "the match core runs team code only through the sandbox"),
-    ("referee/media/render.py", "import referee.sandbox.teams", "media shows records; it runs controllers only through the match core"),
-    ("referee/sandbox/affinity.py", "import arena.world", "the sandbox runs team code and knows the world only as a level"),
-    ("referee/records/canonical.py", "import arena.level", "records can be read by anyone: they import no world and no team code"),
+    (
+        "referee/media/render.py",
+        "import referee.sandbox.teams",
+        "media shows records; it runs controllers only through the match core",
+    ),
+    (
+        "referee/sandbox/affinity.py",
+        "import arena.world",
+        "the sandbox runs team code and knows the world only as a level",
+    ),
+    (
+        "referee/records/canonical.py",
+        "import arena.level",
+        "records can be read by anyone: they import no world and no team code",
+    ),
     ("referee/contest/schedule.py", "import robots.api", "contests ship team code as bytes and never import it"),
     ("referee/match/scoring.py", "import gymnasium", "optional extras stay in their rooms"),
     ("referee/media/plot.py", "import dask", "dask stays in the contest room"),
@@ -95,7 +107,9 @@ def _import_names(requirement: str) -> set[str]:
 
 def test_the_team_side_may_import_what_its_sandbox_holds_and_nothing_else():
     project = CONFIG["project"]
-    requirements = project["dependencies"] + [r for extra in ("dask", "rl") for r in project["optional-dependencies"][extra]]
+    requirements = project["dependencies"] + [
+        r for extra in ("dask", "rl") for r in project["optional-dependencies"][extra]
+    ]
     installed = set().union(*(_import_names(r) for r in requirements))
     installed = {m for m in installed if not m.startswith("_") and m.isidentifier()}
     forbidden = set(CONTRACTS["robots imports no third-party package but numpy and msgspec"]["forbidden_modules"])

@@ -13,7 +13,7 @@ from helpers import edited, run_cli
 
 from referee import api
 from referee.errors import SandboxError
-from referee.sandbox import kernel, process
+from referee.sandbox import kernel, launch
 
 NO_SANDBOX = "bubblewrap (bwrap) is not installed (as this test pretends)"
 
@@ -22,7 +22,7 @@ def pretend_no_sandbox(monkeypatch) -> None:
     """No kernel sandbox here; and controllers run as the referee's own user, as where root
     cannot become `nobody` (the checkout may be closed to other users: a 0700 /root)."""
     monkeypatch.setattr(kernel, "unavailable", lambda: NO_SANDBOX)
-    monkeypatch.setattr(process, "drop_to", lambda: None)
+    monkeypatch.setattr(launch, "drop_to", lambda: None)
 
 
 def cli_without_sandbox(*args: str, cwd) -> subprocess.CompletedProcess:

@@ -352,7 +352,8 @@ def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(
     answer that waited on that work is timed to when the work began, so it draws nothing from
     the bank; an answer that came after it is timed in full."""
     from referee.match.views import brief_for
-    from referee.sandbox.process import ProcessBot, exchange
+    from referee.sandbox.exchange import exchange
+    from referee.sandbox.process import ProcessBot
     from robots.api import Command, Observation
 
     slow = team_file(
@@ -379,10 +380,10 @@ def test_the_referees_own_work_while_controllers_compute_is_not_charged_to_them(
 
         (answer,) = exchange([bot], [Observation(tick=0, time=0.0, events=())], busy(3 * FAST.step_time))
         assert order == [3 * FAST.step_time] and isinstance(answer, Command)
-        assert bot.bank == FAST.overage_bank and bot.skips == 0
+        assert bot.allowance.bank == FAST.overage_bank and bot.allowance.skips == 0
         (answer,) = exchange([bot], [Observation(tick=1, time=0.2, events=())], busy(0.02))
         assert isinstance(answer, Command)
-        assert FAST.overage_bank - bot.bank >= 0.12 - FAST.step_time  # its own slowness, all of it
+        assert FAST.overage_bank - bot.allowance.bank >= 0.12 - FAST.step_time  # its own slowness, all of it
     finally:
         bot.close()
 
@@ -392,9 +393,9 @@ def test_a_load_error_names_the_teams_own_path(tmp_path, monkeypatch, sandboxed)
     # the folder its files were put in (the sandbox's /team, a temporary folder without one)
     # is no business of the team's: its message names its file as it gave it
     from referee.match.views import brief_for
-    from referee.sandbox import process
+    from referee.sandbox import launch, process
 
-    monkeypatch.setattr(process, "drop_to", lambda: None)  # without a sandbox: as this user (a 0700 checkout)
+    monkeypatch.setattr(launch, "drop_to", lambda: None)  # without a sandbox: as this user (a 0700 checkout)
     (tmp_path / "broken.py").write_text("raise RuntimeError(f'no data beside {__file__}')\n")
     level = variant("bac-line", "short.yaml", time_limit=2)
     bot = process.ProcessBot(resolve(str(tmp_path / "broken.py")), level.limits, sandboxed=sandboxed)

@@ -9,6 +9,7 @@ import random
 import struct
 import textwrap
 
+import msgspec
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -19,7 +20,7 @@ from arena.loader import parse_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots import protocol
-from robots.api import Command, Drawing
+from robots.api import Brief, Command, Drawing, Observation, SensorEvent
 
 
 def frame(body: bytes) -> bytes:
@@ -54,16 +55,16 @@ VALID = [
 def decode_everything(data: bytes) -> None:
     """What the referee does with a controller's frame: the envelope, then its payload.
     Anything decoded must be a clean, finite, bounded value."""
-    msg = protocol.parse(data)
-    if msg["type"] == "command":
-        cmd = protocol.command_from(msg["command"])
-        assert protocol.command_problem(cmd) is None
-        assert all(math.isfinite(v) and abs(v) <= protocol.LIMIT for v in (cmd.left, cmd.right))
-        assert len(cmd.debug) <= protocol.MAX_DRAWINGS
-    elif msg["type"] == "step":
-        protocol.observation_from(msg["obs"])
-    elif msg["type"] == "setup":
-        protocol.brief_from(msg["brief"])
+    match protocol.parse(data):
+        case protocol.CommandMsg(command=raw):
+            cmd = protocol.decoded(raw, Command)
+            assert protocol.command_problem(cmd) is None
+            assert all(math.isfinite(v) and abs(v) <= protocol.LIMIT for v in (cmd.left, cmd.right))
+            assert len(cmd.debug) <= protocol.MAX_DRAWINGS
+        case protocol.Step(obs=raw):
+            protocol.decoded(raw, Observation)
+        case protocol.Setup(brief=raw):
+            protocol.decoded(raw, Brief)
 
 
 def only_protocol_errors(data: bytes) -> None:
@@ -103,7 +104,7 @@ def a_setup_message() -> dict:
     from arena.loader import load_level
     from referee.match.views import brief_for
 
-    return {"type": "setup", "brief": protocol.to_plain(brief_for(load_level(levels.path("asabe-race")), 1))}
+    return {"type": "setup", "brief": msgspec.to_builtins(brief_for(load_level(levels.path("asabe-race")), 1))}
 
 
 def test_a_seeded_fuzzer_gets_nothing_but_protocol_errors():
@@ -132,7 +133,7 @@ def test_any_json_value_as_a_command_is_decoded_or_refused_by_name(value):
         return
     only_protocol_errors(body)
     with pytest.raises(protocol.ProtocolError) if not isinstance(value, dict) else _maybe():
-        protocol.command_from(value)  # plain data (not bytes) takes the same checks
+        protocol.decoded(json.dumps(value).encode(), Command)  # the payload alone takes the same checks
 
 
 class _maybe:
@@ -147,7 +148,7 @@ def test_every_refusal_names_the_field():
     def problem(command: bytes) -> str:
         msg = protocol.parse(b'{"v":1,"type":"command","tick":1,"command":' + command + b"}")
         with pytest.raises(protocol.ProtocolError) as e:
-            protocol.command_from(msg["command"])
+            protocol.decoded(msg.command, Command)
         return str(e.value)
 
     assert "command.left" in problem(b'{"left":1' + b"0" * 400 + b',"right":0}')
@@ -173,7 +174,7 @@ def test_frames_over_the_limit_are_refused_before_reading_them():
         b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":[' + drawings + b"]}}"
     )
     with pytest.raises(protocol.ProtocolError, match="command.debug"):
-        protocol.command_from(msg["command"])
+        protocol.decoded(msg.command, Command)
 
 
 def test_numpy_scalars_are_numbers_on_the_wire():
@@ -185,10 +186,50 @@ def test_numpy_scalars_are_numbers_on_the_wire():
     )
     assert protocol.command_problem(cmd) is None
     buf = io.BytesIO()
-    protocol.write(buf, {"type": "command", "tick": 1, "command": protocol.to_plain(cmd)})
-    back = protocol.command_from(protocol.read(io.BytesIO(buf.getvalue()))["command"])
+    protocol.write(buf, protocol.CommandMsg(v=1, tick=1, command=cmd))
+    msg = protocol.read(io.BytesIO(buf.getvalue()))
+    assert isinstance(msg, protocol.CommandMsg) and msg.tick == 1
+    back = protocol.decoded(msg.command, Command)
+    assert back == protocol.wired(cmd)  # a controller in the referee's process: the same numbers
     assert back == Command(0.0625, -0.125, (1.5, 2.25, -0.5), (Drawing("line", ((1.0, 2.0),), color=(1, 2, 3)),))
     assert all(type(v) is float for v in (back.left, back.right, *back.estimate))
+
+
+def test_a_step_frame_is_the_step_message_write_sends():
+    obs = Observation(7, 0.35, (SensorEvent(0.3, "hit", "A", 1.25), SensorEvent(0.31, "scan", samples=(0, 255))), 2)
+    sent = io.BytesIO()
+    protocol.write(sent, protocol.Step(v=1, obs=obs))
+    assert bytes(protocol.step_frame(obs, bytearray(b"old"))) == sent.getvalue()
+    msg = protocol.read(io.BytesIO(sent.getvalue()))
+    assert isinstance(msg, protocol.Step) and protocol.decoded(msg.obs, Observation) == obs
+
+
+@pytest.mark.parametrize(
+    "body,words",
+    [
+        (b'{"type":"ready"}', "missing required field `v`"),
+        (b'{"v":2,"type":"ready"}', "message.v"),
+        (b'{"v":1,"type":"ready","x":1}', "unknown field `x`"),
+        (b'{"v":1,"type":"hello"}', "Invalid value 'hello'"),
+        (b'{"v":1,"type":"loaded","api":-1}', "message.api"),
+    ],
+)
+def test_a_bad_envelope_is_refused_by_name(body, words):
+    with pytest.raises(protocol.ProtocolError, match="^message: ") as e:
+        protocol.parse(body)
+    assert words in str(e.value)
+
+
+def test_a_payload_with_an_unknown_field_is_refused_at_any_depth():
+    with pytest.raises(protocol.ProtocolError, match="unknown field `x` - at `obs.events\\[0\\]`"):
+        protocol.decoded(b'{"tick":1,"time":0,"events":[{"time":0,"kind":"hit","x":1}]}', Observation)
+
+
+def test_fault_kinds_are_their_names_on_the_wire():
+    buf = io.BytesIO()
+    protocol.write(buf, protocol.FaultMsg(v=1, kind=protocol.FaultKind.BAD_COMMAND, message="m"))
+    assert buf.getvalue()[4:] == b'{"type":"fault","v":1,"kind":"bad_command","message":"m"}'
+    assert {str(k) for k in protocol.REPORTED} == {"load", "exception", "memory", "bad_command"}
 
 
 class Nasty:

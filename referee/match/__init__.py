@@ -1,7 +1,7 @@
 """The match core: the lockstep loop, the turn pipeline alone (`loop`); its controllers from
 launch to close (`fleet`); what a team is told and the replay's header (`views`); the replay
 writes put off while controllers compute (`deferral`); the rules that call fouls (`rules`),
-task progress (`tasks`) along the ideal path (`paths`), localization accuracy (`estimates`),
+a controller's fault as the result records it (`faults`), task progress (`tasks`) along the ideal path (`paths`), localization accuracy (`estimates`),
 the score (`scoring`) and the result assembled from them (`result`); and re-running a
 recorded match to check it (`verify`).
 

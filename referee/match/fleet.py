@@ -10,7 +10,9 @@ from pathlib import Path
 from arena.level import ControllerLimits
 from referee.errors import LaserArenaWarning
 from referee.sandbox import affinity
-from referee.sandbox.bot import Fault, InProcessBot
+from referee.sandbox.bot import Bot
+from referee.sandbox.fault import Fault
+from referee.sandbox.in_process import InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, isolation_unavailable
 from referee.sandbox.teams import Team
@@ -42,7 +44,7 @@ class Fleet:
             isolate = False
         if isolate:
             make_undumpable()  # before any controller exists: no one reads our memory via /proc
-        self.bots: list[ProcessBot | InProcessBot] = [
+        self.bots: list[Bot] = [
             ProcessBot(t, limits, Path(logs) / f"slot{i}.log" if logs else None, slot=i) if isolate else InProcessBot(t)
             for i, t in enumerate(teams)
         ]

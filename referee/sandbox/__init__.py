@@ -1,10 +1,13 @@
-"""Team code, kept out of the referee: team specs resolved without running them (`teams`), a
-Controller class handed to the Python API made a team that ships its source (`class_source`),
-one controller process per slot inside its own kernel sandbox (`process`), the in-process call
-site for debugging (`bot`), the privilege drop and process hygiene they rely on (`privacy`),
-each slot's control group (`cgroup`) and log pipe (`log`), and one CPU shared by a referee and
-its lone controller (`affinity`).
+"""Team code, kept out of the referee: team specs resolved without running them (`teams`),
+a Controller class handed to the Python API made a team that ships its source (`class_source`),
+what every controller does for the match (the `Bot` protocol, `bot`) and the `Fault` it reports
+(`fault`; the match makes the record of it), one controller process per slot inside its own
+kernel sandbox (`process`: started by `launch`, spoken to over a framed `channel`, within its
+time `allowance`), one tick's exchange with all of them at once (`exchange`), the in-process
+call site for debugging (`in_process`), the privilege drop and process hygiene they rely on
+(`privacy`), each slot's control group (`cgroup`) and log pipe (`log`), and one CPU shared by a
+referee and its lone controller (`affinity`).
 
-It may import `robots.api` and `robots.protocol` (the border's messages) and `referee.errors`;
-never the match, records, contest, media or cli.
+It may import `robots.api` and `robots.protocol` (the border's messages), `arena.level` (the
+controller limits) and `referee.errors`; never the match, records, contest, media or cli.
 """

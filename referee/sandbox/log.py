@@ -15,7 +15,7 @@ import select
 import threading
 from pathlib import Path
 
-from referee.sandbox.bot import TRACEBACK_BYTES
+from referee.sandbox.fault import TRACEBACK_BYTES
 
 JOIN_TIME = 1.0  # seconds `close` waits for the reading thread
 

@@ -371,7 +371,7 @@ import robots.protocol as protocol
 whole = protocol.write
 def twice(out, msg):
     whole(out, msg)
-    if msg.get("type") == "command" and msg["tick"] == 3:
+    if isinstance(msg, protocol.CommandMsg) and msg.tick == 3:
         whole(out, msg)
 protocol.write = twice
 class Eager(Controller):
@@ -461,7 +461,7 @@ import threading
 import robots.protocol as protocol
 def answer_ahead(out):
     for tick in range(3, 100_000):
-        protocol.write(out, {"type": "command", "tick": tick, "command": protocol.to_plain(Command(0.05, 0.05))})
+        protocol.write(out, protocol.CommandMsg(v=1, tick=tick, command=Command(0.05, 0.05)))
 class Deaf(Controller):
     def step(self, obs):
         if obs.tick == 3:

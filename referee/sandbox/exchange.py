@@ -1,0 +1,97 @@
+"""One control tick's exchange with every controller at once: every observation goes out
+before any answer is awaited, so controller processes compute side by side while the referee
+does work of its own (docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md)."""
+
+from __future__ import annotations
+
+import select
+import time
+from collections.abc import Callable, Sequence
+
+from referee.sandbox.bot import Bot
+from referee.sandbox.channel import Trouble
+from referee.sandbox.fault import Fault
+from referee.sandbox.process import ProcessBot
+from robots import protocol
+from robots.api import Command, Observation
+
+Reply = tuple[protocol.Message | Trouble, float]  # an answer (or trouble) and the seconds it took
+
+
+def exchange(
+    bots: Sequence[Bot], observations: Sequence[Observation | None], meanwhile: Callable[[], None] | None = None
+) -> list[Command | Fault | None]:
+    """Every bot's answer to its observation (None where it has none), as `step` gives it. All
+    observations go out before any answer is awaited, so controller processes compute at the
+    same time, while this process does `meanwhile` (work of its own that needs no answer).
+    Each answer is timed from its own sending to its own arrival; one that arrived while the
+    referee was busy with `meanwhile`, to when that work began."""
+    out: list[Command | Fault | None] = [None] * len(bots)
+    waiting: dict[int, ProcessBot] = {}
+    for slot, (bot, obs) in enumerate(zip(bots, observations)):
+        if obs is None:
+            continue
+        if not isinstance(bot, ProcessBot):
+            out[slot] = bot.step(obs)  # a controller in this process answers at once
+        elif fault := bot.send(obs):
+            out[slot] = fault
+        else:
+            waiting[slot] = bot
+    replies: dict[int, Reply] = {}
+    if meanwhile is not None and waiting:
+        began = time.monotonic()
+        meanwhile()
+        replies.update(_arrived(waiting, began))
+    replies.update(_gathered(waiting))
+    for slot in sorted(replies):
+        obs, bot = observations[slot], bots[slot]
+        assert obs is not None and isinstance(bot, ProcessBot)
+        out[slot] = bot.judge(obs, *replies[slot])
+    return out
+
+
+def _channels(waiting: dict[int, ProcessBot]) -> dict[int, int]:
+    """Each waiting bot's output descriptor, and its slot."""
+    return {bot.channel.fileno(): slot for slot, bot in waiting.items()}
+
+
+def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
+    """The answers that came in while the referee was busy since `began`, timed to `began`: the
+    referee, not the controller, kept them waiting (later answers are timed as always). Their
+    bots leave `waiting`."""
+    replies: dict[int, Reply] = {}
+    readers = _channels(waiting)
+    for fd in select.select(list(readers), [], [], 0)[0]:
+        slot = readers[fd]
+        bot = waiting[slot]
+        channel = bot.channel
+        got = channel.message() if channel.read() else Trouble.CRASH
+        if got is not None:
+            replies[slot] = (got, max(0.0, began - bot.sent))
+            del waiting[slot]
+    return replies
+
+
+def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
+    """Every waiting bot's answer, or its trouble (`timeout` at its own deadline)."""
+    replies: dict[int, Reply] = {}
+    while waiting:
+        now = time.monotonic()
+        for slot, bot in list(waiting.items()):
+            got = bot.channel.message()
+            if got is None and now - bot.sent >= bot.limits.step_deadline:
+                got = Trouble.TIMEOUT
+            if got is not None:
+                replies[slot] = (got, now - bot.sent)
+                del waiting[slot]
+        if not waiting:
+            break
+        left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+        readers = _channels(waiting)
+        ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
+        for fd in ready:
+            slot = readers[fd]
+            if not waiting[slot].channel.read():
+                replies[slot] = (Trouble.CRASH, time.monotonic() - waiting[slot].sent)
+                del waiting[slot]
+    return replies
