@@ -245,10 +245,17 @@ def read(stream: IO[bytes]) -> Message | None:
     return parse(data)
 
 
-def _one_line(text: str, limit: int = 300) -> str:
-    """An error text safe for a log line or a terminal: control characters escaped, cut short.
-    (The referee's `referee.terminal.safe` does the same; this side may not import it.)"""
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text[:limit])
+def one_line(text: str) -> str:
+    """`text` with every run of white space (newlines too) made one space: what a fault or a
+    protocol error says is one line of a log. The referee escapes what a terminal must not see
+    (control characters) when it records the fault (referee.terminal.safe)."""
+    return " ".join(text.split())
+
+
+def describe(e: BaseException) -> str:
+    """An exception as `Type: message` on one line, as a fault message says it."""
+    text = one_line(str(e))
+    return f"{type(e).__name__}: {text}" if text else type(e).__name__
 
 
 def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
@@ -256,9 +263,9 @@ def _decode(decoder: msgspec.json.Decoder, data: Any, what: str) -> Any:
     try:
         return decoder.decode(data)
     except msgspec.ValidationError as e:
-        raise ProtocolError(_one_line(f"{what}: {e}".replace("`$", "`" + what))) from None
+        raise ProtocolError(one_line(f"{what}: {e}".replace("`$", "`" + what))) from None
     except msgspec.DecodeError as e:
-        raise ProtocolError(_one_line(f"{what}: not JSON ({e})")) from None
+        raise ProtocolError(one_line(f"{what}: not JSON ({e})")) from None
     except RecursionError:
         raise ProtocolError(f"{what}: nested too deeply") from None
     except Exception as e:

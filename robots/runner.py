@@ -55,8 +55,7 @@ def _reader(stream):
 
 def _fault(out, kind: protocol.FaultKind, where: str, e: BaseException) -> None:
     traceback.print_exc(file=sys.stderr)
-    text = " ".join(str(e).split())
-    message = f"in {where}: {type(e).__name__}" + (f": {text}" if text else "")
+    message = f"in {where}: {protocol.describe(e)}"
     protocol.write(out, protocol.FaultMsg(v=protocol.PROTOCOL_VERSION, kind=kind, message=message))
 
 

@@ -37,7 +37,7 @@ from types import ModuleType
 from typing import Any
 
 import robots.runner
-from robots import seccomp
+from robots import protocol, seccomp
 from robots.controllers import REFERENCE
 
 REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
@@ -233,7 +233,7 @@ def _monitor(slot: socket.socket) -> None:
         status, cpu = _watch(slot, pid)
     except BaseException as e:
         try:
-            slot.send(b"e" + " ".join(f"{type(e).__name__}: {e}".split())[:400].encode())
+            slot.send(b"e" + protocol.describe(e)[:400].encode())
         except OSError:
             pass
         os._exit(1)

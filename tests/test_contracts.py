@@ -50,7 +50,7 @@ def test_the_tree_keeps_every_contract(tree):
 
 BREAKS = [
     ("arena/world.py", "import referee.errors", "arena knows nothing of teams or scores"),
-    ("robots/api.py", "import referee.terminal", "robots runs in a team's process: no arena, no referee"),
+    ("robots/api.py", "import referee.version", "robots runs in a team's process: no arena, no referee"),
     ("robots/toolkit/ekf.py", "import yaml", "robots imports no third-party package but numpy and msgspec"),
     ("referee/records/canonical.py", "import referee.match.scoring", "the referee's rooms, top to bottom"),
     ("referee/sandbox/affinity.py", "import referee.records.canonical", "the referee's rooms, top to bottom"),

@@ -53,3 +53,25 @@ def test_a_clean_run_keeps_no_logs(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     out = run_cli("run", "level.yaml", "--team", "ref:idle", cwd=shared_dir)
     assert out.returncode == 0 and not (shared_dir / "laserarena-logs").exists()
+
+
+ESCAPES = """from robots.api import Command, Controller
+
+
+class Loud(Controller):
+    def step(self, obs):
+        raise ValueError("\\x1b[2J\\x1b[31mred\\u202e\\x07")
+"""
+
+
+@pytest.mark.parametrize("extra", [[], ["--in-process"]])
+def test_a_fault_message_is_recorded_terminal_safe(shared_dir, extra):
+    # a team's exception text with a screen clear, a colour, a bidirectional override and a bell
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / "loud.py").write_text(ESCAPES)
+    (shared_dir / "loud.py").chmod(0o644)
+    out = run_cli("run", "level.yaml", "--team", "loud.py", "--json", "r.json", *extra, cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    fault = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"][0]
+    assert fault["message"] == "in step: ValueError: \\x1b[2J\\x1b[31mred\\u202e\\x07"
+    assert "\x1b" not in out.stdout and "\u202e" not in out.stdout

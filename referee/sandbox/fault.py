@@ -40,9 +40,3 @@ def traceback_tail(log: str) -> str | None:
     while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
         body = body[1:]
     return "\n".join(lines[:1] + body[-(TRACEBACK_LINES - 1) :])
-
-
-def one_line(e: BaseException) -> str:
-    """An exception as `Type: message` on one line."""
-    text = " ".join(str(e).split())
-    return f"{type(e).__name__}: {text}" if text else type(e).__name__

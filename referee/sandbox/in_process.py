@@ -8,11 +8,11 @@ import sys
 import traceback
 from pathlib import Path
 
-from referee.sandbox.fault import Fault, one_line, traceback_tail
+from referee.sandbox.fault import Fault, traceback_tail
 from referee.sandbox.teams import Team
 from robots.api import API_VERSION, Brief, Command, Controller, Observation
 from robots.loading import LoadError, is_file_spec, load_class
-from robots.protocol import FaultKind, ProtocolError, api_problem, command_problem, sendable, wired
+from robots.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
 
 
 class InProcessBot:
@@ -43,7 +43,7 @@ class InProcessBot:
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
             tail = traceback_tail(traceback.format_exc())
-            return Fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {one_line(e)}", traceback=tail)
+            return Fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
@@ -53,7 +53,7 @@ class InProcessBot:
             cmd = self.controller.step(obs)
         except Exception as e:
             tail = traceback_tail(traceback.format_exc())
-            return Fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {one_line(e)}", traceback=tail)
+            return Fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)
         if problem:

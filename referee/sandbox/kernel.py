@@ -31,6 +31,7 @@ from pathlib import Path
 import robots
 import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
+from robots import protocol
 from robots.loading import STANDARD_VIEW
 
 TEAM_DIR = "/team"  # the slot's code, read-only
@@ -102,7 +103,7 @@ def unavailable() -> str | None:
         for fd in (*trial.pass_fds, trial.info):
             os.close(fd)
     if probe.returncode != 0:
-        said = " ".join(probe.stderr.decode(errors="replace").split())[:160]
+        said = protocol.one_line(probe.stderr.decode(errors="replace"))[:160]
         return f"bwrap cannot make namespaces here ({said}): run as root, or allow unprivileged user namespaces"
     return None
 

@@ -244,7 +244,7 @@ class ProcessBot:
         message = msg.message[:500]
         if kind is FaultKind.LOAD:  # named as the team was given, not as the sandbox sees it
             message = message.replace(f"team {self._entry_seen()}", f"team {self.team.label}")
-        return kind, " ".join(self._own_paths(message).split()) or f"in {where}"
+        return kind, protocol.one_line(self._own_paths(message)) or f"in {where}"
 
     def _traceback(self) -> str | None:
         """The tail of the last traceback in the team's log, its sandbox folder left out so
