@@ -153,3 +153,31 @@ def test_without_a_display_watch_says_so_in_one_line_and_plays_nothing(tmp_path)
         "laserarena: watch: no display (neither DISPLAY nor WAYLAND_DISPLAY is set); "
         "`laserarena render REPLAY --html page.html` makes a page any browser plays"
     ]
+
+
+def test_a_match_that_dies_before_its_first_frame_is_an_error_not_a_wait(monkeypatch):
+    import threading
+
+    from referee.errors import UserError
+    from referee.match.loop import Match
+    from referee.media.watch import watch
+
+    def broken(self):
+        raise RuntimeError("the match thread failed at once")
+
+    monkeypatch.setattr(Match, "run", broken)
+    outcome: list[BaseException] = []
+
+    def play():
+        try:
+            watch("bac-line", teams=["ref:idle"], max_frames=1)
+        except BaseException as e:
+            outcome.append(e)
+
+    monkeypatch.setattr(threading, "excepthook", lambda args: None)  # the match thread's own report
+    waiting = threading.Thread(target=play, daemon=True)
+    waiting.start()
+    waiting.join(60)
+    assert not waiting.is_alive(), "watch waited for a frame that never comes"
+    assert len(outcome) == 1 and isinstance(outcome[0], UserError)
+    assert "ended before its first frame" in str(outcome[0])

@@ -3,5 +3,7 @@ teams racing in heats with their ratings and report (`tournament`, `schedule`, `
 `report`), all into one resumable journal (`journal`), played as self-contained jobs on this
 process, a local pool or a Dask cluster (`runner`, `shipping`).
 
-It may import the match core, the sandbox's team specs and the records; never media or cli.
+It may import the match core, the sandbox, the records and `arena`; never media, gym, cli or
+`robots` (team code travels as bytes). `dask` is imported here only (pyproject.toml's contracts
+hold this).
 """

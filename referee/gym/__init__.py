@@ -11,7 +11,8 @@ The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the 
 one control period at a time for agents (`session`) and frames for `render()` (`view`). The
 observation encoding and the action's command are team-side (robots.toolkit.features and
 .policy), so that a trained policy plays in the sandbox on the same numbers. It may import the
-match core, the sandbox's team specs, `arena` and `robots`; nothing imports it but users.
+match core, the sandbox's team specs, the records, `arena` and `robots`; nothing imports it but
+users, and `gymnasium` and `pettingzoo` are imported here only.
 """
 
 from __future__ import annotations

@@ -8,6 +8,8 @@ call site for debugging (`in_process`), the privilege drop and process hygiene t
 (`privacy`), each slot's control group (`cgroup`) and log pipe (`log`), and one CPU shared by a
 referee and its lone controller (`affinity`).
 
-It may import `robots.api` and `robots.protocol` (the border's messages), `arena.level` (the
-controller limits) and `referee.errors`; never the match, records, contest, media or cli.
+It may import `robots` but its toolkit (the border's messages, the spec grammar, the reference
+controllers' registry, the sandbox's entry points), `arena.level` (a level's controller limits
+and default controller), `referee.errors` and `referee.terminal`; never the match, records,
+contest, media, gym or cli (pyproject.toml's contracts hold this).
 """
