@@ -106,6 +106,12 @@ def _check(sub: Commands) -> None:
     s.set_defaults(func=commands.cmd_check)
 
 
+def _where(s: argparse.ArgumentParser, action: str) -> None:
+    """Where a contest's matches run: local worker processes, or a Dask cluster."""
+    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
+    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help=f"{action} on this Dask cluster instead")
+
+
 def _grade(sub: Commands) -> None:
     """`laserarena grade`: every team alone on every level and seed, into a leaderboard."""
     what = "grade teams x levels x seeds headless, resumable, into a leaderboard"
@@ -113,8 +119,7 @@ def _grade(sub: Commands) -> None:
     s.add_argument("level", nargs="+", help="level names or level files")
     s.add_argument("--team", action="append", required=True, metavar="T", help="a team spec (repeat)")
     s.add_argument("--seeds", type=_at_least_one, default=3, help="seeds 1..N per team and level (default 3)")
-    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="grade on this Dask cluster instead")
+    _where(s, "grade")
     s.add_argument("--db", default="results.sqlite", help="the journal (default results.sqlite)")
     _contest_flags(s)
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
@@ -131,8 +136,7 @@ def _tournament(sub: Commands) -> None:
     s.add_argument(
         "--rounds", type=_at_least_one, default=1, help="rounds; in each, every team starts once from every slot"
     )
-    s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play the heats on this Dask cluster instead")
+    _where(s, "play the heats")
     s.add_argument("--db", default="tournament.sqlite", help="the journal (default tournament.sqlite)")
     _contest_flags(s)
     s.add_argument(
