@@ -3,6 +3,7 @@ episodes that end, gives the single env's numbers, and closes without leaving a 
 Every wait on a worker is bounded. Needs the `rl` extra (installed by `make test`)."""
 
 import multiprocessing
+import threading
 
 import numpy as np
 import pytest
@@ -40,6 +41,18 @@ def play(envs, steps: int) -> list[tuple]:
     return [envs.reset(seed=[3, 4])] + [envs.step(actions) for _ in range(steps)]
 
 
+def close_within(envs, seconds: float) -> None:
+    """Close the vector env, failing (its workers killed) if that takes over `seconds`: Gymnasium's
+    own close waits for every worker without a bound."""
+    closing = threading.Thread(target=envs.close, daemon=True)
+    closing.start()
+    closing.join(seconds)
+    if closing.is_alive():
+        for process in getattr(envs, "processes", []):
+            process.kill()
+        pytest.fail(f"closing the vector env took over {seconds} s")
+
+
 @pytest.mark.parametrize("mode", ["sync", "async"])
 def test_make_vec_steps_resets_and_closes(mode, short_level):
     before = set(multiprocessing.active_children())
@@ -48,7 +61,7 @@ def test_make_vec_steps_resets_and_closes(mode, short_level):
     try:
         outcomes = play(envs, 7)  # 5 periods, the step that resets both, and one of the next episodes
     finally:
-        envs.close()
+        close_within(envs, WAIT)
     _, _, terminated, truncated, info = outcomes[5]
     assert not terminated.any() and truncated.all()  # the time limit, for both at once
     assert [r["seed"] for r in info["result"]] == [3, 4]  # each env's own match
