@@ -3,10 +3,11 @@
 (a) the 4-robot asabe-race world: bare stepping, sensing, full matches isolated and in-process
     with two controllers, grading's CPU beside bare stepping's (benchmarks/speed.py);
 (b) localization solvers, scalar and vectorized; (c) rendering and encoding frames per second;
-(d) grading throughput. Prints a table and writes the figures as JSON (--json): to
-docs/performance.json by default, the committed report the docs quote (benchmarks/quoted.py's
-`<!--p:KEY:STAT-->` markers, set here and held to it by tests/test_docs_figures.py), where
-each figure is in the unit the docs show it in.
+(d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py). Prints
+a table and writes the figures as JSON (--json): to docs/performance.json by default, the
+committed report the docs quote (benchmarks/quoted.py's `<!--p:KEY:STAT-->` markers, set here
+and held to it by tests/test_docs_figures.py), where each figure is in the unit the docs show
+it in.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import env
 import grading
 import quoted
 import render
@@ -78,6 +80,7 @@ def report(f: dict, repeat: int) -> dict:
         "workers": g["workers"],
         "speedup": g["speedup"],
     }
+    out["env"] = dict(f["env"])  # microseconds per step, steps per second, ratios to bare: as env.py gives them
     return out
 
 
@@ -105,6 +108,7 @@ def main() -> None:
     figures["solvers"] = solvers.measure()
     figures["render"] = render.measure(300)
     figures["grading"] = grading.measure(8)  # enough matches that each pool worker's start (imports, numba) is spread
+    figures["env"] = env.measure(max(args.repeat, 5))  # cheap (seconds a round) and noisy: never fewer than 5
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -119,6 +123,7 @@ def main() -> None:
             f"{g['speedup']:.2f}x of one worker",
         ),
     ]
+    rows += [(f"(e) {a.strip()}", b, c) for a, b, c in env.table(figures["env"])]
     width = max(len(a) for a, _, _ in rows)
     m = figures["machine"]
     print(f"LaserArena benchmarks on {m['cpus']} x {m['cpu']}, Python {m['python']} (medians of {args.repeat} runs)")

@@ -4,8 +4,9 @@
     env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
 
 Importing this module registers `LaserArena-v0` with Gymnasium (that is how `make`'s
-"module:EnvName" form finds it). Observations, actions and rewards: docs/rl.md. Needs the
-`rl` extra (`pip install 'laserarena[rl]'`).
+"module:EnvName" form finds it); `gymnasium.make_vec` steps several, in this process ("sync")
+or a process each ("async"). Observations, actions, rewards and vector envs: docs/rl.md. Needs
+the `rl` extra (`pip install 'laserarena[rl]'`).
 
 The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the match driven
 one control period at a time for agents (`session`) and frames for `render()` (`view`). The

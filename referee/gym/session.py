@@ -131,15 +131,15 @@ class AgentSession:
         m = self.match
         if m is None or m.ended:
             raise RuntimeError("the match has ended: call reset()")
-        loc = np.zeros(len(self.level.robots))
+        loc: dict[int, float] = {}  # each agent's localization points of the tick
         for slot in self.agents:
             if m.stopped[slot]:
                 continue
             if self.done[slot]:  # a finished agent stands still while the others play on
                 m.answer(slot, Command(0.0, 0.0))
                 continue
-            a = np.asarray(actions[slot], dtype=np.float64)
-            cmd = command(a if self.report_estimate else a[:2], self.briefs[slot])
+            action = actions[slot]
+            cmd = command(action if self.report_estimate else action[:2], self.briefs[slot])
             before = m.estimates[slot].quality_sum
             m.answer(slot, cmd)
             if cmd.estimate is not None:  # the tick's quality, as the referee scored it
@@ -157,7 +157,7 @@ class AgentSession:
         rewards: dict[int, float] = {}
         infos: dict[int, dict] = {}
         for slot in self.agents:
-            rewards[slot] = self._reward(slot) + float(loc[slot])
+            rewards[slot] = self._reward(slot) + loc.get(slot, 0.0)
             infos[slot] = {"progress": m.tracker.progress(slot), "time": m.world.time}
             if self.result is not None:
                 infos[slot]["result"] = self.result
@@ -197,9 +197,10 @@ class AgentSession:
             start = m.starts[slot]
             prev = targets[i - 1] if i else (start.x, start.y)
             leg = math.dist(prev, targets[i])
-            p = m.world.pose(slot)
+            state = m.world.state  # x, y of the true pose (World.pose, without its heading)
             if leg > 0:
-                value += TASK_POINTS / len(targets) * min(1.0, max(0.0, 1.0 - math.dist((p.x, p.y), targets[i]) / leg))
+                here = (state[3 * slot], state[3 * slot + 1])
+                value += TASK_POINTS / len(targets) * min(1.0, max(0.0, 1.0 - math.dist(here, targets[i]) / leg))
         return value
 
     def _reward(self, slot: int) -> float:
@@ -208,8 +209,9 @@ class AgentSession:
         reward = phi - self.potential[slot]
         self.potential[slot] = phi
         fouls = m.rules.fouls[slot]
-        reward -= sum(f.penalty for f in fouls[self.fouls[slot] :])
-        self.fouls[slot] = len(fouls)
+        if len(fouls) > self.fouls[slot]:
+            reward -= sum(f.penalty for f in fouls[self.fouls[slot] :])
+            self.fouls[slot] = len(fouls)
         finished = m.tracker.finished[slot]
         if finished is not None and not self.done[slot] and m.tracker.kind != "localize":
             reward += TIME_POINTS * (1.0 - finished / self.level.time_limit) * m.estimates[slot].quality

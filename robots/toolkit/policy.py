@@ -20,19 +20,24 @@ from robots.api import Brief, Command
 FORMAT = 1  # the .npz layout: w0, b0, w1, b1, ... plus format, goal, samples_per_turn
 
 
+def _unit(x: float) -> float:
+    """`x` clipped to -1..1, as np.clip gives it (NaN stays NaN), without a NumPy call."""
+    return -1.0 if x < -1.0 else 1.0 if x > 1.0 else x
+
+
 def command(action: np.ndarray, brief: Brief) -> Command:
     """The command an env action stands for: wheel speeds as fractions of the top speed (the
     first two components, clipped to -1..1); three more, if given, are the pose estimate the
     referee scores, x and y scaled so that -1..1 spans the field, heading / pi."""
-    a = np.asarray(action, dtype=np.float64)
+    a = np.asarray(action, dtype=np.float64).tolist()
     top = brief.robot.max_wheel_speed
-    left, right = (float(np.clip(v, -1.0, 1.0)) * top for v in a[:2])
+    left, right = _unit(a[0]) * top, _unit(a[1]) * top
     if len(a) < 5:
         return Command(left, right)
     xmin, ymin, xmax, ymax = brief.field
-    u = np.clip(a[2:5], -1.0, 1.0)
-    estimate = (xmin + (u[0] + 1) / 2 * (xmax - xmin), ymin + (u[1] + 1) / 2 * (ymax - ymin), float(u[2]) * math.pi)
-    return Command(left, right, (float(estimate[0]), float(estimate[1]), estimate[2]))
+    u = [_unit(v) for v in a[2:5]]
+    estimate = (xmin + (u[0] + 1) / 2 * (xmax - xmin), ymin + (u[1] + 1) / 2 * (ymax - ymin), u[2] * math.pi)
+    return Command(left, right, estimate)
 
 
 class Policy:

@@ -1,0 +1,190 @@
+"""How fast the learning envs step beside bare stepping of the same world, side by side in one run.
+
+Run: python benchmarks/env.py [--repeat 5] [--periods 300] [--json]
+Bare: `arena.world.World(level)` stepped a control period at a time (`world.run`), every robot
+on fixed wheel commands (gentle circles); each env gets the same wheel speeds as its action.
+Figures, each the median of `--repeat` interleaved rounds, as a ratio to bare stepping per
+control period (1.0: an env step costs no more than the physics of its period; target >= 0.5):
+- single: `gymnasium.make("LaserArena-v0", level="asabe")`, CPU per step (and with `goal=True`,
+  whose goal block runs the toolkit's tracker);
+- parallel: PettingZoo `parallel_env(level="asabe-race")` (4 agents) beside the 4-robot world;
+- sync1, sync2: `gymnasium.make_vec(..., vectorization_mode="sync")`, CPU per env step;
+- async1, async2: the same with "async" (a process per env): wall time per env step beside
+  bare stepping's wall time, the CPU of all processes per env step, and `async_scaling`, 2
+  envs' throughput over 1 env's (2.0 is linear on two cores; wall time needs idle cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+
+import referee.gym  # registers LaserArena-v0
+from arena.loader import find_level
+from arena.world import World
+from referee.gym import parallel
+
+LEVEL, RACE = "asabe", "asabe-race"
+WHEELS = (0.08, 0.12)  # m/s, every robot in every figure
+Clock = Callable[[], float]
+
+
+def bare(name: str, periods: int, clock: Clock) -> float:
+    """Seconds (by `clock`) per control period of the level's world, stepped bare."""
+    level = find_level(name)
+    world = World(level)
+    for slot in range(len(level.robots)):
+        world.command(slot, *WHEELS)
+    start = clock()
+    for _ in range(periods):
+        world.run(level.steps_per_control)
+    return (clock() - start) / periods
+
+
+def action(name: str) -> np.ndarray:
+    """The env action that stands for WHEELS on this level's first robot."""
+    top = find_level(name).robots[0].model.max_wheel_speed
+    return np.array([w / top for w in WHEELS], dtype=np.float32)
+
+
+def single(periods: int, goal: bool = False) -> float:
+    """CPU seconds per step of the Gymnasium env (an episode that ends is reset, in the count)."""
+    env = gymnasium.make(referee.gym.ENV_ID, level=LEVEL, goal=goal)
+    a = action(LEVEL)
+    env.reset(seed=1)
+    start = time.process_time()
+    for _ in range(periods):
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    used = time.process_time() - start
+    env.close()
+    return used / periods
+
+
+def multi(periods: int) -> float:
+    """CPU seconds per step (every agent acting) of the PettingZoo parallel env on asabe-race."""
+    env = parallel.parallel_env(level=RACE)
+    a = action(RACE)
+    env.reset(seed=1)
+    start = time.process_time()
+    for _ in range(periods):
+        env.step({agent: a for agent in env.agents})
+        if not env.agents:
+            env.reset()
+    used = time.process_time() - start
+    env.close()
+    return used / periods
+
+
+def process_cpu(pid: int) -> float:
+    """CPU seconds process `pid` has used (Linux /proc; a clock tick's resolution)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def vector(mode: str, n: int, periods: int) -> tuple[float, float]:
+    """Wall and CPU seconds (this process's and its workers') per env step of `make_vec` with
+    `n` envs (episodes reset themselves)."""
+    envs = gymnasium.make_vec(referee.gym.ENV_ID, num_envs=n, vectorization_mode=mode, level=LEVEL)
+    actions = np.tile(action(LEVEL), (n, 1))
+    envs.reset(seed=1)
+    envs.step(actions)  # the workers' first step (their compiled kernels load) is not timed
+    workers = [p.pid for p in getattr(envs, "processes", [])]
+
+    def cpu() -> float:
+        return time.process_time() + sum(map(process_cpu, workers))
+
+    c0, w0 = cpu(), time.perf_counter()
+    for _ in range(periods):
+        envs.step(actions)
+    wall, used = time.perf_counter() - w0, cpu() - c0
+    envs.close()
+    return wall / (periods * n), used / (periods * n)
+
+
+def round_of(periods: int) -> dict[str, float]:
+    """One round of every figure, each beside the bare stepping it is compared with."""
+    cpu = time.process_time
+    f = {"bare_us": 1e6 * bare(LEVEL, periods, cpu), "bare_race_us": 1e6 * bare(RACE, periods, cpu)}
+    f["single_us"] = 1e6 * single(periods)
+    f["goal_us"] = 1e6 * single(periods, goal=True)
+    f["parallel_us"] = 1e6 * multi(periods)
+    for n in (1, 2):
+        f[f"sync{n}_us"] = 1e6 * vector("sync", n, periods)[1]
+    f["bare_wall_us"] = 1e6 * bare(LEVEL, periods, time.perf_counter)
+    for n in (1, 2):
+        wall, used = vector("async", n, periods)
+        f[f"async{n}_us"], f[f"async{n}_cpu_us"] = 1e6 * wall, 1e6 * used
+    f["bare_wall_us"] = (f["bare_wall_us"] + 1e6 * bare(LEVEL, periods, time.perf_counter)) / 2  # before and after
+    return f
+
+
+def measure(repeat: int = 5, periods: int = 300) -> dict[str, float]:
+    """Every figure, medians of `repeat` rounds: microseconds per step, steps per second and
+    ratios to bare."""
+    round_of(max(periods // 10, 5))  # untimed: loads the compiled kernels, fills the caches
+    runs = [round_of(periods) for _ in range(repeat)]
+    f = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    f["single_ratio"] = f["bare_us"] / f["single_us"]
+    f["parallel_ratio"] = f["bare_race_us"] / f["parallel_us"]
+    for n in (1, 2):
+        f[f"sync{n}_ratio"] = f["bare_us"] / f[f"sync{n}_us"]
+        f[f"async{n}_ratio"] = f["bare_wall_us"] / f[f"async{n}_us"]
+    for name in ("single", "goal", "parallel", "sync1", "sync2", "async1", "async2"):
+        f[f"{name}_steps_per_s"] = 1e6 / f[f"{name}_us"]  # per CPU s; async: per wall s, all envs
+    f["async_scaling"] = f["async1_us"] / f["async2_us"]
+    return f
+
+
+def table(f: dict[str, float]) -> list[tuple[str, str, str]]:
+    """The figures as (what, value, against bare) rows."""
+    rows = [
+        (f"{LEVEL} bare stepping", f"{f['bare_us']:.0f} us CPU per control period", ""),
+        (f"{RACE} bare stepping", f"{f['bare_race_us']:.0f} us CPU per control period", ""),
+        ("LaserArena-v0, one env", f"{f['single_us']:.0f} us CPU per step", f"{f['single_ratio']:.2f} of bare"),
+        ("  with goal=True", f"{f['goal_us']:.0f} us CPU per step", f"{f['bare_us'] / f['goal_us']:.2f} of bare"),
+        (
+            f"PettingZoo parallel_env, {RACE}",
+            f"{f['parallel_us']:.0f} us CPU per step",
+            f"{f['parallel_ratio']:.2f} of bare ({RACE})",
+        ),
+    ]
+    for n in (1, 2):
+        cost = f"{f[f'sync{n}_us']:.0f} us CPU per env step"
+        rows.append((f"make_vec sync, {n} env", cost, f"{f[f'sync{n}_ratio']:.2f} of bare"))
+    for n in (1, 2):
+        rate = f"{f[f'async{n}_steps_per_s']:.0f} env steps per wall s"
+        cost = f"{f[f'async{n}_ratio']:.2f} of bare (wall); {f[f'async{n}_cpu_us']:.0f} us CPU per env step"
+        rows.append((f"make_vec async, {n} env", rate, cost))
+    rows.append(("  async scaling, 2 envs over 1", f"{f['async_scaling']:.2f}x", "2.0 is linear on 2 cores"))
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5, help="interleaved rounds (the median is kept)")
+    ap.add_argument("--periods", type=int, default=300, help="control periods per figure and round")
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON instead of a table")
+    args = ap.parse_args()
+    f = measure(args.repeat, args.periods)
+    if args.json:
+        print(json.dumps(f, indent=2, sort_keys=True))
+        return
+    rows = table(f)
+    width = max(len(a) for a, _, _ in rows)
+    print(f"medians of {args.repeat} rounds of {args.periods} control periods")
+    for a, b, c in rows:
+        print(f"  {a:<{width}}  {b:<36} {c}")
+
+
+if __name__ == "__main__":
+    main()
