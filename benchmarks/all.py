@@ -3,7 +3,8 @@
 (a) the 4-robot asabe-race world: bare stepping, sensing, full matches isolated and in-process
     with two controllers, grading's CPU beside bare stepping's (benchmarks/speed.py);
 (b) localization solvers, scalar and vectorized; (c) rendering and encoding frames per second;
-(d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py). Prints
+(d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py); (f) how a
+match's cost grows with robots and beacons (benchmarks/scaling.py). Prints
 a table and writes the figures as JSON (--json): to docs/performance.json by default, the
 committed report the docs quote (benchmarks/quoted.py's `<!--p:KEY:STAT-->` markers, set here
 and held to it by tests/test_docs_figures.py), where each figure is in the unit the docs show
@@ -26,6 +27,7 @@ import env
 import grading
 import quoted
 import render
+import scaling
 import solvers
 import speed
 
@@ -81,6 +83,9 @@ def report(f: dict, repeat: int) -> dict:
         "speedup": g["speedup"],
     }
     out["env"] = dict(f["env"])  # microseconds per step, steps per second, ratios to bare: as env.py gives them
+    for what in ("robots", "beacons"):
+        for n, fig in f["scaling"][what].items():
+            out[f"scaling.{what}.{n}"] = dict(fig, referee_cpu_ms=1000 * fig["isolated_cpu"])
     return out
 
 
@@ -109,6 +114,7 @@ def main() -> None:
     figures["render"] = render.measure(300)
     figures["grading"] = grading.measure(8)  # enough matches that each pool worker's start (imports, numba) is spread
     figures["env"] = env.measure(max(args.repeat, 5))  # cheap (seconds a round) and noisy: never fewer than 5
+    figures["scaling"] = scaling.scaling(10.0, args.repeat)
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -124,6 +130,7 @@ def main() -> None:
         ),
     ]
     rows += [(f"(e) {a.strip()}", b, c) for a, b, c in env.table(figures["env"])]
+    rows += [(f"(f) {a}", b, "") for a, b in scaling.rows(figures["scaling"])]
     width = max(len(a) for a, _, _ in rows)
     m = figures["machine"]
     print(f"LaserArena benchmarks on {m['cpus']} x {m['cpu']}, Python {m['python']} (medians of {args.repeat} runs)")

@@ -107,6 +107,21 @@ def scaling(seconds: float, repeat: int) -> dict:
     return {"robots": robots, "beacons": beacons, "seconds": seconds, "repeat": repeat}
 
 
+def rows(figures: dict) -> list[tuple[str, str]]:
+    """(what, figures) per world, for `make bench`'s table."""
+    out = []
+    for what, unit in (("robots", "robots, 4 beacons"), ("beacons", "beacons, 4 robots")):
+        for n, f in figures[what].items():
+            out.append(
+                (
+                    f"{n} {unit}",
+                    f"isolated {f['isolated_ratio']:.2f}, in-process {f['in_process_ratio']:.2f} of bare "
+                    f"({f['bare_x']:.0f}x real time)",
+                )
+            )
+    return out
+
+
 def table(figures: dict) -> str:
     lines = []
     for what, rows in (("robots (4 beacons)", figures["robots"]), ("beacons (4 robots)", figures["beacons"])):
