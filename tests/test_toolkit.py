@@ -3,6 +3,7 @@ synthetic data whose truth is geometry."""
 
 import dataclasses
 import math
+import random
 
 import pytest
 from helpers import ARRAYS, table_brief
@@ -10,7 +11,7 @@ from helpers import ARRAYS, table_brief
 from robots.api import SensorEvent, StartInfo, TaskInfo
 from robots.controllers.bac import Bac
 from robots.toolkit.angles import BeaconRevolutions, IndexRevolutions, Revolution, midpoint, plausible, wrap
-from robots.toolkit.ekf import BearingEKF
+from robots.toolkit.ekf import BearingEKF, FloatEKF
 from robots.toolkit.motion import Wheels, heading_change
 from robots.toolkit.revolution import revolution_fix
 from robots.toolkit.tracker import HitTracker
@@ -81,6 +82,34 @@ def test_ekf_converges_and_gates_an_outlier():
     assert accepted > 90 and math.dist((ex, ey), (x, y)) < 1e-4
     ekf.predict(0.5 * 2 * math.pi / omega / 4, 0.0, 0.0)  # an eighth of a turn later
     assert not ekf.hit(*beacons[0], 1e-6)  # the beam is not pointing at it now: gated out
+
+
+def test_the_float_ekf_is_the_ekf_up_to_rounding():
+    """FloatEKF writes BearingEKF's algebra out term by term: every update, gate, innovation and
+    box cut agree with it to rounding, along a drive with hits, latched angles and clicks."""
+    rng = random.Random(5)
+    start = dict(var_xy=1e-3, var_heading=1e-2, var_sum=1e-4, var_rate=0.04, q_drift=0.02, wobble=0.005)
+    filters = [kind(0.6, 0.4, 0.3, 0.2, 40.0, **start) for kind in (BearingEKF, FloatEKF)]
+    for k in range(400):
+        dt, v, w = rng.uniform(0, 0.03), rng.uniform(-0.1, 0.2), rng.uniform(-1, 1)
+        beacon = rng.choice([(0.0, 0.0), (2.0, 0.0), (2.0, 1.5), (0.0, 1.5)])
+        said = []
+        for ekf in filters:
+            ekf.predict(dt, v, w)
+            said.append(ekf.hit_innovation(*beacon, 1e-6))
+            if k % 7 == 0:
+                said.append(ekf.index(1e-4, gate=math.inf))
+            elif k % 5 == 0:
+                said.append(ekf.relative(*beacon, 0.3, 1e-4, gate=1.0))
+            else:
+                said.append(ekf.hit(*beacon, 4e-6, gate=1e9))
+        assert said[0] == pytest.approx(said[2], rel=1e-9, abs=1e-12) and said[1] == said[3]
+    for ekf in filters:
+        ekf.widen(1e-2)
+        ekf.confine((0.0, 0.0, 0.65, 1.5))
+    a, b = filters
+    assert b.s == pytest.approx(a.s, rel=1e-9) and b.P == pytest.approx(a.P, rel=1e-6, abs=1e-15)
+    assert b.pose == pytest.approx(a.pose) and b.variance(2) == pytest.approx(a.variance(2), rel=1e-6)
 
 
 # ---- the wheel model's turn prediction and the HitTracker ----------------------------------

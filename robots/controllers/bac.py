@@ -2,7 +2,9 @@
 
 `Bac` (ref:bac) is the paper's guidance on a fused pose: the toolkit's HitTracker (an EKF of
 every labelled pulse and the commanded wheels, with Bac's revolution checks to restart it)
-gives the pose at every control tick, heading included. On a table whose arrays latch every
+gives the pose at every control tick, heading included; its filter in plain floats, checked
+against a revolution's fix every CHECK_TURNS turns while they agree (a quarter of the CPU that
+every pulse's fix took, the same accuracy). On a table whose arrays latch every
 robot's pulse (shared crosstalk, as Bac's hardware would with several robots) the tracker tells
 its own pulses from the others' by when they come (docs/toolkit.md). The robot has no heading sensor and
 the laser no index, so a robot whose heading is not known (not announced, or a localize
@@ -49,6 +51,8 @@ SPIN_SPEED = 0.12  # m/s: each wheel's speed in a spin turn (2.3 rad/s on the BO
 SWITCH = 0.6  # the next waypoint when the estimate is within this fraction of the task radius:
 # the referee counts a waypoint on the true pose, so the switch keeps a margin for the estimate's error
 PASSED = 0.9  # a waypoint behind the robot counts as passed within this fraction of the task radius
+# laser turns between two checks against a revolution's fix of a fused pose that agreed with the last
+CHECK_TURNS = 4.0
 
 
 class BacSeed(Controller):
@@ -184,7 +188,7 @@ class Bac(Controller):
 
     def setup(self, brief: Brief) -> None:
         self.brief = brief
-        self.tracker = HitTracker(brief)
+        self.tracker = HitTracker(brief, check_turns=CHECK_TURNS, plain_floats=True)
         self.path = list(brief.task.path) or ([brief.task.goal] if brief.task.goal else [])
         self.target = 0
         self.turning: int | None = None  # +-1 pivot, +-2 spin: the turn in progress, if any

@@ -187,7 +187,7 @@ class Crowd:
         lasers' pulses: the filter's position, less sure the longer its own pulses have been
         missing; else the announced start; else anywhere on the field."""
         if ekf is not None:
-            sd = math.sqrt(max(float(ekf.P[0, 0]), float(ekf.P[1, 1])))
+            sd = math.sqrt(max(ekf.variance(0), ekf.variance(1)))
             missing = self.top * (now - self.heard_from(TRACKING))
             return ekf.pose[:2], min(PRIOR_MAX, PRIOR_MIN + 3 * sd + missing)
         xmin, ymin, xmax, ymax = start.region if start and start.region else self.field

@@ -46,7 +46,7 @@ from collections.abc import Callable
 from robots.api import Brief, SensorEvent
 from robots.toolkit.angles import wrap
 from robots.toolkit.crowd import CROWDED_Q, CROWDED_RESTART_HEADING, CROWDED_WANDER, Crowd
-from robots.toolkit.ekf import BearingEKF
+from robots.toolkit.ekf import BearingEKF, FloatEKF
 from robots.toolkit.motion import Pose, Wheels, advance
 from robots.toolkit.revolution import STEADY_TURN, TIME_OUT_TURNS, revolution_fix
 
@@ -73,7 +73,11 @@ class HitTracker:
     drive may stray from its commands in heading; `wobble` is the laser's relative rate
     noise (its correlation time 1 s, BearingEKF); `latched_sigma`, if given, is the noise of an
     angle the head latches itself (a stepped head), where it differs from a timed one's.
-    `first_fix` replaces the labelled revolution fix for starts and restarts."""
+    `first_fix` replaces the labelled revolution fix for starts and restarts. A filter that is
+    not lost and agreed with the last labelled fix is checked against one at most once every
+    `check_turns` laser turns (0: at every hit): solving a fix costs more than the filter's
+    update. `plain_floats` runs the filter as FloatEKF, several times cheaper (the same filter
+    up to rounding)."""
 
     def __init__(
         self,
@@ -90,6 +94,8 @@ class HitTracker:
         wobble: float = 0.005,
         latched_sigma: float | None = None,
         first_fix: FirstFix | None = None,
+        check_turns: float = 0.0,
+        plain_floats: bool = False,
     ):
         self.beacons = {b.id: (b.x, b.y) for b in brief.beacons}
         self.omega = brief.laser.angular_velocity
@@ -114,6 +120,9 @@ class HitTracker:
         # revolution's motion, so the margin grows by one revolution's travel at top speed)
         self.fix_check = 0.025 + self.top * self.period
         self.disagree_since: float | None = None  # since when every closed-form fix disagrees
+        self.check_every = check_turns * self.period
+        self.checked = -math.inf  # when a closed-form fix last checked the filter
+        self.filter_class = FloatEKF if plain_floats else BearingEKF
         self.track_check, self.heading_check = track_check, heading_check
         self.first_fix = first_fix or self._labelled_fix
         self._own_fix = first_fix is None  # the labelled fix: it has no state, so it may be skipped
@@ -144,6 +153,7 @@ class HitTracker:
         self.verdicts.clear()
         self.turn_rate = 0.0
         self.disagree_since = None
+        self.checked = -math.inf
         self.run_from = None
         self.crowd.reset()
         self.start = None  # carried elsewhere: the announced start says nothing of where
@@ -158,7 +168,7 @@ class HitTracker:
     def heading_sd(self) -> float:
         """The standard deviation of the heading (rad), inf before the first fix: a robot
         without a heading sensor learns its heading by moving (Bac's consecutive positions)."""
-        return math.sqrt(float(self.ekf.P[2, 2])) if self.ekf else math.inf
+        return math.sqrt(self.ekf.variance(2)) if self.ekf else math.inf
 
     @property
     def pose(self) -> tuple[float, float, float] | None:
@@ -212,7 +222,7 @@ class HitTracker:
                 y,
                 travel,
                 wrap(h + self.ekf.s[3] - travel),
-                var_xy=float(self.ekf.P[0, 0]),
+                var_xy=self.ekf.variance(0),
                 var_heading=0.05,
                 var_sum=1e-4,
             )
@@ -222,7 +232,7 @@ class HitTracker:
     def _filter(
         self, x: float, y: float, heading: float, phase: float, var_xy: float, var_heading: float, var_sum: float
     ) -> BearingEKF:
-        return BearingEKF(
+        return self.filter_class(
             x,
             y,
             heading,
@@ -246,8 +256,7 @@ class HitTracker:
         if v and self.heading_sd > UNKNOWN_HEADING:  # driving, but which way: any, as far as it knows
             self.ekf.predict(dt, 0.0, w)
             wander = CROWDED_WANDER if self.crowded else WANDER
-            self.ekf.P[0, 0] += v * v * dt * wander
-            self.ekf.P[1, 1] += v * v * dt * wander
+            self.ekf.widen(v * v * dt * wander)
         else:
             self.ekf.predict(dt, v, w)
 
@@ -264,7 +273,12 @@ class HitTracker:
         lost = ekf is None or not self._update(ekf, e)
         if not lost and self.disagree_since is None and abs(self.turn_rate) > STEADY_TURN and self._own_fix:
             return  # whatever the revolution's fix, it would change nothing (below): not worth solving
-        self._check_fix(self.first_fix(e), ekf, lost, e.time)
+        if not lost and self.disagree_since is None and self._own_fix and e.time - self.checked < self.check_every:
+            return  # agreed with a fix lately enough (one that disagrees is followed at every hit)
+        fix = self.first_fix(e)
+        if fix is not None:
+            self.checked = e.time
+        self._check_fix(fix, ekf, lost, e.time)
 
     def _check_fix(
         self, fix: tuple[float, float, float, float | None] | None, ekf: BearingEKF | None, lost: bool, time: float
@@ -317,7 +331,7 @@ class HitTracker:
         if self.ekf is None:
             self.restart(x, y, beam)
             return
-        h, var = self.ekf.pose[2], float(self.ekf.P[2, 2]) + CROWDED_RESTART_HEADING
+        h, var = self.ekf.pose[2], self.ekf.variance(2) + CROWDED_RESTART_HEADING
         self.ekf = self._filter(x, y, h, wrap(beam - h), var_xy=1e-4, var_heading=var, var_sum=1e-4)
         self.restarts += 1
         self.verdicts.clear()
