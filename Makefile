@@ -19,6 +19,7 @@ $(VENV)/.installed: $(VENV)/bin/python $(SOURCES)
 	$(PY) -m pip install --quiet --upgrade pip
 	rm -rf build  # setuptools' staging folder would keep modules that have moved or gone
 	$(PY) -m pip install --quiet '.[test,dask,rl]'
+	$(PY) -P -m referee.match.warm  # numba's kernels compiled now, not in the first match (-P: the installed copy's)
 	touch $@
 
 demo: $(VENV)/.installed

@@ -22,8 +22,11 @@ class Polyline:
         self.n2 = np.maximum((self.d**2).sum(axis=1), 1e-300)
 
     def distances(self, x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray) -> list[float]:
-        """Distances (m) from each point (x[i], y[i]) to the polyline, at once."""
-        return _distances(self.a, self.d, self.n2, np.asarray(x, dtype=float), np.asarray(y, dtype=float)).tolist()
+        """Distances (m) from each point (x[i], y[i]) to the polyline, at once. The points are
+        copied contiguous: a single point of a strided column is contiguous to numba, a longer
+        run is not, and one layout is one compiled loop (referee.match.warm readies it)."""
+        x, y = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(y, dtype=float)
+        return _distances(self.a, self.d, self.n2, x, y).tolist()
 
 
 @compiled()

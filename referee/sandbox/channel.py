@@ -33,6 +33,7 @@ class Channel:
         if stdin is None or stdout is None:
             raise RuntimeError("the controller process has no pipes")
         self.stdin, self.stdout = stdin, stdout
+        os.set_blocking(stdin.fileno(), False)  # once: `write` never blocks beyond its deadline
         self.buf = b""
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
 
@@ -53,7 +54,6 @@ class Channel:
         fd = self.stdin.fileno()
         view, deadline = memoryview(data), time.monotonic() + timeout
         try:
-            os.set_blocking(fd, False)
             while view:
                 try:
                     view = view[os.write(fd, view) :]
