@@ -4,7 +4,8 @@ Run: python benchmarks/scaling.py [--seconds 20] [--repeat 3] [--json]
 Worlds are the asabe-race table (Bac's sensor arrays, coded crosstalk) with N robots set on a
 grid, each driving laps of its own rectangle for the whole match, and M arrays on the table's edge. For each
 world, measured side by side in one run (medians of `--repeat`): bare stepping (the world a
-control period at a time through `World.run`, nothing else) and a full match with
+`World.step` at a time, nothing else: pymunk's stepping, the reference of every match ratio in
+`make bench`) and a full match with
 `ref:dead-reckoning` in every slot (a controller whose own cost is next to nothing: what is
 measured is the platform), in this process and isolated (each controller in its sandbox), with
 the replay written. Printed: simulated seconds per wall second of each, the match's ratio to
@@ -67,10 +68,10 @@ def bare(level: Level) -> float:
     w = World(level)
     for slot in range(len(level.robots)):
         w.command(slot, 0.08, 0.12)
-    periods = round(level.time_limit / level.control_period)
+    steps = round(level.time_limit * level.physics_rate)
     start = time.perf_counter()
-    for _ in range(periods):
-        w.run(level.steps_per_control)
+    for _ in range(steps):
+        w.step()
     return level.time_limit / (time.perf_counter() - start)
 
 
