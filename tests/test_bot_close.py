@@ -2,26 +2,54 @@
 process it has already reaped (its number may by then name an unrelated process group)."""
 
 import os
+import stat
+import sys
+from pathlib import Path
 
 import pytest
 
 import levels
 from arena.level import ControllerLimits
 from arena.loader import load_level
-from referee.match.loop import brief_for
+from referee.errors import UserError
+from referee.match.views import brief_for
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
 FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
 
 
-@pytest.mark.parametrize("sandboxed", [False, True])
-def test_close_twice_never_signals_a_reaped_process(monkeypatch, sandboxed):
-    bot = ProcessBot(resolve("ref:dead-reckoning"), FAST, slot=0, sandboxed=sandboxed, forked=False)
-    assert bot.setup(brief_for(load_level(levels.path("asabe-race")), 0)) is None
+def closed_to_nobody() -> bool:
+    """Whether a root referee's unsandboxed controller (run as `nobody`) is refused its
+    interpreter: some folder on the way to this install keeps other users out."""
+    prefix = Path(sys.prefix)
+    return os.geteuid() == 0 and any(not p.stat().st_mode & stat.S_IXOTH for p in [prefix, *prefix.parents])
+
+
+@pytest.mark.parametrize(
+    "sandboxed, forked", [(False, False), (True, False), (True, True)], ids=["plain", "spawned", "forked"]
+)
+def test_close_twice_never_signals_a_reaped_process(monkeypatch, sandboxed, forked):
+    bot = ProcessBot(resolve("ref:dead-reckoning"), FAST, slot=0, sandboxed=sandboxed, forked=forked)
+    brief = brief_for(load_level(levels.path("asabe-race")), 0)
+    signalled: list[tuple[int, int | None]] = []
+    if not sandboxed and closed_to_nobody():  # refused before any process exists: closing signals nothing
+        monkeypatch.setattr(os, "killpg", lambda pgid, sig: signalled.append((pgid, None)))
+        with pytest.raises(UserError, match="closed to other users"):
+            bot.setup(brief)
+        bot.close()
+        bot.close()
+        assert signalled == []
+        return
+    assert bot.setup(brief) is None
     proc = bot.proc
-    assert proc is not None and proc.pid is not None
-    signalled = []
+    assert proc is not None
+    if proc.pid is None:  # forked by the template, which ends it: the referee signals no process itself
+        monkeypatch.setattr(os, "killpg", lambda pgid, sig: signalled.append((pgid, None)))
+        bot.close()
+        bot.close()
+        assert proc.returncode is not None and signalled == []
+        return
     killpg = os.killpg
 
     def spy(pgid: int, sig: int) -> None:
