@@ -7,6 +7,7 @@ import atexit
 import hashlib
 import os
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -214,3 +215,9 @@ def table_brief(start: StartInfo | None = None, omega: float = 81.0) -> Brief:
         time_limit=10.0,
         start=start,
     )
+
+
+def closed_to_others(path: Path) -> bool:
+    """Whether some folder on the way to `path` keeps other users out (no x bit for others):
+    then `nobody`, whom a root referee's unsandboxed controllers run as, cannot start Python there."""
+    return any(not p.stat().st_mode & stat.S_IXOTH for p in [path, *path.parents])

@@ -2,11 +2,11 @@
 process it has already reaped (its number may by then name an unrelated process group)."""
 
 import os
-import stat
 import sys
 from pathlib import Path
 
 import pytest
+from helpers import closed_to_others
 
 import levels
 from arena.level import ControllerLimits
@@ -19,13 +19,6 @@ from referee.sandbox.teams import resolve
 FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
 
 
-def closed_to_nobody() -> bool:
-    """Whether a root referee's unsandboxed controller (run as `nobody`) is refused its
-    interpreter: some folder on the way to this install keeps other users out."""
-    prefix = Path(sys.prefix)
-    return os.geteuid() == 0 and any(not p.stat().st_mode & stat.S_IXOTH for p in [prefix, *prefix.parents])
-
-
 @pytest.mark.parametrize(
     "sandboxed, forked", [(False, False), (True, False), (True, True)], ids=["plain", "spawned", "forked"]
 )
@@ -33,7 +26,9 @@ def test_close_twice_never_signals_a_reaped_process(monkeypatch, sandboxed, fork
     bot = ProcessBot(resolve("ref:dead-reckoning"), FAST, slot=0, sandboxed=sandboxed, forked=forked)
     brief = brief_for(load_level(levels.path("asabe-race")), 0)
     signalled: list[tuple[int, int | None]] = []
-    if not sandboxed and closed_to_nobody():  # refused before any process exists: closing signals nothing
+    if (
+        not sandboxed and os.geteuid() == 0 and closed_to_others(Path(sys.prefix))
+    ):  # refused before any process exists: closing signals nothing
         monkeypatch.setattr(os, "killpg", lambda pgid, sig: signalled.append((pgid, None)))
         with pytest.raises(UserError, match="closed to other users"):
             bot.setup(brief)

@@ -2,7 +2,6 @@
 
 import dataclasses
 import os
-import stat
 import subprocess
 import sys
 import textwrap
@@ -10,7 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import exact_starts, variant
+from helpers import closed_to_others, exact_starts, variant
 from hostile.hostile_kit import sandboxed_processes
 
 import levels
@@ -334,11 +333,6 @@ def test_without_a_sandbox_one_warning_and_the_same_result(tmp_path):
     boxed = run_cli_env(os.environ, "run", "asabe", "--seed", "2", "--json", str(tmp_path / "boxed.json"), "--quiet")
     assert boxed.returncode == 0 and boxed.stderr == ""
     assert (tmp_path / "plain.json").read_bytes() == (tmp_path / "boxed.json").read_bytes()
-
-
-def closed_to_others(path: Path) -> bool:
-    """Whether some folder on the way to `path` keeps other users out (no x bit for others)."""
-    return any(not p.stat().st_mode & stat.S_IXOTH for p in [path, *path.parents])
 
 
 def run_cli_env(env, *args):
