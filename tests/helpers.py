@@ -21,6 +21,7 @@ import levels
 from arena.level import Level
 from arena.loader import parse_level
 from arena.rng import RandomTree
+from arena.sensing.crossings import Trajectory
 from arena.sensing.pipeline import Sensing
 from arena.world import World
 from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, StartInfo, TaskInfo
@@ -221,3 +222,20 @@ def closed_to_others(path: Path) -> bool:
     """Whether some folder on the way to `path` keeps other users out (no x bit for others):
     then `nobody`, whom a root referee's unsandboxed controllers run as, cannot start Python there."""
     return any(not p.stat().st_mode & stat.S_IXOTH for p in [path, *path.parents])
+
+
+# ---- random worlds for the sensing kernels --------------------------------------------------------------------------
+
+
+def random_trajectory(g, steps=48, robots=4, dt=1 / 240):
+    """Robots wandering and turning on a 2 x 1.5 m table, lasers spinning either way."""
+    t = 10.0 + np.arange(steps + 1) * dt
+    x = g.uniform(0.1, 1.9, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
+    y = g.uniform(0.1, 1.4, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
+    h = g.uniform(-4, 4, robots) + np.cumsum(g.normal(0, 0.01, (steps + 1, robots)), axis=0)
+    omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
+    phi = g.uniform(-50, 50, robots) + np.arange(steps + 1)[:, None] * omega * dt * (1 + g.normal(0, 0.003, robots))
+    return Trajectory(t=t, x=x, y=y, h=h, phi=phi)
+
+
+BEACONS = (np.array([0.0, 2.0, 2.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.5, 1.5, 1.6]))

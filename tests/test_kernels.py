@@ -3,28 +3,35 @@
 Each kernel replaced a run of NumPy expressions; those expressions are kept here, as written
 before, and both are run on random trajectories: crossings (beams on and beside their axis),
 occlusion by other robots, and Bac's merged pulses. Equality is exact, bit for bit, so results
-and replays stay what they were (tests/test_golden.py guards the whole match)."""
+and replays stay what they were (tests/test_golden.py guards the whole match). The arc functions
+of the crossings themselves are the C library's (decision 0041): the NumPy expressions here take
+them elementwise from Python's `math`, which calls the same library."""
 
+import math
 import subprocess
 import sys
 
 import numpy as np
 import pytest
+from helpers import BEACONS, random_trajectory
 
 from arena.angles import wrap_angle
 from arena.sensing import occlusion, optics, sensor_array, spin
-from arena.sensing.crossings import Trajectory, find_crossings
+from arena.sensing.crossings import find_crossings
 
 # ---- the NumPy expressions, as they were ----------------------------------------------------
+
+_atan2 = np.vectorize(math.atan2, otypes=[float])  # the C library's, elementwise
+_asin = np.vectorize(math.asin, otypes=[float])
 
 
 def numpy_crossings(traj, bx, by, off):
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi
-    d = a[:, :, None] - np.arctan2(dy, dx)
+    d = a[:, :, None] - np.arctan2(dy, dx)  # the grid: NumPy's
     if off is not None:
-        d += np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
+        d += _asin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
     d = wrap_angle(d)
     sign = np.sign(d)
     passes = (sign[:-1] != 0) & (sign[1:] != sign[:-1]) & (np.abs(d[1:] - d[:-1]) < np.pi)
@@ -44,11 +51,11 @@ def numpy_crossings(traj, bx, by, off):
     for _ in range(2):
         ex, ey = ex0 - s * ddx, ey0 - s * ddy
         r2 = ex * ex + ey * ey
-        f = a0 + s * da - np.arctan2(ey, ex)
+        f = a0 + s * da - _atan2(ey, ex)
         slope = da - (ey * ddx - ex * ddy) / r2
         if o is not None:
             r = np.sqrt(r2)
-            f += np.arcsin(np.clip(o / r, -1.0, 1.0))
+            f += _asin(np.clip(o / r, -1.0, 1.0))
             slope += o * (ex * ddx + ey * ddy) / (r2 * r * np.sqrt(np.maximum(1.0 - o * o / r2, 1e-12)))
         f = wrap_angle(f)
         s = np.minimum(np.maximum(s - f / np.where(slope == 0, 1.0, slope), 0.0), 1.0)
@@ -66,7 +73,7 @@ def numpy_crossings(traj, bx, by, off):
         phi=phi0 + s * dphi,
         beam_rate=(da - (ey * ddx - ex * ddy) / d2) / dt,
         distance=np.sqrt(d2),
-        bearing=np.arctan2(ey, ex),
+        bearing=_atan2(ey, ex),
     )
 
 
@@ -113,23 +120,6 @@ def numpy_merge(times, robot, beacon, turn, n_beacons, rate, key):
     out = times.copy()
     out[hit] = times[hit - 1]
     return out
-
-
-# ---- random worlds --------------------------------------------------------------------------
-
-
-def random_trajectory(g, steps=48, robots=4, dt=1 / 240):
-    """Robots wandering and turning on a 2 x 1.5 m table, lasers spinning either way."""
-    t = 10.0 + np.arange(steps + 1) * dt
-    x = g.uniform(0.1, 1.9, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
-    y = g.uniform(0.1, 1.4, robots) + np.cumsum(g.normal(0, 2e-3, (steps + 1, robots)), axis=0)
-    h = g.uniform(-4, 4, robots) + np.cumsum(g.normal(0, 0.01, (steps + 1, robots)), axis=0)
-    omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
-    phi = g.uniform(-50, 50, robots) + np.arange(steps + 1)[:, None] * omega * dt * (1 + g.normal(0, 0.003, robots))
-    return Trajectory(t=t, x=x, y=y, h=h, phi=phi)
-
-
-BEACONS = (np.array([0.0, 2.0, 2.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.5, 1.5, 1.6]))
 
 
 @pytest.mark.parametrize("offset", [False, True])

@@ -8,7 +8,7 @@ at which that angle equals the bearing from the laser to b (mod 2 pi). We never 
 beam: for each step we compare the wrapped difference beam - bearing at the step's ends,
 and where it passes zero we solve for the instant by Newton's method with the analytic
 derivative. All of it runs over steps x robots x beacons at once, in compiled loops (here,
-with NumPy's bits: arena.compiled) with NumPy's arc functions between them.
+with NumPy's bits: arena.compiled) arc functions included (the C library's).
 """
 
 from __future__ import annotations
@@ -17,12 +17,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import objmode
 
 from arena.angles import TWO_PI
 from arena.compiled import compiled, maximum, minimum, sign, wrap_angle
 
 NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is already < 1e-5 rad off
-_NO_SHIFT, _NO_OFFSET = np.zeros((0, 0, 0)), np.zeros(0)  # for beams on their spin axis
+_NO_OFFSET = np.zeros(0)  # for beams on their spin axis
 
 
 @dataclass(frozen=True)
@@ -88,33 +89,12 @@ def find_crossings(
     d = wrap(beam - bearing) changes by well under pi per step (the loader bounds the beam's
     turn per step), so the beam passes a beacon in step k exactly when d changes sign there
     without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
-    hit at a step boundary is counted once, whichever way the beam turns. The loops are
-    compiled (below); the arc functions are NumPy's."""
+    hit at a step boundary is counted once, whichever way the beam turns. All of it is one
+    compiled call (`crossing_arrays`) but the bearings of every step, which are NumPy's."""
+    off = beam_offset if beam_offset is not None and beam_offset.any() else _NO_OFFSET
     dx, dy = laser_to_beacons(traj.x, traj.y, bx, by)
-    a = traj.h + traj.phi  # beam world angle (n+1, R)
-    off = beam_offset if beam_offset is not None and beam_offset.any() else None
-    shift = _NO_SHIFT if off is None else np.arcsin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
-    step, robot, beacon, s, rows, ex, ey = first_guesses(
-        a, np.arctan2(dy, dx), shift, off is not None, dx, dy, traj.x, traj.y, traj.phi
-    )
-    o = _NO_OFFSET if off is None else off[robot]
-    for _ in range(NEWTON_ITERATIONS):
-        turn = _NO_OFFSET if off is None else np.arcsin(offset_ratio(ex, ey, o))
-        s, ex, ey = newton_step(rows, s, ex, ey, np.arctan2(ey, ex), o, turn, off is not None)
-    ex, ey, t, x, y, phi, beam_rate, distance = crossing_values(rows, s, ex, ey, step, beacon, traj.t, bx, by)
-    return Crossings(
-        robot=robot,
-        beacon=beacon,
-        step=step,
-        s=s,
-        t=t,
-        x=x,
-        y=y,
-        phi=phi,
-        beam_rate=beam_rate,
-        distance=distance,
-        bearing=np.arctan2(ey, ex),
-    )
+    robot, beacon, step, s, rows = crossing_arrays(traj.x, traj.y, traj.h, traj.phi, traj.t, bx, by, off, dx, dy)
+    return Crossings(robot, beacon, step, s, *rows)
 
 
 def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -141,6 +121,63 @@ def find_phase_marks(traj: Trajectory, per_turn: int, direction: np.ndarray) -> 
 
 
 # ---- the compiled loops ----------------------------------------------------------------------
+
+
+@compiled()
+def crossing_arrays(
+    x: np.ndarray,
+    y: np.ndarray,
+    h: np.ndarray,
+    phi: np.ndarray,
+    t: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    offset: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`find_crossings` but the grid's bearings: (robot, beacon, step, s, and the rows t, x, y,
+    phi, beam_rate, distance, bearing) from a trajectory (x, y, h, phi at the step ends `t`), the
+    beacons, each robot's beam offset (none: every beam on its axis) and the vectors from every
+    laser to every beacon (`laser_to_beacons`). The bearings of those vectors are NumPy's
+    `arctan2`, called here through numba's object mode: NumPy's SIMD code is several times
+    faster on the grid than the C library's. The arc functions of the crossings themselves are the
+    C library's (decision 0041)."""
+    shifted = offset.shape[0] > 0
+    k, r, b = dx.shape
+    with objmode(bearing="float64[:, :, ::1]"):
+        bearing = np.arctan2(dy, dx)
+    beam = np.empty((k, r))
+    shift = np.empty((k, r, b)) if shifted else np.empty((0, 0, 0))
+    for i in range(k):
+        for j in range(r):
+            beam[i, j] = h[i, j] + phi[i, j]
+            for m in range(b):
+                if shifted:
+                    ratio = offset[j] / math.hypot(dx[i, j, m], dy[i, j, m])
+                    shift[i, j, m] = math.asin(minimum(maximum(ratio, -1.0), 1.0))
+    step, robot, beacon, s, rows, ex, ey = first_guesses(beam, bearing, shift, shifted, dx, dy, x, y, phi)
+    n = s.shape[0]
+    o = np.empty(n if shifted else 0)
+    if shifted:
+        for c in range(n):
+            o[c] = offset[robot[c]]
+    turn, toward_beacon = np.empty(n if shifted else 0), np.empty(n)
+    for _ in range(NEWTON_ITERATIONS):
+        for c in range(n):
+            toward_beacon[c] = math.atan2(ey[c], ex[c])
+        if shifted:
+            ratio_ = offset_ratio(ex, ey, o)
+            for c in range(n):
+                turn[c] = math.asin(ratio_[c])
+        s, ex, ey = newton_step(rows, s, ex, ey, toward_beacon, o, turn, shifted)
+    values = crossing_values(rows, s, ex, ey, step, beacon, t, bx, by)
+    out = np.empty((7, n))
+    for c in range(n):
+        for q in range(6):
+            out[q, c] = values[q + 2, c]
+        out[6, c] = math.atan2(values[1, c], values[0, c])
+    return robot, beacon, step, s, out
 
 
 @compiled()

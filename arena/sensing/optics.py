@@ -1,6 +1,7 @@
 """A beam of finite width sweeping a detector of finite width (the sensor arrays' and the flash
-detectors' optics): the angle each sweep meets a detector at, whether it fires and when, and how
-much of its usual light each sweep brings. Reflectors answer at the exact crossing.
+detectors' optics): the angle each sweep meets a detector at, and whether it fires and when
+(how much of its usual light each sweep brings is arena.sensing.sweep's). Reflectors answer at
+the exact crossing.
 """
 
 from __future__ import annotations
@@ -43,20 +44,6 @@ def optics(c: Crossings, inc: np.ndarray, sens: np.ndarray, p: Mapping[str, floa
         float(p.get("rise_time", 0.0)),
     )
     return sweep_optics(c.distance, c.beam_rate, np.cos(inc), sens, hardware)
-
-
-def fluctuation(c: Crossings, sensitivity: np.ndarray, sigma: float, streams: list[np.random.Generator]) -> np.ndarray:
-    """The detector's response to each sweep: `sensitivity` times how much of its usual
-    light the sweep brings, log-normal with std `sigma` (`light_noise`) of its logarithm (none
-    when 0), drawn from each robot's stream. Near a detector's limit the light hovers at the
-    threshold, so such sweeps fire late or not at all."""
-    if not sigma > 0:
-        return sensitivity
-    out = np.ones(len(c))
-    for r in np.unique(c.robot):
-        mine = np.nonzero(c.robot == r)[0]
-        out[mine] = np.exp(sigma * streams[r].normal(size=len(mine)))
-    return sensitivity * out
 
 
 @compiled()

@@ -21,18 +21,22 @@ import numpy as np
 from arena import floor
 from arena.angles import TWO_PI
 from arena.rng import RandomTree
-from arena.sensing import hardware, reflector, sensor_array
-from arena.sensing.crossings import Crossings, Trajectory, find_crossings, find_phase_marks
+from arena.sensing import hardware, reflector, sensor_array, sweep
+from arena.sensing.crossings import Crossings, Trajectory, find_phase_marks
 from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
 from arena.sensing.occlusion import Occlusion
-from arena.sensing.optics import fluctuation, incidence, optics
 from arena.sensing.pulses import pulses
 from arena.sensing.readout import false_times, first_tick_after, quantize_angle
 from arena.sensing.spin import Spin
 from arena.world import World
 
 _NONE = np.zeros(0)  # a kernel's array argument that is not there
+
+
+def _grouped(draws: list[np.ndarray]) -> np.ndarray:
+    """Each robot's draws, one after the other (none: an empty array)."""
+    return np.concatenate(draws) if draws else _NONE
 
 
 class Sensing:
@@ -57,12 +61,12 @@ class Sensing:
         self.facing = np.array([b.facing for b in items])
         # each detector's response relative to the nominal one (Bac's hand-trimmed arrays); none when ideal
         gains = np.array([b.gain for b in items])
-        self.gain = None if ideal or (gains == 1.0).all() else gains
+        self._gains = _NONE if ideal or (gains == 1.0).all() else gains
         robots = level.robots
         self.n = len(robots)
         self.omega = np.array([r.laser.angular_velocity for r in robots])
         self.beam_offset = np.array([0.0 if ideal else r.laser.beam_offset for r in robots])
-        self._offsets = self.beam_offset if self.beam_offset.any() else None  # None: every beam on its axis
+        self._axis_offsets = self.beam_offset if self.beam_offset.any() else _NONE  # none: every beam on its axis
         self.direction = np.sign(self.omega)
         # a tilted floor leans each robot: its beam leaves `laser.height` above its base, off it
         height = np.array([r.laser.height for r in robots])
@@ -86,6 +90,9 @@ class Sensing:
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
         self._clock_hz = float(p.get("clock_hz", 0.0))
+        self._kind = sweep.KIND_CODES.get(self.kind, -1)  # -1: light turrets, which sweep no detector
+        self._gates = sweep.gates(p, float(level.beacons.radius))
+        self._optics = sweep.hardware(p)
         # Bac's merged measurements (arena.sensing.sensor_array.merge), as `pulses` takes them
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
         self._merging = (merges[0], self.direction, len(self.ids), merges[1], np.uint64(self.merge_key))
@@ -169,41 +176,37 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _detected(self, traj: Trajectory, lasers: Trajectory) -> tuple[Crossings, np.ndarray, np.ndarray]:
+    def _detected(self, traj: Trajectory, lasers: Trajectory) -> tuple[Crossings, np.ndarray, np.ndarray, np.ndarray]:
         """The crossings of the beams leaving from `lasers`, which of them the detector model
-        detects (not blocked by the bodies of `traj`, through the kind's gates and optics), and
-        when each fires relative to its crossing."""
-        c = find_crossings(lasers, self.bx, self.by, self._offsets)
-        if not len(c):
-            return c, _NONE, np.zeros(0, dtype=bool)
-        p = self.params
-        keep: np.ndarray | None = ~self.occlusion.blocked(traj, c.robot, c.step, c.s, c.x, c.y, c.beacon)
-        keep &= hardware.visible(self.kind, c, self.facing, p)
-        if self._light_noise and not keep.all():
-            c, keep = c.take(np.nonzero(keep)[0]), None  # the light's draws are for these alone
-        offset, detected = _NONE, keep
-        if self.kind != "reflector" and len(c):  # finite beam and detector widths
-            inc = incidence(c, self.facing)
-            sens = hardware.sensitivity(self.kind, c, inc, p, self.gain)
-            ok, offset = optics(c, inc, fluctuation(c, sens, p.get("light_noise", 0.0), self.rng["detector"]), p)
-            detected = ok if keep is None else ok & keep
-        if len(offset) != len(c):
-            offset = np.zeros(len(c))
-        if detected is None:
-            detected = np.ones(len(c), dtype=bool)
-        return c, offset, detected
+        detects (not blocked by the bodies of `traj` or an obstacle, through the kind's gates and
+        optics), when each fires relative to its crossing, and how many each robot detected:
+        arena.sensing.sweep's two passes, with each kept sweep's light drawn between them."""
+        robot, beacon, step, s, rows, kept = sweep.candidates(
+            lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, traj.x, traj.y, self.bx, self.by, self.facing,
+            self._gains, self._axis_offsets, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates,
+        )  # fmt: skip
+        if self.occlusion.has_obstacles:
+            self.occlusion.clear_obstacles(rows, robot, kept)
+        draws = _NONE
+        if self._light_noise and self.kind != "reflector":  # one draw per kept sweep from its robot's stream
+            draws = _grouped([g.normal(size=k) for g, k in zip(self.rng["detector"], kept.tolist()) if k])
+        optics_on = self.kind != "reflector"
+        detected, offset, counts = sweep.response(
+            robot, rows, draws, self._light_noise, optics_on, self._optics, self.n
+        )
+        return Crossings(robot, beacon, step, s, *rows[:7]), offset, detected, counts
 
     def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
         """The beacons' pulses: the detected crossings (`_detected`) as the hardware reads them."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        c, offset, detected = self._detected(traj, lasers)
-        if not detected.any():
+        c, offset, detected, per_robot = self._detected(traj, lasers)
+        if not per_robot.any():
             return out
         p = self.params
         draws = _NONE
         if self._timing_noise:  # one draw per pulse from its robot's stream
-            counts = np.bincount(c.robot[detected], minlength=self.n).tolist()
-            draws = np.concatenate(
+            counts = per_robot.tolist()
+            draws = _grouped(
                 [g.normal(0.0, self._timing_noise, size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
         window = (float(traj.t[0]), float(traj.t[-1]))

@@ -1,0 +1,159 @@
+"""A batch's beam-beacon hits before the hardware reads them, in two compiled passes around the
+random draws (whose counts the first pass gives): `candidates` finds every crossing, drops those
+another robot's silhouette blocks or the kind's gates refuse, and gives each detector's response
+there; `response` lets each sweep's light vary (`light_noise`) and applies the optics (which
+sweeps fire, and how early). The models are the kind modules' (reflector, sensor_array,
+flash_detector, optics); here they run on one batch in one call each.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from arena.compiled import compiled, maximum, minimum, wrap_angle
+from arena.sensing.crossings import crossing_arrays, laser_to_beacons
+from arena.sensing.occlusion import blocked
+from arena.sensing.optics import sweep_optics
+
+REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
+KIND_CODES = {"reflector": REFLECTOR, "sensor_array": SENSOR_ARRAY, "flash_detector": FLASH_DETECTOR}
+# the parameters `candidates` reads, in this order (a missing one: its default)
+GATES = (
+    ("range", math.inf),
+    ("max_incidence", math.pi),
+    ("light_noise", 0.0),
+    ("near_range", 0.0),
+    ("far_range", 0.0),
+    ("near_incidence", 0.0),
+    ("far_incidence", 0.0),
+    ("acceptance", math.inf),
+    ("trigger_fraction", 0.0),
+    ("beam_diameter", 0.0),
+    ("beam_divergence", 0.0),
+    ("aperture", 0.0),
+)
+
+
+def gates(p: Mapping[str, float], radius: float) -> np.ndarray:
+    """The hardware parameters `candidates` takes (`GATES`), then the beacons' `radius`, as one array."""
+    return np.array([*(float(p.get(name, default)) for name, default in GATES), radius])
+
+
+def hardware(p: Mapping[str, float]) -> tuple[float, float, float, float, float]:
+    """The optics' parameters (optics.sweep_optics): beam diameter, divergence, aperture,
+    trigger fraction, rise time."""
+    names = ("beam_diameter", "beam_divergence", "aperture", "trigger_fraction", "rise_time")
+    return tuple(float(p.get(name, 0.0)) for name in names)  # type: ignore[return-value]
+
+
+@compiled()
+def candidates(
+    x: np.ndarray,
+    y: np.ndarray,
+    h: np.ndarray,
+    phi: np.ndarray,
+    t: np.ndarray,
+    body_x: np.ndarray,
+    body_y: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    facing: np.ndarray,
+    gain: np.ndarray,
+    offset: np.ndarray,
+    reach: np.ndarray,
+    silhouette: np.ndarray,
+    kind: int,
+    g: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The crossings of the beams leaving from (x, y, h, phi) at the step ends t, and which of
+    them may fire: not blocked by another robot's body (at `body_x`, `body_y`, with each robot's
+    `reach` in a batch and `silhouette`: occlusion.blocked; the beacons' radius is `g`'s last),
+    and through the gates of `kind` (reflector: range and incidence; flash detector without light
+    noise: flash_detector.flash_limit). Beacons at (bx, by), facing `facing`, with each its
+    `gain` (none: all nominal); `g` = gates(params, radius). Returns (robot, beacon, step, s,
+    rows t x y phi beam_rate distance bearing qx qy cos-incidence response keep, and per robot
+    the count of crossings kept), the response relative to a nominal detector head-on
+    (hardware.sensitivity)."""
+    radius = g[12]
+    dx, dy = laser_to_beacons(x, y, bx, by)
+    robot, beacon, step, s, rows = crossing_arrays(x, y, h, phi, t, bx, by, offset, dx, dy)
+    n = s.shape[0]
+    px, py, distance, bearing = rows[1], rows[2], rows[5], rows[6]
+    hidden, qx, qy = blocked(px, py, bx[beacon], by[beacon], radius, robot, step, s, body_x, body_y, reach, silhouette)
+    out = np.empty((13, n))
+    out[:7] = rows
+    out[7], out[8] = qx, qy
+    kept = np.zeros(x.shape[1], np.int64)
+    near, far, near_i, far_i, accept, eta = g[3], g[4], g[5], g[6], g[7], g[8]
+    for c in range(n):
+        inc = abs(wrap_angle(bearing[c] + math.pi - facing[beacon[c]]))
+        keep = not hidden[c]
+        cos_inc, response = 1.0, 1.0
+        if kind == REFLECTOR:
+            keep = keep and distance[c] <= g[0] and inc <= g[1]
+        else:
+            limit = 0.0
+            if kind == FLASH_DETECTOR:
+                slope = (far_i - near_i) / (far - near)
+                limit = near_i + slope * (minimum(maximum(distance[c], near), far) - near)
+                if not g[2] > 0:
+                    keep = keep and inc <= limit
+            cos_inc = math.cos(inc)
+            if kind == FLASH_DETECTOR and eta > 0:
+                w = g[9] + g[10] * distance[c]
+                a = g[11] * math.cos(limit)
+                at_limit = minimum(1.0, eta / (a / w if w > a else 1.0))
+                response = at_limit ** ((inc / limit) ** 2) if limit > 0 else 0.0
+            elif math.isfinite(accept):
+                response = np.exp2(-((inc / accept) ** 2))
+            if gain.shape[0]:
+                response = response * gain[beacon[c]]
+        out[9, c], out[10, c], out[11, c] = cos_inc, response, 1.0 if keep else 0.0
+        if keep:
+            kept[robot[c]] += 1
+    return robot, beacon, step, s, out, kept
+
+
+@compiled()
+def response(
+    robot: np.ndarray,
+    rows: np.ndarray,
+    draws: np.ndarray,
+    sigma: float,
+    optics_on: bool,
+    hardware_: tuple[float, float, float, float, float],
+    robots: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which of `candidates`' crossings (`rows`) fire, and how early: with light noise (`sigma`
+    > 0), each kept sweep's response times exp(sigma x its draw), log-normal light: near a
+    detector's limit the light hovers at the threshold, so such sweeps fire late or not at all
+    (`draws` grouped by robot, each robot's in crossing order), then the optics (optics.sweep_optics;
+    none for reflectors: `optics_on` false). Returns (detected, time offset, per robot the count
+    detected)."""
+    n = robot.shape[0]
+    keep = rows[11] > 0.0
+    sens = rows[10].copy()
+    if sigma > 0:
+        cursor = np.zeros(robots, np.int64)
+        for c in range(n):
+            cursor[robot[c]] += 1 if keep[c] else 0
+        start = 0
+        for r in range(robots):
+            start, cursor[r] = start + cursor[r], start
+        for c in range(n):
+            if keep[c]:
+                sens[c] = sens[c] * math.exp(sigma * draws[cursor[robot[c]]])
+                cursor[robot[c]] += 1
+    offset = np.zeros(n)
+    detected = keep
+    if optics_on:
+        ok, offset = sweep_optics(rows[5], rows[4], rows[9], sens, hardware_)
+        detected = ok & keep
+    counts = np.zeros(robots, np.int64)
+    for c in range(n):
+        if detected[c]:
+            counts[robot[c]] += 1
+    return detected, offset, counts
