@@ -130,7 +130,10 @@ class Sensing:
             return [[] for _ in range(self.n)]
         if all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
             flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
-        else:  # runs of states (`record_many`), or both
+        elif len(rows) == 1:  # one run of states (`record_many`): a match's period
+            flat = np.empty((len(rows[0]) + 1, 3 * self.n))
+            flat[0], flat[1:] = self._last, rows[0]
+        else:  # runs of states, or both
             flat = np.vstack([self._last, *rows])
         poses = flat.reshape(-1, self.n, 3)
         steps = len(poses) - 1
@@ -200,12 +203,12 @@ class Sensing:
         """The beacons' pulses: the detected crossings (`_detected`) as the hardware reads them."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
         c, offset, detected, per_robot = self._detected(traj, lasers)
-        if not per_robot.any():
+        counts = per_robot.tolist()
+        if not any(counts):
             return out
         p = self.params
         draws = _NONE
         if self._timing_noise:  # one draw per pulse from its robot's stream
-            counts = per_robot.tolist()
             draws = _grouped(
                 [g.normal(0.0, self._timing_noise, size=k) for g, k in zip(self.rng["timing"], counts) if k]
             )
