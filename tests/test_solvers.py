@@ -217,3 +217,27 @@ def test_newton_wants_one_bearing_per_beacon():
     beacons = [(0.0, 0.0), (3.0, 0.0), (3.0, 2.0), (0.0, 2.0)]
     with pytest.raises(ValueError, match="4 beacons but 3 bearings"):
         S.newton(beacons, [0.1, 0.2, 0.3], (1.0, 1.0, 0.0))
+
+
+def test_a_turns_fit_finds_the_pose_least_squares_finds():
+    """revolution.fit (the normal equations in plain floats) against the geometry it inverts and
+    against solvers.least_squares (a general solver): the same pose, to 1e-9, with three and
+    four arrays, noisy bearings included; and it refuses the circle through three arrays."""
+    from robots.toolkit.revolution import fit
+
+    g = np.random.default_rng(17)
+    four = TRI + [(0.0, 1.22)]
+    for _ in range(300):
+        x, y, h = g.uniform(0.1, 1.7), g.uniform(0.1, 1.1), g.uniform(-math.pi, math.pi)
+        for points in (TRI, four):
+            z = bearings(x, y, h, points)
+            got = fit(points, z)
+            assert got is not None and math.dist(got[:2], (x, y)) < 1e-9
+            assert abs(math.remainder(got[2] - h, 2 * math.pi)) < 1e-9
+            noisy = [b + g.normal(0, 2e-3) for b in z]
+            want, got = S.least_squares(points, noisy, 1e-3), fit(points, noisy)
+            if want.ok:
+                assert got is not None and math.dist(got[:2], (want.x, want.y)) < 1e-9
+    r = math.dist((0.915, 0.61), (0, 0))
+    on = (0.915 + r * math.cos(2.5), 0.61 + r * math.sin(2.5))
+    assert fit(TRI, bearings(*on, 0.0, TRI)) is None

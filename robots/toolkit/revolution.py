@@ -14,13 +14,15 @@ from __future__ import annotations
 import math
 
 from robots.toolkit.angles import wrap
-from robots.toolkit.solvers import least_squares
+from robots.toolkit.solvers import MAX_STEP, heading_from, total
 
 # "the time-out limit, which was set to 130 ms", with the laser at 81 rad/s: 1.68 turns, the
 # same share of a turn at any laser rate (a slower laser, as in the 31 rad/s line run, waits longer)
 TIME_OUT_TURNS = 0.130 * 81.0 / (2 * math.pi)
 STEADY_TURN = 0.3  # rad/s: turning slower, a closed-form fix may check the filter
 FIT_RESIDUAL = 0.02  # rad: a four-array revolution fits its pulses this well, or it is an outlier
+NEWTON_ITERATIONS, TOLERANCE = 50, 1e-12  # as solvers.newton's
+SINGULAR = 1e-14  # the normal equations' determinant, relative to its scale, below which a fix is refused
 
 TurnFix = tuple[float, float, float]  # x, y (m) and the beam's world angle (rad)
 
@@ -57,15 +59,69 @@ def turn_fix(hits: list[tuple[float, str]], beacons: dict[str, tuple[float, floa
     sign = math.copysign(1.0, turning)
     points = [beacons[b] for _, b in hits]
     bearings = [sign * rate * (t - end) for t, _ in hits]  # relative to the beam now
-    fix = least_squares(points, bearings, sigma=1e-3)
-    if not fix.ok:
+    fix = fit(points, bearings)
+    if fix is None:
         return None
+    x, y, h = fix
     if (
         len(hits) > 3
-        and max(
-            abs(wrap(math.atan2(by - fix.y, bx - fix.x) - fix.heading - a)) for (bx, by), a in zip(points, bearings)
-        )
-        > FIT_RESIDUAL
+        and max(abs(wrap(math.atan2(by - y, bx - x) - h - a)) for (bx, by), a in zip(points, bearings)) > FIT_RESIDUAL
     ):
         return None
-    return fix.x, fix.y, fix.heading
+    return fix
+
+
+def fit(points: list[tuple[float, float]], bearings: list[float]) -> TurnFix | None:
+    """(x, y, reference direction) that best explain the `bearings` of `points`: Gauss-Newton
+    from ToTal on the first three, as solvers.least_squares, with each step's 3 x 3 normal
+    equations solved in plain floats (a fix costs a quarter of a general solver's); None where
+    it fails (no start, no convergence, or the robot on the circle through the points)."""
+    seed = total(points[:3], bearings[:3], heading=False)
+    x, y = (
+        (seed.x, seed.y)
+        if seed.ok
+        else (sum(p[0] for p in points) / len(points), sum(p[1] for p in points) / len(points))
+    )
+    h = heading_from(x, y, points, bearings)
+    for _ in range(NEWTON_ITERATIONS):
+        # J^T J (symmetric: a, b, c on the diagonal; d = xy, e = xh, f = yh) and J^T r, r = -residual
+        a = b = d = e = f = gx = gy = gh = 0.0
+        for (bx, by), bearing in zip(points, bearings):
+            dx, dy = bx - x, by - y
+            d2 = dx * dx + dy * dy
+            if d2 < 1e-18:
+                return None
+            jx, jy = dy / d2, -dx / d2
+            r = -wrap(math.atan2(dy, dx) - h - bearing)
+            a, b, d, e, f = a + jx * jx, b + jy * jy, d + jx * jy, e - jx, f - jy
+            gx, gy, gh = gx + jx * r, gy + jy * r, gh - r
+        c = float(len(points))
+        step = _solve3(a, b, c, d, e, f, gx, gy, gh)
+        if step is None:
+            return None
+        sx, sy, sh = step
+        grow = max(abs(sx), abs(sy)) / MAX_STEP
+        if grow > 1:  # a trust region, as Newton's: never jump across the field
+            sx, sy, sh = sx / grow, sy / grow, sh / grow
+        x, y, h = x + sx, y + sy, h + sh
+        if abs(sx) + abs(sy) + abs(sh) < TOLERANCE:
+            return x, y, wrap(h)
+    return None
+
+
+def _solve3(
+    a: float, b: float, c: float, d: float, e: float, f: float, gx: float, gy: float, gh: float
+) -> tuple[float, float, float] | None:
+    """The solution of [[a, d, e], [d, b, f], [e, f, c]] s = g by Cramer's rule, or None where
+    the matrix is singular to working precision (the robot on the circle through the points)."""
+    m11, m12, m13 = b * c - f * f, e * f - d * c, d * f - b * e
+    det = a * m11 + d * m12 + e * m13
+    scale = (abs(a) + abs(d) + abs(e)) * (abs(d) + abs(b) + abs(f)) * (abs(e) + abs(f) + abs(c))
+    if not abs(det) > SINGULAR * scale:
+        return None
+    m22, m23, m33 = a * c - e * e, d * e - a * f, a * b - d * d
+    return (
+        (m11 * gx + m12 * gy + m13 * gh) / det,
+        (m12 * gx + m22 * gy + m23 * gh) / det,
+        (m13 * gx + m23 * gy + m33 * gh) / det,
+    )
