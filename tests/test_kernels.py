@@ -223,8 +223,15 @@ def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
             phi0,
             heading,
             np.zeros((0, 0)) if noise is None else noise,
-            (np.sqrt(1 - wa * wa) * 0.003, wa, powers(wa), w0),
-            (sa, (1 - sa) * coupling, powers(sa), lag0, body0),
+            np.sqrt(1 - wa * wa) * 0.003,
+            wa,
+            powers(wa),
+            w0,
+            sa,
+            (1 - sa) * coupling,
+            powers(sa),
+            lag0,
+            body0,
         )
         for w, v in zip(want, got):
             assert np.asarray(w).tobytes() == v.tobytes()

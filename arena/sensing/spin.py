@@ -32,6 +32,7 @@ class Spin:
         self.body_rate = np.zeros(n)  # the body's yaw rate in the last step (rad/s)
         self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
+        self._noise: dict[int, np.ndarray] = {}  # batch length -> the wobble's draws, a row per robot
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
@@ -42,19 +43,25 @@ class Spin:
         robots); the last row is where the next batch starts."""
         steps, n = len(heading) - 1, len(self.omega)
         p = self.params
-        noise = _NO_ROWS
-        wobble = (0.0, 0.0, _NO_ROWS, self.wobble)
+        noise, scale, decay, powers = _NO_ROWS, 0.0, 0.0, _NO_ROWS
         if p["wobble"] > 0:
-            a = math.exp(-self.dt / p["wobble_time"])
-            noise = np.array([g.normal(size=steps) for g in self.streams]).T
-            wobble = (math.sqrt(1 - a * a) * p["wobble"], a, self._powers_of(a, noise.shape), self.wobble)
-        spin = (-1.0, 0.0, _NO_ROWS, self.spin_lag, self.body_rate)  # a negative decay: no lag
+            decay = math.exp(-self.dt / p["wobble_time"])
+            draws = self._noise.get(steps)
+            if draws is None:
+                draws = self._noise[steps] = np.empty((n, steps))
+            for g, row in zip(self.streams, draws):
+                g.standard_normal(out=row)
+            noise = draws.T
+            scale, powers = math.sqrt(1 - decay * decay) * p["wobble"], self._powers_of(decay, noise.shape)
+        lag_decay, coupled, lag_powers = -1.0, 0.0, _NO_ROWS  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
-            a = math.exp(-self.dt / p["spin_time"])
-            spin = (a, (1 - a) * p.get("spin_coupling", 0.0), self._powers_of(a, (steps, n)), *spin[3:])
+            lag_decay = math.exp(-self.dt / p["spin_time"])
+            coupled = (1 - lag_decay) * p.get("spin_coupling", 0.0)
+            lag_powers = self._powers_of(lag_decay, (steps, n))
         phi, self.wobble, self.spin_lag, self.body_rate = laser_phases(
-            self.omega, self.dt, self.phi, heading, noise, wobble, spin
-        )
+            self.omega, self.dt, self.phi, heading, noise, scale, decay, powers, self.wobble,
+            lag_decay, coupled, lag_powers, self.spin_lag, self.body_rate,
+        )  # fmt: skip
         self.phi = phi[-1].copy()
         return phi
 
@@ -101,37 +108,43 @@ def laser_phases(
     phi0: np.ndarray,
     heading: np.ndarray,
     noise: np.ndarray,
-    wobble: tuple[float, float, np.ndarray, np.ndarray],
-    spin: tuple[float, float, np.ndarray, np.ndarray, np.ndarray],
+    scale: float,
+    a: float,
+    powers: np.ndarray,
+    last_wobble: np.ndarray,
+    lag_decay: float,
+    coupled: float,
+    lag_powers: np.ndarray,
+    last_lag: np.ndarray,
+    last_body: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Unwrapped laser phases at the step ends (`Spin.phases`): the steady rate
-    `omega`, times 1 + the wobble when `noise` has rows (`wobble` = the noise's scale, the
-    decay per step, its powers, the wobble before), plus the spin lag when the spin's decay
-    per step is not negative (`spin` = that decay, (1 - decay) x coupling, its powers, the lag
-    and the body's yaw rate before). Returns the phases and the wobble, lag and yaw rate after."""
+    `omega`, times 1 + the wobble when `noise` has rows (the noise's `scale`, the decay per step
+    `a`, its `powers`, the wobble before), plus the spin lag when `lag_decay` (per step) is not
+    negative (with (1 - decay) x coupling `coupled`, its powers, the lag and the body's yaw rate
+    before). Returns the phases and the wobble, lag and yaw rate after. Plain arguments, no
+    tuples: numba reads a tuple of arrays far slower at each call."""
     steps, n = heading.shape[0] - 1, omega.shape[0]
     rate = np.empty((steps, n))
     for k in range(steps):
         rate[k] = omega
-    scale, a, powers, last_wobble = wobble
     if noise.shape[0]:
         w = first_order(a, powers, last_wobble, scale * noise)
         for k in range(steps):
             for r in range(n):
                 rate[k, r] = omega[r] * (1.0 + w[k, r])
         last_wobble = w[steps - 1].copy()
-    a, coupled, powers, last_lag, last_body = spin
-    if a >= 0.0:
+    if lag_decay >= 0.0:
         body = np.empty((steps, n))
         drive = np.empty((steps, n))
         for k in range(steps):
             for r in range(n):
                 body[k, r] = (heading[k + 1, r] - heading[k, r]) / dt
                 change = body[k, r] - (last_body[r] if k == 0 else body[k - 1, r])
-                drive[k, r] = -a * change
+                drive[k, r] = -lag_decay * change
                 if coupled != 0.0:  # a zero coupling adds only signed zeros, which vanish in the sums
                     drive[k, r] = drive[k, r] - coupled * body[k, r]
-        lag = first_order(a, powers, last_lag, drive)
+        lag = first_order(lag_decay, lag_powers, last_lag, drive)
         for k in range(steps):
             for r in range(n):
                 rate[k, r] = rate[k, r] + lag[k, r]
