@@ -40,7 +40,7 @@ it drives (`WANDER`), since it could be driving any way; its first straight run 
 from __future__ import annotations
 
 import math
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable
 
 from robots.api import Brief, SensorEvent
@@ -186,13 +186,16 @@ class HitTracker:
 
     def feed(self, events: tuple[SensorEvent, ...] | list[SensorEvent], now: float) -> None:
         """Take one control period's events (in time order) and carry the pose to `now`."""
-        at = Counter(e.time for e in events if e.kind == "hit")
+        seen: set[float] = set()
+        tied: set[float] = set()  # instants of two hits or more
         pulses: dict[str, list[float]] = {}  # each array's pulse times in this period
         for e in events:
-            if e.kind == "hit" and e.beacon is not None:
-                pulses.setdefault(e.beacon, []).append(e.time)
+            if e.kind == "hit":
+                (tied if e.time in seen else seen).add(e.time)
+                if e.beacon is not None:
+                    pulses.setdefault(e.beacon, []).append(e.time)
         for e in events:
-            if e.kind == "hit" and at[e.time] > 1:
+            if e.kind == "hit" and e.time in tied:
                 continue  # a merged pulse: two arrays reported at one instant
             if e.kind not in ("hit", "index") or (e.beacon is not None and e.beacon not in self.beacons):
                 continue
