@@ -95,7 +95,7 @@ class Sensing:
         self._optics = sweep.hardware(p)
         # Bac's merged measurements (arena.sensing.sensor_array.merge), as `pulses` takes them
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
-        self._merging = (merges[0], self.direction, len(self.ids), merges[1], np.uint64(self.merge_key))
+        self._merging = (merges[0], len(self.ids), merges[1], np.uint64(self.merge_key))
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
         self._last = world.state
@@ -214,8 +214,8 @@ class Sensing:
             )
         window = (float(traj.t[0]), float(traj.t[-1]))
         source, robot, beacon, times, phase, (counts_, tied_) = pulses(
-            c.t, offset, detected, c.robot, c.beacon, c.phi, draws, window, self.omega,
-            self.kind == "reflector", self._clock_hz, first_tick_after(window[0], p), self._merging,
+            c.t, offset, detected, c.robot, c.beacon, c.phi, draws, *window, self.omega,
+            self.kind == "reflector", self._clock_hz, first_tick_after(window[0], p), self.direction, self._merging,
         )  # fmt: skip
         counts = counts_.tolist()
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]

@@ -31,22 +31,24 @@ def pulses(
     beacon: np.ndarray,
     phi: np.ndarray,
     draws: np.ndarray,
-    window: tuple[float, float],
+    w0: float,
+    w1: float,
     omega: np.ndarray,
     reflector: bool,
     clock_hz: float,
     first_tick: float,
-    merging: tuple[bool, np.ndarray, int, float, np.uint64],
+    direction: np.ndarray,
+    merging: tuple[bool, int, float, np.uint64],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The detected crossings as read by the hardware (`Sensing._hits`), sorted by
     robot, time and beacon: which crossing each pulse is, its robot, beacon, clock reading and
     the laser's phase when it fired; and per robot, its pulse count and whether two of its
     pulses read one time. A pulse fires at t + offset, no earlier than the period's start;
     `draws` (one timing-noise draw per pulse, grouped by robot in crossing order; none: no
-    noise) jitter it within the period; a counter of `clock_hz` (0: none) truncates it, no
-    earlier than `first_tick`; `merging` = (whether to, each robot's spin sign, the number of
-    arrays, the rate, the key) applies Bac's merged measurements (sensor_array.merge)."""
-    w0, w1 = window
+    noise) jitter it within the period (w0, w1); a counter of `clock_hz` (0: none) truncates it,
+    no earlier than `first_tick`; `merging` = (whether to, the number of arrays, the rate, the
+    key) applies Bac's merged measurements (sensor_array.merge), with each robot's spin sign
+    `direction`. No tuple holds an array: numba reads those slowly at each call."""
     source = np.flatnonzero(detected)
     m, n_robots = source.shape[0], omega.shape[0]
     fired, phase = np.empty(m), np.empty(m)
@@ -78,7 +80,7 @@ def pulses(
             v = np.floor(v * clock_hz + 1e-6) / clock_hz
         times[a] = maximum(v, first_tick)
     rob, bea, phase = rob[order], bea[order], phase[order]
-    merge_on, direction, n_beacons, rate, key = merging
+    merge_on, n_beacons, rate, key = merging
     if merge_on and rate > 0 and m >= 2:
         turn = np.empty(m)
         for a in range(m):
