@@ -9,9 +9,10 @@ Each function raises TypeError, ValueError or KeyError where a value is not one 
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import math
-import re
+import operator
 from collections.abc import Iterable, Sequence
 from typing import Any, Protocol
 
@@ -53,23 +54,25 @@ def number(value: float) -> str:
     return text
 
 
-_TRAILING_ZEROS = re.compile("0+\n")
-
-
 def numbers(values: list[float]) -> list[str]:
-    """`number` of each value, formatted at once: one `%` for all of them and one pass to
-    drop their trailing zeros; the few outside the fast range (a heading near 0) one by one."""
+    """`number` of each value, formatted at once: one `%` for all of them, and a few plain
+    replaces that drop their trailing zeros (at most 9: 4, 4, 2, then 1, one line each). The
+    few that are not 0 yet round below 1e-4 (their text begins 0.0000), or reach 1e6, are
+    formatted one by one."""
     if not values or set(map(type, values)) != {float}:  # every one a float, checked at C speed
         return list(map(number, values))
-    text = _TRAILING_ZEROS.sub("\n", (_FIXED + "\n") * len(values) % tuple(values)).replace(".\n", ".0\n")
+    text = (_FIXED + "\n") * len(values) % tuple(values)
     if "n" in text:  # nan, inf
         raise TypeError("not finite")
+    text = text.replace("0000\n", "\n").replace("0000\n", "\n").replace("00\n", "\n").replace("0\n", "\n")
+    text = text.replace(".\n", ".0\n")
     texts = text.split("\n")
-    if not (1e-4 <= min(map(abs, values)) and max(map(abs, values)) < 1e6):
-        for i, v in enumerate(values):
-            if not 1e-4 <= abs(v) < 1e6:
-                texts[i] = number(v)
-    return texts[:-1]
+    texts.pop()  # after the last newline
+    if text.startswith(("0.0000", "-0.0000")) or "\n0.0000" in text or "\n-0.0000" in text:
+        texts = list(map(number, values))
+    elif not -1e6 < min(values) <= max(values) < 1e6:
+        texts = list(map(number, values))
+    return texts
 
 
 @functools.cache
@@ -120,25 +123,47 @@ def event_line(f: dict[str, Any]) -> str:
     return _EVENT % (_string(f["b"]), _string(f["kind"]), beam or "null", _int(f["r"]), _int(f["s"]), number(f["t"]))
 
 
-def event_lines(slot: int, detections: Sequence[Detected]) -> list[str]:
+_EVENT_FIELDS = operator.attrgetter("time", "kind", "beacon", "source", "beam")
+_ONES = itertools.repeat(1.0)
+
+
+@functools.cache
+def _event_head(beacon: str | None, kind: str) -> str:
+    """An `e` record's line up to its beam: its beacon and kind (a handful per match)."""
+    return '{"b":' + _string(beacon) + ',"k":"e","kind":' + _string(kind) + ',"line":'
+
+
+@functools.cache
+def _event_tail(slot: int) -> str:
+    """An `e` record's line from its beam's end: robot `slot`, the source and time left to `%`."""
+    return ',"r":' + int.__repr__(slot) + ',"s":%d,"t":%s}\n'
+
+
+def event_lines(slot: int, detections: Sequence[Detected]) -> str:
     """The `e` records of one robot's detections, as `event_line` writes each (newline
-    included): their numbers formatted at once (`numbers`)."""
+    included), at once: their fields taken as columns, their numbers formatted by one
+    `numbers`, every line by one `%`."""
     if type(slot) is not int:
         raise TypeError("not an int")
-    values: list[float] = []
-    for d in detections:
-        values.append(d.time)
-        if d.beam is not None:
-            values += d.beam[:2]
-    formatted = iter(numbers(values))
-    r, lines = int.__repr__(slot), []
-    for d in detections:
-        t, beam = next(formatted), d.beam
-        text = _beam(next(formatted), next(formatted), *beam[2:]) if beam is not None else "null"
-        if type(d.source) is not int:
-            raise TypeError("not an int")
-        lines.append(_EVENT % (_string(d.beacon), _string(d.kind), text, r, int.__repr__(d.source), t) + "\n")
-    return lines
+    if not detections:
+        return ""
+    times, kinds, beacons, sources, beams = zip(*map(_EVENT_FIELDS, detections))
+    if set(map(type, sources)) != {int}:
+        raise TypeError("not an int")
+    heads, tail = map(_event_head, beacons, kinds), _event_tail(slot)
+    if None in beams:
+        if any(beams):  # some with a beam, some without (rare): a line at a time
+            return "".join([event_lines(slot, [d]) for d in detections])
+        fields = zip(heads, sources, numbers(list(times)))
+        return ("%snull" + tail) * len(times) % tuple(itertools.chain.from_iterable(fields))
+    if set(map(len, beams)) != {4}:
+        raise ValueError("a beam is (x, y, beacon x, beacon y)")
+    xs, ys, bxs, bys = zip(*beams)
+    n = len(times)
+    texts = numbers([*times, *xs, *ys])
+    places = map(_place, bxs, bys, map(math.copysign, _ONES, bxs), map(math.copysign, _ONES, bys))
+    fields = zip(heads, texts[n : 2 * n], texts[2 * n :], places, sources, texts[:n])
+    return ("%s[%s,%s,%s]" + tail) * n % tuple(itertools.chain.from_iterable(fields))
 
 
 def estimate_line(f: dict[str, Any]) -> str:
@@ -153,14 +178,17 @@ def frame_line(time: float, poses: list[Pose]) -> str:
     return '{"k":"f","p":[' + ",".join(map(_floats, poses)) + '],"t":' + number(time) + "}"
 
 
-def frame_lines(frames: list[Frame]) -> list[str]:
-    """The `f` records of `frames` (newline included), their numbers formatted at once."""
-    if any(len(p) != 3 for _, poses in frames for p in poses):
+@functools.cache
+def _frame_format(robots: int) -> str:
+    """An `f` record's line for `robots` poses, its numbers left to `%`."""
+    return '{"k":"f","p":[' + ",".join(["[%s,%s,%s]"] * robots) + '],"t":%s}\n'
+
+
+def frame_lines(frames: list[Frame]) -> str:
+    """The `f` records of `frames` (newline included), at once: their numbers formatted by
+    one `numbers`, in the order the lines hold them, and every line by one `%`."""
+    every = [poses for _, poses in frames]
+    if set(map(len, itertools.chain.from_iterable(every))) - {3}:
         raise ValueError("a pose is (x, y, heading)")
-    formatted = iter(numbers([v for time, poses in frames for v in (time, *(u for p in poses for u in p))]))
-    lines = []
-    for _, poses in frames:
-        t = next(formatted)
-        p = ",".join("[" + next(formatted) + "," + next(formatted) + "," + next(formatted) + "]" for _ in poses)
-        lines.append('{"k":"f","p":[' + p + '],"t":' + t + "}\n")
-    return lines
+    values = [v for time, poses in frames for v in (*itertools.chain.from_iterable(poses), time)]
+    return "".join(map(_frame_format, map(len, every))) % tuple(numbers(values))

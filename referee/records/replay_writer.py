@@ -28,6 +28,7 @@ from referee.records.replay_lines import Detected, Frame, Pose
 from referee.records.results import MatchResult
 
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
+_CHUNK = 512  # lines in a chunk at least (but the last): where the writes fall, the same bytes
 
 
 class Recorder(Protocol):
@@ -63,7 +64,8 @@ class ReplayWriter:
         self.gz = gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=6)
         self.raw = raw
         self.file: IO[str] = io.TextIOWrapper(self.gz, encoding="utf-8", newline="\n")
-        self._lines: list[str] = []  # records not yet handed to the compressor
+        self._lines: list[str] = []  # records not yet handed to the compressor, a few lines each
+        self._count = 0  # how many lines they hold: a chunk is handed on at _CHUNK lines or more
         # the compressor's own thread: zlib lets go of the GIL, so it compresses while the
         # match runs on (the same chunks in the same order: the same bytes)
         self._chunks: queue.Queue[str | None] = queue.Queue(maxsize=_QUEUED)
@@ -73,6 +75,14 @@ class ReplayWriter:
 
     def _write(self, obj: dict[str, Any]) -> None:
         self._lines.append(dumps(obj, indent=None) + "\n")
+        self._count += 1
+
+    def _add(self, text: str, lines: int) -> None:
+        """Hot records' `lines` lines at once, then on to the compressor if a chunk is full."""
+        self._lines.append(text)
+        self._count += lines
+        if self._count >= _CHUNK:
+            self._flush()
 
     def _hot(self, line: str | None, record: Callable[[], dict[str, Any]]) -> None:
         """A hot record (frame, event, estimate), formatted by hand (`replay_lines`), or where
@@ -80,9 +90,7 @@ class ReplayWriter:
         encoder from `record()`."""
         if line is None:
             line = json.dumps(record(), sort_keys=True, separators=(",", ":"))
-        self._lines.append(line + "\n")
-        if len(self._lines) >= 512:
-            self._flush()
+        self._add(line + "\n", 1)
 
     def _flush(self) -> None:
         """Hand the records so far to the compressor's thread (its failure, if any, is raised here)."""
@@ -93,6 +101,7 @@ class ReplayWriter:
             self._compressor.start()
         self._chunks.put("".join(self._lines))
         self._lines.clear()
+        self._count = 0
 
     def _compress(self) -> None:
         while (chunk := self._chunks.get()) is not None:
@@ -123,25 +132,22 @@ class ReplayWriter:
     def frames(self, frames: list[Frame]) -> None:
         """Frames (time, every robot's pose), their numbers formatted at once."""
         try:
-            lines = replay_lines.frame_lines(frames)
+            text = replay_lines.frame_lines(frames)
         except (TypeError, ValueError):  # a value the encoder must write: one frame at a time
             for time, poses in frames:
                 self._frame(time, poses)
             return
-        self._lines += lines
-        if len(self._lines) >= 512:
-            self._flush()
+        self._add(text, len(frames))
 
     def events(self, slot: int, detections: Sequence[Detected]) -> None:
         """The `e` records of robot `slot`'s detections (arena.sensing.events.Detection), at once."""
         try:
-            self._lines += replay_lines.event_lines(slot, detections)
+            text = replay_lines.event_lines(slot, detections)
         except (TypeError, ValueError):  # a value the encoder must write: one record at a time
             for d in detections:
                 self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
             return
-        if len(self._lines) >= 512:
-            self._flush()
+        self._add(text, len(detections))
 
     def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind not in ("e", "est"):
