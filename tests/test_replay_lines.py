@@ -120,14 +120,13 @@ def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
     expected = []
     for k in range(400):
         if k % 2:
-            frames = [
-                (abs(floats(rng, 1)[0]), [tuple(floats(rng, 3)) for _ in range(4)]) for _ in range(rng.randint(1, 7))
-            ]
+            frames = [floats(rng, 12) + [abs(floats(rng, 1)[0])] for _ in range(rng.randint(1, 7))]
             if k % 10 == 1:  # a value only JSON's encoder writes: those frames go one by one
-                frames[0] = (frames[0][0], [(math.inf, 1.0, 2.0)] * 4)
+                frames[0][:3] = [math.inf, 1.0, 2.0]
             w.frames(frames)
-            for t, poses in frames:
-                rec = {"k": "f", "t": round(t, DECIMALS), "p": [rounded(p) for p in poses]}
+            for frame in frames:
+                poses = [frame[i : i + 3] for i in range(0, 12, 3)]
+                rec = {"k": "f", "t": round(frame[-1], DECIMALS), "p": [rounded(p) for p in poses]}
                 expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
             continue
         slot, detections = rng.randint(0, 3), []

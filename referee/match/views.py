@@ -1,8 +1,10 @@
 """The match as the controller API and the replay see it: a team's `Brief` (what its rules
-announce, never its true pose), a detection as a `SensorEvent`, the robots' poses, and the
-replay's header."""
+announce, never its true pose), a detection as a `SensorEvent`, the robots' poses and the
+replay's frames of them, and the replay's header."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from arena.angles import wrap
 from arena.level import Level
@@ -53,6 +55,18 @@ def to_event(d: Detection) -> SensorEvent:
 def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
     """Every robot's (x, y, heading wrapped to (-pi, pi]) from a world `state`."""
     return [(state[i], state[i + 1], wrap(state[i + 2])) for i in range(0, len(state), 3)]
+
+
+def frames(states: np.ndarray, tick: int, every: int, rate: int) -> list[list[float]]:
+    """The replay's frames of world `states` (rows), one every `every` steps from `tick`:
+    each row's `poses`, flat, then its time (tick / `rate`), as the writer takes them."""
+    count, size = states.shape
+    rows = np.empty((count, size + 1))
+    rows[:, :size] = states
+    headings = states[:, 2::3]
+    rows[:, 2:size:3] = np.reshape(list(map(wrap, headings.ravel().tolist())), headings.shape)
+    rows[:, size] = (tick + every * np.arange(count)) / rate
+    return rows.tolist()
 
 
 def replay_header(level: Level, teams: list[Team], seed: int, ideal: bool, noise_key: str | None) -> Header:

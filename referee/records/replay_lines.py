@@ -34,8 +34,7 @@ class Detected(Protocol):
     def beam(self) -> tuple[float, float, float, float] | None: ...
 
 
-Pose = tuple[float, float, float]  # x, y, heading
-Frame = tuple[float, list[Pose]]  # time, every robot's pose
+Frame = list[float]  # as its line holds it: every robot's x, y and heading, then the time
 
 _FIXED = f"%.{DECIMALS}f"
 
@@ -173,22 +172,26 @@ def estimate_line(f: dict[str, Any]) -> str:
     return '{"e":' + _floats(f["e"]) + ',"k":"est","r":' + _int(f["r"]) + ',"t":' + number(f["t"]) + "}"
 
 
-def frame_line(time: float, poses: list[Pose]) -> str:
+def frame_line(time: float, poses: Sequence[Sequence[float]]) -> str:
     """One `f` record's line."""
     return '{"k":"f","p":[' + ",".join(map(_floats, poses)) + '],"t":' + number(time) + "}"
 
 
 @functools.cache
-def _frame_format(robots: int) -> str:
-    """An `f` record's line for `robots` poses, its numbers left to `%`."""
-    return '{"k":"f","p":[' + ",".join(["[%s,%s,%s]"] * robots) + '],"t":%s}\n'
+def _frame_format(size: int) -> str:
+    """An `f` record's line for a `Frame` of `size` numbers, the numbers left to `%`."""
+    if size % 3 != 1:
+        raise ValueError("a frame is (x, y, heading) per robot, then the time")
+    return '{"k":"f","p":[' + ",".join(["[%s,%s,%s]"] * (size // 3)) + '],"t":%s}\n'
 
 
 def frame_lines(frames: list[Frame]) -> str:
     """The `f` records of `frames` (newline included), at once: their numbers formatted by
     one `numbers`, in the order the lines hold them, and every line by one `%`."""
-    every = [poses for _, poses in frames]
-    if set(map(len, itertools.chain.from_iterable(every))) - {3}:
-        raise ValueError("a pose is (x, y, heading)")
-    values = [v for time, poses in frames for v in (*itertools.chain.from_iterable(poses), time)]
-    return "".join(map(_frame_format, map(len, every))) % tuple(numbers(values))
+    values = list(itertools.chain.from_iterable(frames))
+    return "".join(map(_frame_format, map(len, frames))) % tuple(numbers(values))
+
+
+def frame_poses(frame: Frame) -> list[list[float]]:
+    """A `Frame`'s poses, each [x, y, heading]."""
+    return [frame[i : i + 3] for i in range(0, len(frame) - 1, 3)]

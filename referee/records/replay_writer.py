@@ -24,7 +24,7 @@ from referee.errors import ReplayError
 from referee.records import replay_lines
 from referee.records.canonical import DECIMALS, dumps
 from referee.records.replay_format import Header, Replay
-from referee.records.replay_lines import Detected, Frame, Pose
+from referee.records.replay_lines import Detected, Frame
 from referee.records.results import MatchResult
 
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
@@ -34,11 +34,11 @@ _CHUNK = 512  # lines in a chunk at least (but the last): where the writes fall,
 class Recorder(Protocol):
     """Where a match records what happens, in the order it is known."""
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         """Every robot's true pose at `time`."""
 
     def frames(self, frames: list[Frame]) -> None:
-        """Frames (time, every robot's pose), in order."""
+        """Frames, in order, each every robot's x, y and heading, then the time."""
 
     def events(self, slot: int, detections: Sequence[Detected]) -> None:
         """The `e` records of robot `slot`'s detections."""
@@ -117,10 +117,7 @@ class ReplayWriter:
             self._chunks.put(None)
             self._compressor.join()
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
-        self.frames([(time, poses)])
-
-    def _frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         line: str | None
         try:
             line = replay_lines.frame_line(time, poses)
@@ -130,12 +127,12 @@ class ReplayWriter:
         self._hot(line, lambda: {"k": "f", "t": round(time, DECIMALS), "p": [rounded(p) for p in poses]})
 
     def frames(self, frames: list[Frame]) -> None:
-        """Frames (time, every robot's pose), their numbers formatted at once."""
+        """Frames (every robot's x, y and heading, then the time), their numbers formatted at once."""
         try:
             text = replay_lines.frame_lines(frames)
         except (TypeError, ValueError):  # a value the encoder must write: one frame at a time
-            for time, poses in frames:
-                self._frame(time, poses)
+            for frame in frames:
+                self.frame(frame[-1], replay_lines.frame_poses(frame))
             return
         self._add(text, len(frames))
 
@@ -199,12 +196,12 @@ class MemoryRecorder:
     def __init__(self, header: Header):
         self.replay = Replay(header.to_dict())
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         self.replay.frames.append((time, [list(p) for p in poses]))
 
     def frames(self, frames: list[Frame]) -> None:
-        for time, poses in frames:
-            self.frame(time, poses)
+        for frame in frames:
+            self.replay.frames.append((frame[-1], replay_lines.frame_poses(frame)))
 
     def events(self, slot: int, detections: Sequence[Detected]) -> None:
         for d in detections:
