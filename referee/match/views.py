@@ -69,13 +69,11 @@ def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
 def frames(states: np.ndarray, tick: int, every: int, rate: int) -> list[list[float]]:
     """The replay's frames of world `states` (rows), one every `every` steps from `tick`:
     each row's `poses`, flat, then its time (tick / `rate`), as the writer takes them."""
-    count, size = states.shape
-    rows = np.empty((count, size + 1))
-    rows[:, :size] = states
-    headings = states[:, 2::3]
-    rows[:, 2:size:3] = np.reshape(list(map(wrap, headings.ravel().tolist())), headings.shape)
-    rows[:, size] = (tick + every * np.arange(count)) / rate
-    return rows.tolist()
+    rows = states.tolist()
+    for i, row in enumerate(rows):
+        row[2::3] = map(wrap, row[2::3])
+        row.append((tick + every * i) / rate)
+    return rows
 
 
 def replay_header(level: Level, teams: list[Team], seed: int, ideal: bool, noise_key: str | None) -> Header:
