@@ -110,10 +110,11 @@ class Match:
         """The first half of a control tick: deliver the sensor events since the last tick and
         return each robot's Observation (None for a stopped robot, which is counted estimate-less)."""
         time, tick = self.world.time, self.world.tick // self.level.steps_per_control
-        for slot, detections in enumerate(self.sensing.flush()):
+        detected = self.sensing.flush()
+        for slot, detections in enumerate(detected):
             self.inbox[slot].extend(map(to_event, detections))
-            if self.writer and detections:
-                self.deferred.put(functools.partial(self.writer.events, slot, detections))
+        if self.writer and any(detected):
+            self.deferred.put(functools.partial(self.writer.events, detected))
         out: list[Observation | None] = []
         for slot in range(len(self.teams)):
             if self.stopped[slot]:

@@ -132,37 +132,41 @@ def _event_head(beacon: str | None, kind: str) -> str:
     return '{"b":' + _string(beacon) + ',"k":"e","kind":' + _string(kind) + ',"line":'
 
 
-@functools.cache
-def _event_tail(slot: int) -> str:
-    """An `e` record's line from its beam's end: robot `slot`, the source and time left to `%`."""
-    return ',"r":' + int.__repr__(slot) + ',"s":%d,"t":%s}\n'
+_EVENT_TAIL = ',"r":%d,"s":%d,"t":%s}\n'  # an `e` record's line from its beam's end
 
 
-def event_lines(slot: int, detections: Sequence[Detected]) -> str:
-    """The `e` records of one robot's detections, as `event_line` writes each (newline
-    included), at once: their fields taken as columns, their numbers formatted by one
-    `numbers`, every line by one `%`."""
-    if type(slot) is not int:
-        raise TypeError("not an int")
+def event_lines(robots: Sequence[Sequence[Detected]]) -> list[str]:
+    """The `e` records of every robot's detections (robot k's are `robots[k]`), as
+    `event_line` writes each (newline included), a text per robot: their fields taken as
+    columns, all their numbers formatted by one `numbers`, each robot's lines by one `%`."""
+    counts = list(map(len, robots))
+    detections = list(itertools.chain.from_iterable(robots))
     if not detections:
-        return ""
+        return [""] * len(robots)
+    slots = itertools.chain.from_iterable(map(itertools.repeat, range(len(robots)), counts))
     times, kinds, beacons, sources, beams = zip(*map(_EVENT_FIELDS, detections))
     if set(map(type, sources)) != {int}:
         raise TypeError("not an int")
-    heads, tail = map(_event_head, beacons, kinds), _event_tail(slot)
-    if None in beams:
-        if any(beams):  # some with a beam, some without (rare): a line at a time
-            return "".join([event_lines(slot, [d]) for d in detections])
-        fields = zip(heads, sources, numbers(list(times)))
-        return ("%snull" + tail) * len(times) % tuple(itertools.chain.from_iterable(fields))
-    if set(map(len, beams)) != {4}:
+    heads, n = map(_event_head, beacons, kinds), len(times)
+    lined = [b for b in beams if b is not None]
+    if set(map(len, lined)) - {4}:
         raise ValueError("a beam is (x, y, beacon x, beacon y)")
-    xs, ys, bxs, bys = zip(*beams)
-    n = len(times)
+    xs, ys, bxs, bys = zip(*lined) if lined else ((), (), (), ())
     texts = numbers([*times, *xs, *ys])
     places = map(_place, bxs, bys, map(math.copysign, _ONES, bxs), map(math.copysign, _ONES, bys))
-    fields = zip(heads, texts[n : 2 * n], texts[2 * n :], places, sources, texts[:n])
-    return ("%s[%s,%s,%s]" + tail) * n % tuple(itertools.chain.from_iterable(fields))
+    if len(lined) == n:  # every one with its beam (as a rule)
+        form, size = "%s[%s,%s,%s]" + _EVENT_TAIL, 7
+        fields = zip(heads, texts[n : 2 * n], texts[2 * n :], places, slots, sources, texts[:n])
+    else:
+        x, y = iter(texts[n : n + len(lined)]), iter(texts[n + len(lined) :])
+        beam_texts = ["null" if b is None else "[" + next(x) + "," + next(y) + "," + next(places) + "]" for b in beams]
+        form, size = "%s%s" + _EVENT_TAIL, 5
+        fields = zip(heads, beam_texts, slots, sources, texts[:n])
+    values, out, at = tuple(itertools.chain.from_iterable(fields)), [], 0
+    for count in counts:
+        out.append(form * count % values[at : at + size * count])
+        at += size * count
+    return out
 
 
 def estimate_line(f: dict[str, Any]) -> str:

@@ -40,8 +40,8 @@ class Recorder(Protocol):
     def frames(self, frames: list[Frame]) -> None:
         """Frames, in order, each every robot's x, y and heading, then the time."""
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        """The `e` records of robot `slot`'s detections."""
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        """The `e` records of every robot's detections (robot k's are `robots[k]`)."""
 
     def record(self, record_kind: str, **fields: Any) -> None:
         """A record of kind `record_kind` (est, dbg, trial, foul, fault, e) and its fields."""
@@ -136,15 +136,19 @@ class ReplayWriter:
             return
         self._add(text, len(frames))
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        """The `e` records of robot `slot`'s detections (arena.sensing.events.Detection), at once."""
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        """The `e` records of every robot's detections (arena.sensing.events.Detection; robot
+        k's are `robots[k]`), at once; handed on a robot at a time, as chunks always were."""
         try:
-            text = replay_lines.event_lines(slot, detections)
+            texts = replay_lines.event_lines(robots)
         except (TypeError, ValueError):  # a value the encoder must write: one record at a time
-            for d in detections:
-                self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+            for slot, detections in enumerate(robots):
+                for d in detections:
+                    self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
             return
-        self._add(text, len(detections))
+        for text, detections in zip(texts, robots):
+            if detections:
+                self._add(text, len(detections))
 
     def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind not in ("e", "est"):
@@ -203,9 +207,10 @@ class MemoryRecorder:
         for frame in frames:
             self.replay.frames.append((frame[-1], replay_lines.frame_poses(frame)))
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        for d in detections:
-            self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        for slot, detections in enumerate(robots):
+            for d in detections:
+                self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
 
     def record(self, record_kind: str, **fields: Any) -> None:
         lists = {
