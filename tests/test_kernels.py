@@ -278,6 +278,40 @@ def test_kernels_compile_where_no_cache_folder_can_be_written():
     assert out.stdout.split() == ["[0.5,", "0.75]", "[0.5,", "0.75]"]
 
 
+def test_border_crossings_are_where_numpy_finds_them():
+    from referee.match.rules import border_changes
+
+    g = np.random.default_rng(23)
+    for _ in range(300):
+        robots, steps = int(g.integers(1, 5)), int(g.integers(1, 60))
+        states = g.uniform(-0.2, 1.2, (steps, 3 * robots))
+        states[g.random(states.shape) < 0.02] = np.nan
+        outside = g.random(robots) < 0.3
+        x, y = states[:, 0::3], states[:, 1::3]
+        out = ~((0.0 <= x) & (x <= 1.0) & (0.0 <= y) & (y <= 1.0))
+        want = np.flatnonzero((out != np.vstack([outside, out[:-1]])).any(axis=1))
+        assert border_changes(states, 0.0, 0.0, 1.0, 1.0, outside).tolist() == want.tolist()
+
+
+def test_every_robots_distances_at_once_are_each_paths_own():
+    from referee.match.paths import Paths, Polyline
+
+    g = np.random.default_rng(29)
+    for _ in range(100):
+        robots = int(g.integers(1, 5))
+        lines = [
+            None if g.random() < 0.2 else Polyline([tuple(p) for p in g.uniform(0, 2, (int(g.integers(2, 7)), 2))])
+            for _ in range(robots)
+        ]
+        states = g.uniform(-0.5, 2.5, (int(g.integers(9, 60)), 3 * robots))
+        start, every = int(g.integers(0, 8)), int(g.integers(1, 9))
+        runs = [(s, int(g.integers(start + 1, len(states) + 1))) for s in range(robots) if lines[s] is not None]
+        got = Paths(lines).distances(states, start, every, runs)
+        for (slot, end), values in zip(runs, got):
+            want = lines[slot].distances(states[start:end:every, 3 * slot], states[start:end:every, 3 * slot + 1])
+            assert np.array(values).tobytes() == np.array(want).tobytes()
+
+
 def test_distances_to_a_path_are_numpys_bit_for_bit():
     from referee.match.paths import Polyline, first_near
 

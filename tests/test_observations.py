@@ -29,6 +29,18 @@ RECORDER = """
 """
 
 
+def test_a_detection_becomes_the_event_its_class_would_build():
+    from arena.sensing.events import Detection
+    from referee.match.views import to_event
+
+    d = Detection(2, 1.25, "hit", "B", 0.5, (3, 4), 1, (0.0, 1.0, 2.0, 3.0))
+    event = to_event(d)
+    built = SensorEvent(1.25, "hit", "B", 0.5, (3, 4))
+    assert event == built and vars(event) == vars(built) and repr(event) == repr(built)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        event.time = 2.0  # type: ignore[misc]
+
+
 def test_vannoy_ideal_reflections_match_the_seed(tmp_path):
     team = tmp_path / "recorder.py"
     team.write_text(textwrap.dedent(RECORDER))

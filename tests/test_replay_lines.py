@@ -111,7 +111,7 @@ def test_numbers_at_once_are_each_number_as_json_writes_it(values):
 
 
 def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
-    """Frames and one robot's detections, written a control period at a time."""
+    """Frames and every robot's detections, written a control period at a time."""
     from arena.sensing.events import Detection
 
     path = tmp_path / "r.replay"
@@ -120,34 +120,38 @@ def test_a_control_periods_records_at_once_are_what_json_writes(tmp_path):
     expected = []
     for k in range(400):
         if k % 2:
-            frames = [
-                (abs(floats(rng, 1)[0]), [tuple(floats(rng, 3)) for _ in range(4)]) for _ in range(rng.randint(1, 7))
-            ]
+            frames = [floats(rng, 12) + [abs(floats(rng, 1)[0])] for _ in range(rng.randint(1, 7))]
             if k % 10 == 1:  # a value only JSON's encoder writes: those frames go one by one
-                frames[0] = (frames[0][0], [(math.inf, 1.0, 2.0)] * 4)
+                frames[0][:3] = [math.inf, 1.0, 2.0]
             w.frames(frames)
-            for t, poses in frames:
-                rec = {"k": "f", "t": round(t, DECIMALS), "p": [rounded(p) for p in poses]}
+            for frame in frames:
+                poses = [frame[i : i + 3] for i in range(0, 12, 3)]
+                rec = {"k": "f", "t": round(frame[-1], DECIMALS), "p": [rounded(p) for p in poses]}
                 expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
             continue
-        slot, detections = rng.randint(0, 3), []
-        for _ in range(rng.randint(1, 12)):
-            beam = None if rng.random() < 0.2 else (*floats(rng, 2), *rng.choice([(0.0, 2.0), (-0.0, 2.0), (1.5, 2.5)]))
-            d = Detection(
-                slot,
-                abs(floats(rng, 1)[0]),
-                rng.choice(["hit", "index"]),
-                rng.choice([None, "A", 'q"']),
-                None,
-                (),
-                rng.randint(-1, 3),
-                beam,
-            )
-            detections.append(d)
-            rec = {"k": "e", "t": round(d.time, DECIMALS), "r": slot, "s": d.source, "kind": d.kind, "b": d.beacon}
-            rec["line"] = None if beam is None else rounded(beam)
-            expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
-        w.events(slot, detections)
+        robots = [[] for _ in range(rng.randint(1, 4))]
+        for slot, detections in enumerate(robots):
+            for _ in range(rng.choice([0, 1, rng.randint(1, 12)])):
+                beam = (
+                    None
+                    if rng.random() < 0.2
+                    else (*floats(rng, 2), *rng.choice([(0.0, 2.0), (-0.0, 2.0), (1.5, 2.5)]))
+                )
+                d = Detection(
+                    slot,
+                    abs(floats(rng, 1)[0]),
+                    rng.choice(["hit", "index"]),
+                    rng.choice([None, "A", 'q"']),
+                    None,
+                    (),
+                    rng.randint(-1, 3),
+                    beam,
+                )
+                detections.append(d)
+                rec = {"k": "e", "t": round(d.time, DECIMALS), "r": slot, "s": d.source, "kind": d.kind, "b": d.beacon}
+                rec["line"] = None if beam is None else rounded(beam)
+                expected.append(json.dumps(rec, sort_keys=True, separators=(",", ":")))
+        w.events(robots)
     w.close({"done": True})
     lines = gzip.open(path).read().decode().splitlines()
     assert lines[1:-1] == expected

@@ -31,7 +31,7 @@ from referee.match.fleet import Fleet
 from referee.match.result import match_result, robot_result
 from referee.match.rules import Rules
 from referee.match.tasks import TaskTracker
-from referee.match.views import brief_for, poses, replay_header, to_event
+from referee.match.views import brief_for, frames, poses, replay_header, to_event
 from referee.records.replay_writer import Recorder, ReplayWriter
 from referee.records.results import MatchResult
 from referee.sandbox.exchange import exchange
@@ -110,10 +110,11 @@ class Match:
         """The first half of a control tick: deliver the sensor events since the last tick and
         return each robot's Observation (None for a stopped robot, which is counted estimate-less)."""
         time, tick = self.world.time, self.world.tick // self.level.steps_per_control
-        for slot, detections in enumerate(self.sensing.flush()):
+        detected = self.sensing.flush()
+        for slot, detections in enumerate(detected):
             self.inbox[slot].extend(map(to_event, detections))
-            if self.writer and detections:
-                self.deferred.put(functools.partial(self.writer.events, slot, detections))
+        if self.writer and any(detected):
+            self.deferred.put(functools.partial(self.writer.events, detected))
         out: list[Observation | None] = []
         for slot in range(len(self.teams)):
             if self.stopped[slot]:
@@ -252,14 +253,9 @@ class Match:
         if self.writer:
             start = -first % every  # the first step of this run that is recorded
             if start < len(table):
-                recorded = table[start::every].tolist()
-                self.deferred.put(functools.partial(self._frames, self.writer, first + start, recorded))
+                recorded = frames(table[start::every], first + start, every, level.physics_rate)
+                self.deferred.put(functools.partial(self.writer.frames, recorded))
         return len(table)
-
-    def _frames(self, writer: Recorder, tick: int, recorded: list[tuple[float, ...]]) -> None:
-        """The replay's frames of `recorded` states, one every `steps_per_record` from `tick`."""
-        rate, every = self.level.physics_rate, self.level.steps_per_record
-        writer.frames([((tick + every * i) / rate, poses(state)) for i, state in enumerate(recorded)])
 
     def end(self) -> MatchResult:
         """Finish the rules, write the replay's last records, and return the result. A robot

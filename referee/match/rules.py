@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from arena.compiled import compiled
 from arena.level import Level
 from arena.world import World
 from referee.records.results import FoulRecord
@@ -72,15 +73,12 @@ class Rules:
         first = last - len(states) + 1  # the tick of states[0]
         ends = world.contact_ends
         busy = set(ends[self.seen_contacts :])
-        xmin, ymin, xmax, ymax = self.bounds
-        x, y = states[:, 0::3], states[:, 1::3]
-        out = ~((xmin <= x) & (x <= xmax) & (ymin <= y) & (y <= ymax))
-        changed = out != np.vstack([self.outside, out[:-1]])
+        busy.update((first + border_changes(states, *self.bounds, np.array(self.outside))).tolist())
         limit = self.rules.speed_limit
         if limit:
             fast = np.asarray(speeds) > limit + 1e-9
-            changed |= fast != np.vstack([self.speeding, fast[:-1]])
-        busy.update((first + np.flatnonzero(changed.any(axis=1))).tolist())
+            changed = fast != np.vstack([self.speeding, fast[:-1]])
+            busy.update((first + np.flatnonzero(changed.any(axis=1))).tolist())
         for tick in sorted(busy):
             i = tick - first
             state = tuple(states[i].tolist())
@@ -128,3 +126,27 @@ class Rules:
         """End of match: contacts still going on count too."""
         world.end_contacts()
         self.after_step(world)
+
+
+@compiled()
+def border_changes(
+    states: np.ndarray, xmin: float, ymin: float, xmax: float, ymax: float, outside: np.ndarray
+) -> np.ndarray:
+    """The rows of `states` (world states, a step each) at which some robot's centre is
+    outside the field (xmin, ymin, xmax, ymax) where it was inside the row before, or the
+    other way round; the first row is compared with `outside`, each robot's before it."""
+    found = np.empty(states.shape[0], np.int64)
+    was = outside.copy()
+    count = 0
+    for i in range(states.shape[0]):
+        changed = False
+        for slot in range(was.shape[0]):
+            x, y = states[i, 3 * slot], states[i, 3 * slot + 1]
+            out = not (xmin <= x and x <= xmax and ymin <= y and y <= ymax)
+            if out != was[slot]:
+                changed = True
+            was[slot] = out
+        if changed:
+            found[count] = i
+            count += 1
+    return found[:count]

@@ -11,7 +11,7 @@ import numpy as np
 from msgspec import UNSET, UnsetType
 
 from arena.level import Level, Pose
-from referee.match.paths import Polyline, first_near
+from referee.match.paths import Paths, Polyline, first_near
 from referee.records.results import CrossTrack, TaskProgress
 
 
@@ -36,6 +36,7 @@ class TaskTracker:
             Polyline([(s.x, s.y), *self.targets(r.slot)]) if self.targets(r.slot) else None
             for r, s in zip(level.robots, starts)
         ]
+        self.paths = Paths(self.polyline)
         self.finished_count = 0
         # a target's radius, a hair wide: where a check may look (numpy's distances may differ
         # from math.dist by an ulp); what counts as reached is confirmed with math.dist
@@ -69,6 +70,7 @@ class TaskTracker:
         rate), until it finishes."""
         radius, near = self.level.task.radius, self.near
         n, start = len(states), -first_tick % every  # states[start::every] are sampled
+        runs = []  # (slot, end): the robots whose distances to their path are sampled, up to `end`
         for slot in range(len(self.next)):
             xs, ys = states[:, 3 * slot], states[:, 3 * slot + 1]
             targets = self.targets(slot)
@@ -91,7 +93,10 @@ class TaskTracker:
             if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == n):
                 continue  # no path to stray from, or finished before these steps
             if start < end:
-                self.deviation[slot].extend(line.distances(xs[start:end:every], ys[start:end:every]))
+                runs.append((slot, end))
+        if runs:
+            for (slot, _), distances in zip(runs, self.paths.distances(states, start, every, runs)):
+                self.deviation[slot].extend(distances)
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None

@@ -1,8 +1,12 @@
 """The match as the controller API and the replay see it: a team's `Brief` (what its rules
-announce, never its true pose), a detection as a `SensorEvent`, the robots' poses, and the
-replay's header."""
+announce, never its true pose), a detection as a `SensorEvent`, the robots' poses and the
+replay's frames of them, and the replay's header."""
 
 from __future__ import annotations
+
+import functools
+
+import numpy as np
 
 from arena.angles import wrap
 from arena.level import Level
@@ -45,14 +49,31 @@ def brief_for(level: Level, slot: int) -> Brief:
     )
 
 
+_new_event = functools.partial(object.__new__, SensorEvent)
+
+
 def to_event(d: Detection) -> SensorEvent:
-    """An arena detection as the team sees it (nothing about which laser caused it)."""
-    return SensorEvent(d.time, d.kind, d.beacon, d.angle, d.samples)  # by position: half the cost of keywords
+    """An arena detection as the team sees it (nothing about which laser caused it). Built as
+    pickle builds one, its fields set at once: the frozen class's `__init__` sets each through
+    `object.__setattr__`, at twice the cost, for hundreds of events a simulated second."""
+    event = _new_event()
+    event.__dict__.update(time=d.time, kind=d.kind, beacon=d.beacon, angle=d.angle, samples=d.samples)
+    return event
 
 
 def poses(state: tuple[float, ...]) -> list[tuple[float, float, float]]:
     """Every robot's (x, y, heading wrapped to (-pi, pi]) from a world `state`."""
     return [(state[i], state[i + 1], wrap(state[i + 2])) for i in range(0, len(state), 3)]
+
+
+def frames(states: np.ndarray, tick: int, every: int, rate: int) -> list[list[float]]:
+    """The replay's frames of world `states` (rows), one every `every` steps from `tick`:
+    each row's `poses`, flat, then its time (tick / `rate`), as the writer takes them."""
+    rows = states.tolist()
+    for i, row in enumerate(rows):
+        row[2::3] = map(wrap, row[2::3])
+        row.append((tick + every * i) / rate)
+    return rows
 
 
 def replay_header(level: Level, teams: list[Team], seed: int, ideal: bool, noise_key: str | None) -> Header:

@@ -9,9 +9,10 @@ Each function raises TypeError, ValueError or KeyError where a value is not one 
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import math
-import re
+import operator
 from collections.abc import Iterable, Sequence
 from typing import Any, Protocol
 
@@ -33,8 +34,7 @@ class Detected(Protocol):
     def beam(self) -> tuple[float, float, float, float] | None: ...
 
 
-Pose = tuple[float, float, float]  # x, y, heading
-Frame = tuple[float, list[Pose]]  # time, every robot's pose
+Frame = list[float]  # as its line holds it: every robot's x, y and heading, then the time
 
 _FIXED = f"%.{DECIMALS}f"
 
@@ -53,23 +53,25 @@ def number(value: float) -> str:
     return text
 
 
-_TRAILING_ZEROS = re.compile("0+\n")
-
-
 def numbers(values: list[float]) -> list[str]:
-    """`number` of each value, formatted at once: one `%` for all of them and one pass to
-    drop their trailing zeros; the few outside the fast range (a heading near 0) one by one."""
+    """`number` of each value, formatted at once: one `%` for all of them, and a few plain
+    replaces that drop their trailing zeros (at most 9: 4, 4, 2, then 1, one line each). The
+    few that are not 0 yet round below 1e-4 (their text begins 0.0000), or reach 1e6, are
+    formatted one by one."""
     if not values or set(map(type, values)) != {float}:  # every one a float, checked at C speed
         return list(map(number, values))
-    text = _TRAILING_ZEROS.sub("\n", (_FIXED + "\n") * len(values) % tuple(values)).replace(".\n", ".0\n")
+    text = (_FIXED + "\n") * len(values) % tuple(values)
     if "n" in text:  # nan, inf
         raise TypeError("not finite")
+    text = text.replace("0000\n", "\n").replace("0000\n", "\n").replace("00\n", "\n").replace("0\n", "\n")
+    text = text.replace(".\n", ".0\n")
     texts = text.split("\n")
-    if not (1e-4 <= min(map(abs, values)) and max(map(abs, values)) < 1e6):
-        for i, v in enumerate(values):
-            if not 1e-4 <= abs(v) < 1e6:
-                texts[i] = number(v)
-    return texts[:-1]
+    texts.pop()  # after the last newline
+    if text.startswith(("0.0000", "-0.0000")) or "\n0.0000" in text or "\n-0.0000" in text:
+        texts = list(map(number, values))
+    elif not -1e6 < min(values) <= max(values) < 1e6:
+        texts = list(map(number, values))
+    return texts
 
 
 @functools.cache
@@ -120,25 +122,51 @@ def event_line(f: dict[str, Any]) -> str:
     return _EVENT % (_string(f["b"]), _string(f["kind"]), beam or "null", _int(f["r"]), _int(f["s"]), number(f["t"]))
 
 
-def event_lines(slot: int, detections: Sequence[Detected]) -> list[str]:
-    """The `e` records of one robot's detections, as `event_line` writes each (newline
-    included): their numbers formatted at once (`numbers`)."""
-    if type(slot) is not int:
+_EVENT_FIELDS = operator.attrgetter("time", "kind", "beacon", "source", "beam")
+_ONES = itertools.repeat(1.0)
+
+
+@functools.cache
+def _event_head(beacon: str | None, kind: str) -> str:
+    """An `e` record's line up to its beam: its beacon and kind (a handful per match)."""
+    return '{"b":' + _string(beacon) + ',"k":"e","kind":' + _string(kind) + ',"line":'
+
+
+_EVENT_TAIL = ',"r":%d,"s":%d,"t":%s}\n'  # an `e` record's line from its beam's end
+
+
+def event_lines(robots: Sequence[Sequence[Detected]]) -> list[str]:
+    """The `e` records of every robot's detections (robot k's are `robots[k]`), as
+    `event_line` writes each (newline included), a text per robot: their fields taken as
+    columns, all their numbers formatted by one `numbers`, each robot's lines by one `%`."""
+    counts = list(map(len, robots))
+    detections = list(itertools.chain.from_iterable(robots))
+    if not detections:
+        return [""] * len(robots)
+    slots = itertools.chain.from_iterable(map(itertools.repeat, range(len(robots)), counts))
+    times, kinds, beacons, sources, beams = zip(*map(_EVENT_FIELDS, detections))
+    if set(map(type, sources)) != {int}:
         raise TypeError("not an int")
-    values: list[float] = []
-    for d in detections:
-        values.append(d.time)
-        if d.beam is not None:
-            values += d.beam[:2]
-    formatted = iter(numbers(values))
-    r, lines = int.__repr__(slot), []
-    for d in detections:
-        t, beam = next(formatted), d.beam
-        text = _beam(next(formatted), next(formatted), *beam[2:]) if beam is not None else "null"
-        if type(d.source) is not int:
-            raise TypeError("not an int")
-        lines.append(_EVENT % (_string(d.beacon), _string(d.kind), text, r, int.__repr__(d.source), t) + "\n")
-    return lines
+    heads, n = map(_event_head, beacons, kinds), len(times)
+    lined = [b for b in beams if b is not None]
+    if set(map(len, lined)) - {4}:
+        raise ValueError("a beam is (x, y, beacon x, beacon y)")
+    xs, ys, bxs, bys = zip(*lined) if lined else ((), (), (), ())
+    texts = numbers([*times, *xs, *ys])
+    places = map(_place, bxs, bys, map(math.copysign, _ONES, bxs), map(math.copysign, _ONES, bys))
+    if len(lined) == n:  # every one with its beam (as a rule)
+        form, size = "%s[%s,%s,%s]" + _EVENT_TAIL, 7
+        fields = zip(heads, texts[n : 2 * n], texts[2 * n :], places, slots, sources, texts[:n])
+    else:
+        x, y = iter(texts[n : n + len(lined)]), iter(texts[n + len(lined) :])
+        beam_texts = ["null" if b is None else "[" + next(x) + "," + next(y) + "," + next(places) + "]" for b in beams]
+        form, size = "%s%s" + _EVENT_TAIL, 5
+        fields = zip(heads, beam_texts, slots, sources, texts[:n])
+    values, out, at = tuple(itertools.chain.from_iterable(fields)), [], 0
+    for count in counts:
+        out.append(form * count % values[at : at + size * count])
+        at += size * count
+    return out
 
 
 def estimate_line(f: dict[str, Any]) -> str:
@@ -148,19 +176,26 @@ def estimate_line(f: dict[str, Any]) -> str:
     return '{"e":' + _floats(f["e"]) + ',"k":"est","r":' + _int(f["r"]) + ',"t":' + number(f["t"]) + "}"
 
 
-def frame_line(time: float, poses: list[Pose]) -> str:
+def frame_line(time: float, poses: Sequence[Sequence[float]]) -> str:
     """One `f` record's line."""
     return '{"k":"f","p":[' + ",".join(map(_floats, poses)) + '],"t":' + number(time) + "}"
 
 
-def frame_lines(frames: list[Frame]) -> list[str]:
-    """The `f` records of `frames` (newline included), their numbers formatted at once."""
-    if any(len(p) != 3 for _, poses in frames for p in poses):
-        raise ValueError("a pose is (x, y, heading)")
-    formatted = iter(numbers([v for time, poses in frames for v in (time, *(u for p in poses for u in p))]))
-    lines = []
-    for _, poses in frames:
-        t = next(formatted)
-        p = ",".join("[" + next(formatted) + "," + next(formatted) + "," + next(formatted) + "]" for _ in poses)
-        lines.append('{"k":"f","p":[' + p + '],"t":' + t + "}\n")
-    return lines
+@functools.cache
+def _frame_format(size: int) -> str:
+    """An `f` record's line for a `Frame` of `size` numbers, the numbers left to `%`."""
+    if size % 3 != 1:
+        raise ValueError("a frame is (x, y, heading) per robot, then the time")
+    return '{"k":"f","p":[' + ",".join(["[%s,%s,%s]"] * (size // 3)) + '],"t":%s}\n'
+
+
+def frame_lines(frames: list[Frame]) -> str:
+    """The `f` records of `frames` (newline included), at once: their numbers formatted by
+    one `numbers`, in the order the lines hold them, and every line by one `%`."""
+    values = list(itertools.chain.from_iterable(frames))
+    return "".join(map(_frame_format, map(len, frames))) % tuple(numbers(values))
+
+
+def frame_poses(frame: Frame) -> list[list[float]]:
+    """A `Frame`'s poses, each [x, y, heading]."""
+    return [frame[i : i + 3] for i in range(0, len(frame) - 1, 3)]

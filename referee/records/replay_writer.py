@@ -24,23 +24,24 @@ from referee.errors import ReplayError
 from referee.records import replay_lines
 from referee.records.canonical import DECIMALS, dumps
 from referee.records.replay_format import Header, Replay
-from referee.records.replay_lines import Detected, Frame, Pose
+from referee.records.replay_lines import Detected, Frame
 from referee.records.results import MatchResult
 
 _QUEUED = 8  # chunks of records waiting for the compressor at most (then the match waits)
+_CHUNK = 512  # lines in a chunk at least (but the last): where the writes fall, the same bytes
 
 
 class Recorder(Protocol):
     """Where a match records what happens, in the order it is known."""
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         """Every robot's true pose at `time`."""
 
     def frames(self, frames: list[Frame]) -> None:
-        """Frames (time, every robot's pose), in order."""
+        """Frames, in order, each every robot's x, y and heading, then the time."""
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        """The `e` records of robot `slot`'s detections."""
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        """The `e` records of every robot's detections (robot k's are `robots[k]`)."""
 
     def record(self, record_kind: str, **fields: Any) -> None:
         """A record of kind `record_kind` (est, dbg, trial, foul, fault, e) and its fields."""
@@ -63,7 +64,8 @@ class ReplayWriter:
         self.gz = gzip.GzipFile(filename="", mode="wb", fileobj=raw, mtime=0, compresslevel=6)
         self.raw = raw
         self.file: IO[str] = io.TextIOWrapper(self.gz, encoding="utf-8", newline="\n")
-        self._lines: list[str] = []  # records not yet handed to the compressor
+        self._lines: list[str] = []  # records not yet handed to the compressor, a few lines each
+        self._count = 0  # how many lines they hold: a chunk is handed on at _CHUNK lines or more
         # the compressor's own thread: zlib lets go of the GIL, so it compresses while the
         # match runs on (the same chunks in the same order: the same bytes)
         self._chunks: queue.Queue[str | None] = queue.Queue(maxsize=_QUEUED)
@@ -73,6 +75,14 @@ class ReplayWriter:
 
     def _write(self, obj: dict[str, Any]) -> None:
         self._lines.append(dumps(obj, indent=None) + "\n")
+        self._count += 1
+
+    def _add(self, text: str, lines: int) -> None:
+        """Hot records' `lines` lines at once, then on to the compressor if a chunk is full."""
+        self._lines.append(text)
+        self._count += lines
+        if self._count >= _CHUNK:
+            self._flush()
 
     def _hot(self, line: str | None, record: Callable[[], dict[str, Any]]) -> None:
         """A hot record (frame, event, estimate), formatted by hand (`replay_lines`), or where
@@ -80,9 +90,7 @@ class ReplayWriter:
         encoder from `record()`."""
         if line is None:
             line = json.dumps(record(), sort_keys=True, separators=(",", ":"))
-        self._lines.append(line + "\n")
-        if len(self._lines) >= 512:
-            self._flush()
+        self._add(line + "\n", 1)
 
     def _flush(self) -> None:
         """Hand the records so far to the compressor's thread (its failure, if any, is raised here)."""
@@ -93,6 +101,7 @@ class ReplayWriter:
             self._compressor.start()
         self._chunks.put("".join(self._lines))
         self._lines.clear()
+        self._count = 0
 
     def _compress(self) -> None:
         while (chunk := self._chunks.get()) is not None:
@@ -108,10 +117,7 @@ class ReplayWriter:
             self._chunks.put(None)
             self._compressor.join()
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
-        self.frames([(time, poses)])
-
-    def _frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         line: str | None
         try:
             line = replay_lines.frame_line(time, poses)
@@ -121,27 +127,28 @@ class ReplayWriter:
         self._hot(line, lambda: {"k": "f", "t": round(time, DECIMALS), "p": [rounded(p) for p in poses]})
 
     def frames(self, frames: list[Frame]) -> None:
-        """Frames (time, every robot's pose), their numbers formatted at once."""
+        """Frames (every robot's x, y and heading, then the time), their numbers formatted at once."""
         try:
-            lines = replay_lines.frame_lines(frames)
+            text = replay_lines.frame_lines(frames)
         except (TypeError, ValueError):  # a value the encoder must write: one frame at a time
-            for time, poses in frames:
-                self._frame(time, poses)
+            for frame in frames:
+                self.frame(frame[-1], replay_lines.frame_poses(frame))
             return
-        self._lines += lines
-        if len(self._lines) >= 512:
-            self._flush()
+        self._add(text, len(frames))
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        """The `e` records of robot `slot`'s detections (arena.sensing.events.Detection), at once."""
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        """The `e` records of every robot's detections (arena.sensing.events.Detection; robot
+        k's are `robots[k]`), at once; handed on a robot at a time, as chunks always were."""
         try:
-            self._lines += replay_lines.event_lines(slot, detections)
+            texts = replay_lines.event_lines(robots)
         except (TypeError, ValueError):  # a value the encoder must write: one record at a time
-            for d in detections:
-                self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+            for slot, detections in enumerate(robots):
+                for d in detections:
+                    self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
             return
-        if len(self._lines) >= 512:
-            self._flush()
+        for text, detections in zip(texts, robots):
+            if detections:
+                self._add(text, len(detections))
 
     def record(self, record_kind: str, **fields: Any) -> None:
         if record_kind not in ("e", "est"):
@@ -193,16 +200,17 @@ class MemoryRecorder:
     def __init__(self, header: Header):
         self.replay = Replay(header.to_dict())
 
-    def frame(self, time: float, poses: list[Pose]) -> None:
+    def frame(self, time: float, poses: Sequence[Sequence[float]]) -> None:
         self.replay.frames.append((time, [list(p) for p in poses]))
 
     def frames(self, frames: list[Frame]) -> None:
-        for time, poses in frames:
-            self.frame(time, poses)
+        for frame in frames:
+            self.replay.frames.append((frame[-1], replay_lines.frame_poses(frame)))
 
-    def events(self, slot: int, detections: Sequence[Detected]) -> None:
-        for d in detections:
-            self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
+    def events(self, robots: Sequence[Sequence[Detected]]) -> None:
+        for slot, detections in enumerate(robots):
+            for d in detections:
+                self.record("e", t=d.time, r=slot, s=d.source, kind=d.kind, b=d.beacon, line=d.beam)
 
     def record(self, record_kind: str, **fields: Any) -> None:
         lists = {
