@@ -4,8 +4,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from types import MappingProxyType
+from typing import Any
+
+
+def _with_proxies(cls: type, values: dict[str, Any]) -> Any:
+    """An instance of the dataclass `cls` from its field values, each dict read-only again."""
+    return cls(**{k: MappingProxyType(v) if isinstance(v, dict) else v for k, v in values.items()})
+
+
+def _reduce_proxies(self: Any) -> tuple:
+    """Pickles a frozen dataclass whose read-only mappings (a mappingproxy does not pickle)
+    travel as dicts: a Level goes whole to an async vector env's workers."""
+    values = {f.name: getattr(self, f.name) for f in fields(self)}
+    return _with_proxies, (
+        type(self),
+        {k: dict(v) if isinstance(v, MappingProxyType) else v for k, v in values.items()},
+    )
 
 
 @dataclass(frozen=True)
@@ -80,6 +96,8 @@ class Beacons:
     radius: float
     params: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
     crosstalk: str = "coded"  # sensor_array: "shared" = every robot sees every laser's pulses
+
+    __reduce__ = _reduce_proxies
 
     def by_id(self, beacon_id: str) -> Beacon:
         for b in self.items:
@@ -267,6 +285,8 @@ class Rules:
             }
         )
     )
+
+    __reduce__ = _reduce_proxies
 
 
 @dataclass(frozen=True)

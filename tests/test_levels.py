@@ -2,6 +2,8 @@
 
 import json
 import math
+import pickle
+from types import MappingProxyType
 
 import pytest
 from helpers import run_cli
@@ -139,6 +141,16 @@ def test_asabe_race_shared_is_the_race_on_bacs_arrays():
     assert (coded.beacons.crosstalk, shared.beacons.crosstalk) == ("coded", "shared")
     assert shared.robots == coded.robots and shared.beacons.params == coded.beacons.params
     assert shared.beacons.items == coded.beacons.items and shared.task == coded.task
+
+
+@pytest.mark.parametrize("name", ALL)
+def test_a_level_pickles_whole_and_stays_read_only(name):
+    """An async vector env's workers get their keywords pickled: a loaded Level goes as it is."""
+    lv = load(name)
+    data = pickle.dumps(lv)
+    back = pickle.loads(data)
+    assert pickle.dumps(back) == data and back.hash == lv.hash  # bytes: a goal's heading may be NaN, never equal
+    assert isinstance(back.beacons.params, MappingProxyType) and isinstance(back.rules.penalties, MappingProxyType)
 
 
 @pytest.mark.parametrize("name", ALL)

@@ -13,19 +13,20 @@ gymnasium = pytest.importorskip("gymnasium", reason="the rl extra is not install
 
 import levels  # noqa: E402
 import referee.gym  # noqa: E402  (registers LaserArena-v0)
+from arena.loader import load_level  # noqa: E402
 
 WAIT = 120  # s: the most any one reset or step of a worker may take
 
 
-@pytest.fixture
-def short_level(tmp_path):
-    """bac-line cut to 1 s (5 control periods), as a file: a loaded Level does not pickle, so
-    an async vector env's workers are given the level by name or path."""
+@pytest.fixture(params=["path", "level"])
+def short_level(request, tmp_path):
+    """bac-line cut to 1 s (5 control periods), named by its file's path or loaded (a Level
+    pickles whole to an async vector env's workers)."""
     d = yaml.safe_load(levels.path("bac-line").read_text())
     d["time_limit"] = 1.0
     path = tmp_path / "bac-line-1s.yaml"
     path.write_text(yaml.safe_dump(d))
-    return str(path)
+    return str(path) if request.param == "path" else load_level(path)
 
 
 def play(envs, steps: int) -> list[tuple]:

@@ -40,6 +40,7 @@ class LaserArenaParallelEnv(ParallelEnv):
         n = len(level.robots)
         self.session = AgentSession(level, tuple(range(n)), [], ideal, report_estimate, replay, goal)
         self.possible_agents = [f"robot_{s}" for s in range(n)]
+        self.slots = {agent: s for s, agent in enumerate(self.possible_agents)}  # agent name -> robot slot
         self.agents: list[str] = []
         self.render_mode, self.render_size = render_mode, render_size
         self._rng = np.random.default_rng()
@@ -49,7 +50,7 @@ class LaserArenaParallelEnv(ParallelEnv):
     def observation_space(self, agent: str) -> gymnasium.spaces.Box:
         """`agent`'s observation space: the same object on every call, as PettingZoo expects."""
         if agent not in self._observation_spaces:
-            enc = self.session.encoders[self._slot(agent)]
+            enc = self.session.encoders[self.slots[agent]]
             self._observation_spaces[agent] = gymnasium.spaces.Box(enc.low, enc.high, dtype=np.float32)
         return self._observation_spaces[agent]
 
@@ -60,9 +61,6 @@ class LaserArenaParallelEnv(ParallelEnv):
             self._action_spaces[agent] = gymnasium.spaces.Box(-1.0, 1.0, size, dtype=np.float32)
         return self._action_spaces[agent]
 
-    def _slot(self, agent: str) -> int:
-        return self.possible_agents.index(agent)
-
     def reset(self, seed: int | None = None, options: dict | None = None):
         """A new match: with `seed`, that match seed; without, the next from the env's generator."""
         if seed is not None:
@@ -70,17 +68,14 @@ class LaserArenaParallelEnv(ParallelEnv):
         match_seed = seed if seed is not None else int(self._rng.integers(0, 2**31 - 1))
         obs = self.session.reset(match_seed)
         self.agents = list(self.possible_agents)
-        return ({a: obs[self._slot(a)] for a in self.agents}, {a: {"seed": match_seed} for a in self.agents})
+        return ({a: obs[self.slots[a]] for a in self.agents}, {a: {"seed": match_seed} for a in self.agents})
 
     def step(self, actions: dict):
-        out = self.session.step({self._slot(a): actions[a] for a in self.agents if a in actions})
-        live = list(self.agents)
-
-        def pick(d: dict) -> dict:
-            return {a: d[self._slot(a)] for a in live}
-
-        result = (pick(out.observations), pick(out.rewards), pick(out.terminated), pick(out.truncated), pick(out.infos))
-        self.agents = [a for a in live if not (out.terminated[self._slot(a)] or out.truncated[self._slot(a)])]
+        slots = self.slots
+        out = self.session.step({slots[a]: actions[a] for a in self.agents if a in actions})
+        live = [(a, slots[a]) for a in self.agents]
+        result = tuple({a: d[s] for a, s in live} for d in out)  # observations, rewards, terminated, truncated, infos
+        self.agents = [a for a, s in live if not (out.terminated[s] or out.truncated[s])]
         return result
 
     def render(self):

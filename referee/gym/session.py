@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -31,9 +31,9 @@ AGENT_SPEC = "ref:idle"  # what the replay header names for an agent slot (its a
 AGENT_HASH = "sha256:" + hashlib.sha256(AGENT_SPEC.encode()).hexdigest()  # no code ships for an agent
 
 
-@dataclass(frozen=True)
-class Step:
-    """One control tick's outcome for the agent slots (dicts keyed by slot)."""
+class Step(NamedTuple):
+    """One control tick's outcome for the agent slots (dicts keyed by slot); a tuple, the
+    cheapest record to build at every env step."""
 
     observations: dict[int, np.ndarray]
     rewards: dict[int, float]
@@ -116,15 +116,18 @@ class AgentSession:
     def _observe(self) -> dict[int, np.ndarray]:
         """The control tick's first half: deliver events, let the other slots answer."""
         m = self._live()
-        observations = m.observe()
-        for slot, obs in enumerate(observations):
+        for slot, obs in enumerate(m.observe()):
             if obs is None:
                 continue
             if slot in self.others:
                 m.answer(slot, m.fleet.bots[slot].step(obs))
             else:
                 self.encoders[slot].take(obs)
-        return {s: self.encoders[s].encode(m.world.time) for s in self.agents}
+        return self._encode(m.world.time)
+
+    def _encode(self, time: float) -> dict[int, np.ndarray]:
+        """Every agent's observation vector at `time` (the encoders are keyed in agent order)."""
+        return {slot: encoder.encode(time) for slot, encoder in self.encoders.items()}
 
     def step(self, actions: dict[int, np.ndarray]) -> Step:
         """Apply the agents' actions for one control period and return what follows."""
@@ -151,7 +154,7 @@ class AgentSession:
         if m.ended or all(terminated.values()):
             self.result = m.end()  # the rules' last fouls count in this last reward
             m.ended = True
-            observations = {s: self.encoders[s].encode(m.world.time) for s in self.agents}
+            observations = self._encode(m.world.time)
         else:
             observations = self._observe()
         rewards: dict[int, float] = {}
