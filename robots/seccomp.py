@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import functools
 import os
 import platform
 import struct
@@ -77,9 +78,11 @@ def _ret(error: int | None) -> tuple[int, int, int, int]:
     return (BPF_RET, 0, 0, SECCOMP_RET_ALLOW if error is None else SECCOMP_RET_ERRNO | error)
 
 
+@functools.cache
 def program() -> bytes | None:
     """The filter as the kernel's sock_filter array, or None on an architecture whose call
-    numbers we do not know (its controllers run unfiltered)."""
+    numbers we do not know (its controllers run unfiltered). Built once per process (the
+    controller template builds it before it forks)."""
     known = ARCHES.get(platform.machine())
     if known is None:
         return None
