@@ -62,6 +62,9 @@ PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them 
 PTYS = 16  # pseudo-terminals a slot may hold at once: the kernel's pool for every devpts but the host's is shared
 
 _libc = ctypes.CDLL(None, use_errno=True)
+_libc.prctl.argtypes = (ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong)
+with open("/proc/sys/kernel/cap_last_cap") as _last:
+    LAST_CAP = int(_last.read())  # the kernel's last capability: the bounding set is emptied up to it
 
 
 def _check(result: int, what: str) -> None:
@@ -84,15 +87,20 @@ def _mount(source: str | None, target: str, fstype: str | None, flags: int, data
 
 
 def _prctl(option: int, arg: int, arg3: int = 0) -> None:
-    _check(_libc.prctl(option, ctypes.c_ulong(arg), ctypes.c_ulong(arg3), 0, 0), f"prctl {option}")
+    if _libc.prctl(option, arg, arg3, 0, 0) != 0:
+        _check(-1, f"prctl {option}")
 
 
-def _tmpfs(target: str) -> None:
-    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
-    the mounts the template had below it (an interpreter or virtual environment installed
-    under /tmp, bound there read-only) bound again at their paths, above it."""
+def _mount_points() -> list[str]:
+    """Every mount point of this mount namespace, from its mountinfo."""
     with open("/proc/self/mountinfo") as info:
-        points = [line.split()[4] for line in info]
+        return [line.split()[4] for line in info]
+
+
+def _tmpfs(target: str, points: list[str]) -> None:
+    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
+    the mounts the template had below it (`points`: an interpreter or virtual environment
+    installed under /tmp, bound there read-only) bound again at their paths, above it."""
     below = [p for p in points if p.startswith(target + "/")]
     tops = sorted({p for p in below if not any(p.startswith(q + "/") for q in below)})
     held = [os.open(p, os.O_PATH | os.O_DIRECTORY | os.O_CLOEXEC) for p in tops]  # reachable once covered
@@ -150,8 +158,7 @@ def _team(bundle: int, files: list[tuple[str, int]]) -> None:
 def _drop_privileges(uid: int) -> None:
     """Root -> the slot's uid and group, no supplementary groups, no capabilities (bounding,
     ambient and inheritable sets emptied), no-new-privs: what `setpriv` does before an exec."""
-    last = int(open("/proc/sys/kernel/cap_last_cap").read())
-    for cap in range(last + 1):
+    for cap in range(LAST_CAP + 1):
         _prctl(PR_CAPBSET_DROP, cap)
     _prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL)
     os.setgroups([])
@@ -182,13 +189,14 @@ def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> 
             os.dup2(fd, target)
         os.closerange(3, 1 << 20)  # nothing of the template's or the referee's
         _drop_privileges(int(config["uid"]))
-        seccomp.install()
+        seccomp.install()  # the filter prepared before the fork (`serve`)
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)
         os.chdir("/tmp")
-        importlib.invalidate_caches()  # /team was an empty folder when the template looked
-        sys.path_importer_cache.pop(TEAM_DIR, None)
+        sys.path_importer_cache.pop(
+            TEAM_DIR, None
+        )  # /team is new; every other folder the template's finders cached is the same read-only one
         sys.argv = [robots.runner.__file__, *config["argv"]]
         code = robots.runner.main(config["argv"])
     except BaseException:
@@ -224,8 +232,9 @@ def _slot(watch: socket.socket, config: socket.socket) -> None:
         _check(_libc.unshare(flags), "unshare")
         _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
-        _tmpfs("/tmp")
-        _tmpfs("/dev/shm")
+        points = _mount_points()  # as the template has them: what is below /tmp and /dev/shm
+        _tmpfs("/tmp", points)
+        _tmpfs("/dev/shm", points)
         _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, f"newinstance,ptmxmode=0666,mode=620,max={PTYS}")
         _team(bundle, [(rel, int(size)) for rel, size in settings["files"]])
         os.close(bundle)
@@ -357,7 +366,7 @@ def serve(control_fd: int) -> None:
     control = socket.socket(fileno=control_fd)
     own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
     _preload()
-    seccomp.program()  # built once here, not in every controller
+    seccomp.prepare()  # the filter built once here, not in every controller
     gc.freeze()  # the collector leaves the template's objects alone: fewer pages copied in each child
     control.send(b"r")
     by_pidfd: dict[int, _Watched] = {}
