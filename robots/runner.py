@@ -36,21 +36,24 @@ def _private_channel() -> tuple:
     return proto_in, proto_out
 
 
-def _reader(stream):
-    """Buffered exact reads on an unbuffered pipe."""
+READ_SIZE = 1 << 16  # bytes asked of the pipe at once: a message's header and body come in one read
 
-    class Exact:
-        def read(self, n: int) -> bytes:
-            chunks, left = [], n
-            while left:
-                chunk = stream.read(left)
-                if not chunk:
-                    break
-                chunks.append(chunk)
-                left -= len(chunk)
-            return b"".join(chunks)
 
-    return Exact()
+class _Reader:
+    """Exact reads (`read(n)`: n bytes, fewer only at end of stream) on an unbuffered pipe,
+    buffered: the frame's header and its message come in one read, not two."""
+
+    def __init__(self, stream: Any):
+        self.stream, self.buf = stream, b""
+
+    def read(self, n: int) -> bytes:
+        while len(self.buf) < n:
+            chunk = self.stream.read(max(n - len(self.buf), READ_SIZE))
+            if not chunk:
+                break
+            self.buf += chunk
+        out, self.buf = self.buf[:n], self.buf[n:]
+        return out
 
 
 def _fault(out, kind: protocol.FaultKind, where: str, e: BaseException) -> None:
@@ -155,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     if path:  # last: the standard library and `robots` come first, whatever the team names its modules
         sys.path.append(path)
     raw_in, out = _private_channel()
-    inp = _reader(raw_in)
+    inp = _Reader(raw_in)
     v: Final = protocol.PROTOCOL_VERSION
     try:
         cls = load_class(spec)

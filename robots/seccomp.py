@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import functools
 import os
 import platform
 import struct
+from collections.abc import Callable
 
 CLONE_NEW = 0x7E020000  # CLONE_NEWNS | NEWCGROUP | NEWUTS | NEWIPC | NEWUSER | NEWPID | NEWNET
 
@@ -77,9 +79,11 @@ def _ret(error: int | None) -> tuple[int, int, int, int]:
     return (BPF_RET, 0, 0, SECCOMP_RET_ALLOW if error is None else SECCOMP_RET_ERRNO | error)
 
 
+@functools.cache
 def program() -> bytes | None:
     """The filter as the kernel's sock_filter array, or None on an architecture whose call
-    numbers we do not know (its controllers run unfiltered)."""
+    numbers we do not know (its controllers run unfiltered). Built once per process (the
+    controller template builds it before it forks)."""
     known = ARCHES.get(platform.machine())
     if known is None:
         return None
@@ -113,13 +117,21 @@ class _SockFprog(ctypes.Structure):
     _fields_ = [("len", ctypes.c_ushort), ("filter", ctypes.c_char_p)]
 
 
+@functools.cache
+def prepare() -> Callable[[], int] | None:
+    """The call that installs the filter, its program and arguments made (once per process: the
+    controller template prepares it before it forks); None where there is no filter."""
+    code = program()
+    if code is None:
+        return None
+    prog = _SockFprog(len(code) // INSTRUCTION.size, code)  # its `filter` points into `code`, cached
+    prctl = ctypes.CDLL(None, use_errno=True).prctl
+    return functools.partial(prctl, PR_SET_SECCOMP, ctypes.c_ulong(SECCOMP_MODE_FILTER), ctypes.byref(prog), 0, 0)
+
+
 def install() -> None:
     """Put this process (and whatever it starts) under the filter; needs no-new-privs or
     CAP_SYS_ADMIN. OSError if the kernel refuses it."""
-    code = program()
-    if code is None:
-        return
-    prog = _SockFprog(len(code) // INSTRUCTION.size, code)
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.prctl(PR_SET_SECCOMP, ctypes.c_ulong(SECCOMP_MODE_FILTER), ctypes.byref(prog), 0, 0) != 0:
+    call = prepare()
+    if call is not None and call() != 0:
         raise OSError(ctypes.get_errno(), f"seccomp filter: {os.strerror(ctypes.get_errno())}")

@@ -4,18 +4,21 @@ Started by a root referee inside a bubblewrap sandbox that holds only the shared
 system view (no team's code, no /team content, its own PID namespace, no network). It imports
 what every controller start would import (`robots.runner`, msgspec) and preloads numpy and the
 reference controllers, then forks one controller per request. A request is one datagram on
-the control socket (its descriptor number is the one argument) carrying one descriptor: a socket of the slot's own. The template
-never reads anything of a team: the forked child reads its configuration from that socket.
+the control socket (its descriptor number is the one argument) carrying two sockets of the
+slot's own: the one the referee watches the slot by and the one its configuration comes on.
+The template never reads anything of a team: the forked child reads its configuration itself.
 
-The child (the slot's monitor) gives itself new mount, PID, network, IPC, UTS and cgroup
-namespaces, mounts its private /tmp, /dev/shm and /dev/pts, copies its team's files (one
-memfd) to a read-only /team, makes every other mount read-only, and forks the controller:
-the init of the new PID namespace. That process joins the slot's control groups (through
-descriptors of their `cgroup.procs` the referee opened), mounts its own /proc, takes its pipes as fds
-0-2 and closes every other descriptor, leaves root for the slot's uid with no capabilities
-and no-new-privs, puts itself under robots/seccomp.py's filter, and runs `robots.runner.main`, which sets the limits before team code loads.
-The monitor waits for it, kills it on the referee's word or when the referee's end of the
-socket closes, and sends its exit status back (bwrap's convention: the code, or 128 + signal).
+The child is the init of a new PID namespace (the template unshares one for it and returns
+to its own at once). It gives itself new mount, network, IPC, UTS and cgroup namespaces,
+mounts its private /tmp, /dev/shm and /dev/pts, copies its team's files (one memfd) to a
+read-only /team, makes every other mount read-only, joins the slot's control groups (through
+descriptors of their `cgroup.procs` the referee opened), mounts its own /proc, takes its pipes
+as fds 0-2 and closes every other descriptor, leaves root for the slot's uid with no
+capabilities and no-new-privs, puts itself under robots/seccomp.py's filter, and runs
+`robots.runner.main`, which sets the limits before team code loads. The template watches it:
+it kills it on the referee's word or when the referee's end of the watch socket closes, and
+sends its exit status back there (bwrap's convention: the code, or 128 + signal). One process
+per slot, forked once.
 docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md say why.
 """
 
@@ -27,7 +30,7 @@ import importlib.abc
 import importlib.machinery
 import json
 import os
-import resource
+import resource  # noqa: F401 (the runner sets its limits with it: imported once here, not in each controller)
 import select
 import signal
 import socket
@@ -59,6 +62,9 @@ PROC_READ_ONLY = ("sys", "sysrq-trigger", "irq", "bus")  # as bwrap leaves them 
 PTYS = 16  # pseudo-terminals a slot may hold at once: the kernel's pool for every devpts but the host's is shared
 
 _libc = ctypes.CDLL(None, use_errno=True)
+_libc.prctl.argtypes = (ctypes.c_int, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_ulong)
+with open("/proc/sys/kernel/cap_last_cap") as _last:
+    LAST_CAP = int(_last.read())  # the kernel's last capability: the bounding set is emptied up to it
 
 
 def _check(result: int, what: str) -> None:
@@ -81,15 +87,20 @@ def _mount(source: str | None, target: str, fstype: str | None, flags: int, data
 
 
 def _prctl(option: int, arg: int, arg3: int = 0) -> None:
-    _check(_libc.prctl(option, ctypes.c_ulong(arg), ctypes.c_ulong(arg3), 0, 0), f"prctl {option}")
+    if _libc.prctl(option, arg, arg3, 0, 0) != 0:
+        _check(-1, f"prctl {option}")
 
 
-def _tmpfs(target: str) -> None:
-    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
-    the mounts the template had below it (an interpreter or virtual environment installed
-    under /tmp, bound there read-only) bound again at their paths, above it."""
+def _mount_points() -> list[str]:
+    """Every mount point of this mount namespace, from its mountinfo."""
     with open("/proc/self/mountinfo") as info:
-        points = [line.split()[4] for line in info]
+        return [line.split()[4] for line in info]
+
+
+def _tmpfs(target: str, points: list[str]) -> None:
+    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
+    the mounts the template had below it (`points`: an interpreter or virtual environment
+    installed under /tmp, bound there read-only) bound again at their paths, above it."""
     below = [p for p in points if p.startswith(target + "/")]
     tops = sorted({p for p in below if not any(p.startswith(q + "/") for q in below)})
     held = [os.open(p, os.O_PATH | os.O_DIRECTORY | os.O_CLOEXEC) for p in tops]  # reachable once covered
@@ -147,8 +158,7 @@ def _team(bundle: int, files: list[tuple[str, int]]) -> None:
 def _drop_privileges(uid: int) -> None:
     """Root -> the slot's uid and group, no supplementary groups, no capabilities (bounding,
     ambient and inheritable sets emptied), no-new-privs: what `setpriv` does before an exec."""
-    last = int(open("/proc/sys/kernel/cap_last_cap").read())
-    for cap in range(last + 1):
+    for cap in range(LAST_CAP + 1):
         _prctl(PR_CAPBSET_DROP, cap)
     _prctl(PR_CAP_AMBIENT, PR_CAP_AMBIENT_CLEAR_ALL)
     os.setgroups([])
@@ -162,8 +172,8 @@ def _drop_privileges(uid: int) -> None:
 
 
 def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> None:
-    """The slot's init: its control groups, its /proc, its descriptors, its uid, then the
-    runner. Never returns."""
+    """The slot's init, its namespaces and mounts made (`_slot`): its control groups, its
+    /proc, its descriptors, its uid, then the runner. Never returns."""
     code = 1
     try:
         for fd in groups:  # joined while still root: all it and its children hold is counted there
@@ -177,15 +187,16 @@ def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> 
                 _mount(None, path, None, MS_REMOUNT | MS_BIND | MS_RDONLY | MS_NOSUID | MS_NODEV | MS_NOEXEC)
         for target, fd in enumerate(stdio):
             os.dup2(fd, target)
-        os.closerange(3, 1 << 20)  # nothing of the template's, the monitor's or the referee's
+        os.closerange(3, 1 << 20)  # nothing of the template's or the referee's
         _drop_privileges(int(config["uid"]))
-        seccomp.install()
+        seccomp.install()  # the filter prepared before the fork (`serve`)
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)  # after the uid change, which clears it
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)
         os.chdir("/tmp")
-        importlib.invalidate_caches()  # /team was an empty folder when the template looked
-        sys.path_importer_cache.pop(TEAM_DIR, None)
+        sys.path_importer_cache.pop(
+            TEAM_DIR, None
+        )  # /team is new; every other folder the template's finders cached is the same read-only one
         sys.argv = [robots.runner.__file__, *config["argv"]]
         code = robots.runner.main(config["argv"])
     except BaseException:
@@ -196,72 +207,95 @@ def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> 
         os._exit(code)
 
 
-def _monitor(slot: socket.socket) -> None:
-    """The forked child for one slot (still root, in the template's sandbox). Never returns."""
-    status, cpu = 128 + signal.SIGKILL, 0.0
+def _close_all_but(keep: set[int]) -> None:
+    """Close every descriptor of this process but `keep`: nothing of the template's (its other
+    slots' sockets and pidfds, its own PID namespace) is the slot's."""
+    low = 0
+    for fd in sorted(keep):
+        os.closerange(low, fd)
+        low = fd + 1
+    os.closerange(low, 1 << 20)
+
+
+def _slot(watch: socket.socket, config: socket.socket) -> None:
+    """The forked child for one slot, the init of its new PID namespace (still root, in the
+    template's sandbox): its configuration, namespaces and mounts, then the controller. Never
+    returns; what fails before the team's code runs is said on `watch` (`e` and the reason)."""
     try:
         _prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
-        message, fds, _, _ = socket.recv_fds(slot, 1 << 20, 8)
-        config = json.loads(message)
-        keep = {slot.fileno(), *fds}
-        for name in os.listdir("/proc/self/fd"):  # the template's descriptors are not the slot's
-            if int(name) not in keep:
-                try:
-                    os.close(int(name))
-                except OSError:
-                    pass  # the listing's own descriptor, closed meanwhile
+        message, fds, _, _ = socket.recv_fds(config, 1 << 20, 8)
+        config.close()
+        settings = json.loads(message)
+        _close_all_but({watch.fileno(), *fds})
         stdio, bundle, groups = fds[:3], fds[3], fds[4:]
-        flags = CLONE_NEWNS | CLONE_NEWPID | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
+        flags = CLONE_NEWNS | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
         _check(_libc.unshare(flags), "unshare")
         _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
-        _tmpfs("/tmp")
-        _tmpfs("/dev/shm")
+        points = _mount_points()  # as the template has them: what is below /tmp and /dev/shm
+        _tmpfs("/tmp", points)
+        _tmpfs("/dev/shm", points)
         _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, f"newinstance,ptmxmode=0666,mode=620,max={PTYS}")
-        _team(bundle, [(rel, int(size)) for rel, size in config["files"]])
+        _team(bundle, [(rel, int(size)) for rel, size in settings["files"]])
         os.close(bundle)
         _read_only_everywhere(("/tmp", "/dev/shm", "/dev/pts"))
-        if config.get("cpus"):  # the referee's CPU, shared with it (referee/sandbox/affinity.py)
-            os.sched_setaffinity(0, [int(c) for c in config["cpus"]])
-        pid = os.fork()
-        if pid == 0:
-            slot.close()
-            _controller(config, stdio, groups)
-        for fd in (*stdio, *groups):
-            os.close(fd)
-        status, cpu = _watch(slot, pid)
+        if settings.get("cpus"):  # the referee's CPU, shared with it (referee/sandbox/affinity.py)
+            os.sched_setaffinity(0, [int(c) for c in settings["cpus"]])
     except BaseException as e:
         try:
-            slot.send(b"e" + protocol.describe(e)[:400].encode())
-        except OSError:
-            pass
-        os._exit(1)
+            watch.send(b"e" + protocol.describe(e)[:400].encode())
+        finally:
+            os._exit(1)
+    watch.close()
+    _controller(settings, stdio, groups)
+
+
+def _fork(watch: socket.socket, config: socket.socket, own_pids: int) -> int:
+    """Fork the slot of `watch` and `config` as the init of a new PID namespace; the template's
+    own children stay in its namespace (`own_pids`, restored at once). The child's pid."""
+    _check(_libc.unshare(CLONE_NEWPID), "unshare")
+    pid = -1
     try:
-        mine = resource.getrusage(resource.RUSAGE_SELF)
-        slot.send(b"s" + struct.pack("<id", status, cpu + mine.ru_utime + mine.ru_stime))
+        pid = os.fork()
+        if pid == 0:
+            _slot(watch, config)
     finally:
-        os._exit(0)
+        if pid != 0 and _libc.setns(own_pids, CLONE_NEWPID) != 0:
+            os._exit(1)  # its next slots would be born in this one's namespace: the template ends
+    return pid
 
 
-def _watch(slot: socket.socket, pid: int) -> tuple[int, float]:
-    """Wait for the controller to end; kill it if the referee says `k` or is gone. Its status
-    (bwrap's convention) and the CPU seconds it used."""
-    pidfd = os.pidfd_open(pid)
-    while True:
-        ready, _, _ = select.select([pidfd, slot.fileno()], [], [])
-        if slot.fileno() in ready:
+class _Watched:
+    """A slot the template forked: its pid and pidfd, and the socket to the referee."""
+
+    def __init__(self, pid: int, watch: socket.socket):
+        self.pid, self.pidfd, self.watch = pid, os.pidfd_open(pid), watch
+        self.listening = True  # the referee may still say `k` or close its end
+
+    def heard(self) -> None:
+        """The referee's word (`k`) or its end closed: kill the controller, its namespace with it."""
+        try:
+            word = self.watch.recv(16)
+        except OSError:
+            word = b""
+        if word in (b"", b"k"):
             try:
-                word = slot.recv(16)
-            except OSError:
-                word = b""
-            if word in (b"", b"k"):  # the referee's word, or the referee is gone
-                os.kill(pid, signal.SIGKILL)
-        if pidfd in ready:
-            _, status, usage = os.wait4(pid, 0)
-            os.close(pidfd)
-            code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else 128 + os.WTERMSIG(status)
-            return code, usage.ru_utime + usage.ru_stime
+                signal.pidfd_send_signal(self.pidfd, signal.SIGKILL)
+            except ProcessLookupError:
+                pass  # ended and reaped meanwhile: nothing left to kill
+        if not word:
+            self.listening = False
+
+    def ended(self) -> None:
+        """Reap the controller; send its status (bwrap's convention) and the CPU seconds it used."""
+        _, status, usage = os.wait4(self.pid, 0)
+        os.close(self.pidfd)
+        code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else 128 + os.WTERMSIG(status)
+        try:
+            self.watch.send(b"s" + struct.pack("<id", code, usage.ru_utime + usage.ru_stime))
+        except OSError:
+            pass  # the referee is gone
+        self.watch.close()
 
 
 class _Preloaded(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -302,24 +336,54 @@ def _preload() -> None:
         sys.meta_path.insert(0, _Preloaded(stash))
 
 
+def _started(fds: list[int], own_pids: int) -> _Watched | None:
+    """The slot a request asks for, forked and watched: `fds` are its two sockets, the one the
+    referee watches it by and the one its configuration comes on. None if none was made (the
+    reason said on the first)."""
+    sockets = [socket.socket(fileno=fd) for fd in fds]
+    if len(sockets) != 2:
+        for sock in sockets:
+            sock.close()
+        return None
+    watch, config = sockets
+    try:
+        pid = _fork(watch, config, own_pids)
+    except OSError as e:
+        try:
+            watch.send(b"e" + protocol.describe(e)[:400].encode())
+        except OSError:
+            pass  # the referee is gone
+        watch.close()
+        return None
+    finally:
+        config.close()
+    return _Watched(pid, watch)
+
+
 def serve(control_fd: int) -> None:
-    """Fork a slot's monitor for each request on the control socket, until it closes."""
+    """Fork a slot for each request on the control socket and watch it until it ends, until
+    the referee closes the control socket (the slots still running then die with the template)."""
     control = socket.socket(fileno=control_fd)
-    signal.signal(signal.SIGCHLD, signal.SIG_IGN)  # the monitors report to the referee: reap them unseen
+    own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
     _preload()
+    seccomp.prepare()  # the filter built once here, not in every controller
     gc.freeze()  # the collector leaves the template's objects alone: fewer pages copied in each child
     control.send(b"r")
+    by_pidfd: dict[int, _Watched] = {}
     while True:
-        try:
-            _, fds, _, _ = socket.recv_fds(control, 16, 1)
-        except InterruptedError:
-            continue
-        if not fds:
-            return  # the referee closed its end
-        if os.fork() == 0:
-            control.close()
-            _monitor(socket.socket(fileno=fds[0]))
-        os.close(fds[0])
+        listening = {w.watch.fileno(): w for w in by_pidfd.values() if w.listening}
+        ready = set(select.select([control.fileno(), *by_pidfd, *listening], [], [])[0])
+        for fd in ready.intersection(listening):  # before any slot is reaped and its descriptors closed
+            listening[fd].heard()
+        for fd in ready.intersection(by_pidfd):
+            by_pidfd.pop(fd).ended()
+        if control.fileno() in ready:
+            _, fds, _, _ = socket.recv_fds(control, 16, 2)
+            if not fds:
+                return  # the referee closed its end
+            slot = _started(fds, own_pids)
+            if slot is not None:
+                by_pidfd[slot.pidfd] = slot
 
 
 if __name__ == "__main__":

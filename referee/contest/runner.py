@@ -8,6 +8,7 @@ worker that dies mid-match is retried without its match ever being counted twice
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import signal
 import sys
@@ -18,7 +19,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from referee.contest.shipping import arrived
 from referee.errors import SandboxError, UserError
@@ -26,7 +27,11 @@ from referee.sandbox import kernel
 from referee.sandbox.teams import Team
 from referee.version import __version__
 
+if TYPE_CHECKING:
+    from arena.level import Level
+
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
+LEVELS_KEPT = 8  # levels a worker keeps parsed: a grading run plays each level's matches in turn
 
 
 @dataclass(frozen=True)
@@ -74,9 +79,18 @@ class VersionMismatch(UserError):
     """A worker runs another LaserArena than the client: its results would not be comparable."""
 
 
+@functools.lru_cache(maxsize=LEVELS_KEPT)
+def _parsed(text: bytes, name: str) -> Level:
+    """The level of a job, parsed once per worker for all the matches it plays on it (a Level
+    is immutable all the way down; parsing and checking its YAML was a match's largest fixed
+    cost after its controllers' start)."""
+    from arena.loader import parse_level
+
+    return parse_level(text, name)
+
+
 def play(job: MatchJob) -> Played:
     """Run one job (in a worker), its replay in a scratch folder of its own."""
-    from arena.loader import parse_level
     from referee.match.loop import run_match
     from referee.records.canonical import dumps
 
@@ -84,7 +98,7 @@ def play(job: MatchJob) -> Played:
         raise VersionMismatch(f"a worker runs laserarena {__version__}, the client {job.software}; install the same")
     unsandboxed = sandbox_missing(job.unsandboxed)  # asked where the match runs: a Dask worker may differ
     start = time.perf_counter()
-    level = parse_level(job.level_text, job.level)
+    level = _parsed(job.level_text, job.level)
     if level.hash != job.level_hash:
         raise UserError(f"{job.level}: the level arrived damaged")
     global _playing

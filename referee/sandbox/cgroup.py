@@ -117,17 +117,27 @@ def available() -> Place | str:
     return place
 
 
+def _write(path: str, text: str) -> None:
+    """Write `text` to the control file `path`; FileNotFoundError where the kernel has no such file."""
+    fd = os.open(path, os.O_WRONLY | os.O_CLOEXEC)
+    try:
+        os.write(fd, text.encode())
+    finally:
+        os.close(fd)
+
+
 class SlotGroup:
     """One slot's group in each hierarchy of `place`: at most `memory` bytes (no swap; 0: no
-    bound) and `pids` processes and threads."""
+    bound) and `pids` processes and threads. Its folders are plain strings: made and removed
+    for every controller, where pathlib's objects cost more than the system calls."""
 
     def __init__(self, place: Place, memory: int, pids: int):
-        self.place, self.folders = place, []
+        self.place, self.folders = place, list[str]()
         name = f"{PREFIX}{os.getpid()}-{next(_names)}"
         try:
             for folder in place.folders:
-                group = folder / name
-                group.mkdir()
+                group = f"{folder}/{name}"
+                os.mkdir(group)
                 self.folders.append(group)
             self._limit(memory, pids)
         except OSError:
@@ -144,20 +154,23 @@ class SlotGroup:
         )
         for key, value in settings.items():
             for group in self.folders:
-                if (group / key).exists():
-                    (group / key).write_text(str(value))
+                try:
+                    _write(f"{group}/{key}", str(value))
+                except FileNotFoundError:
+                    pass  # not in this hierarchy, or not on this kernel (swap accounting off)
 
     def procs(self) -> list[int]:
         """Descriptors of the groups' `cgroup.procs`, opened for writing by this process: the
         controller writes `0` to each to join (the caller closes them once it has started)."""
-        return [os.open(group / "cgroup.procs", os.O_WRONLY | os.O_CLOEXEC) for group in self.folders]
+        return [os.open(f"{group}/cgroup.procs", os.O_WRONLY | os.O_CLOEXEC) for group in self.folders]
 
     def oom_kills(self) -> int:
         """How many processes of the slot the kernel killed for holding more than its memory."""
         for group in self.folders:
             for key in ("memory.events", "memory.oom_control"):
-                if (group / key).exists():
-                    for line in (group / key).read_text().splitlines():
+                path = Path(group, key)
+                if path.exists():
+                    for line in path.read_text().splitlines():
                         name, _, count = line.partition(" ")
                         if name == "oom_kill":
                             return int(count)
@@ -169,14 +182,14 @@ class SlotGroup:
         for group in reversed(self.folders):
             while True:
                 try:
-                    group.rmdir()
+                    os.rmdir(group)
                     break
                 except FileNotFoundError:
                     break
                 except OSError:
                     if time.monotonic() > deadline:
                         break  # left for the next referee's sweep
-                    for pid in (group / "cgroup.procs").read_text().split():
+                    for pid in Path(group, "cgroup.procs").read_text().split():
                         try:
                             os.kill(int(pid), signal.SIGKILL)
                         except ProcessLookupError:

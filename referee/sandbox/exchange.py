@@ -75,23 +75,24 @@ def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
 def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
     """Every waiting bot's answer, or its trouble (`timeout` at its own deadline)."""
     replies: dict[int, Reply] = {}
+    readers = _channels(waiting)  # a bot's entry leaves with it
     while waiting:
         now = time.monotonic()
         for slot, bot in list(waiting.items()):
-            got = bot.channel.message()
+            channel = bot.channel
+            got = channel.message()
             if got is None and now - bot.sent >= bot.limits.step_deadline:
                 got = Trouble.TIMEOUT
             if got is not None:
                 replies[slot] = (got, now - bot.sent)
-                del waiting[slot]
+                del waiting[slot], readers[channel.fileno()]
         if not waiting:
             break
         left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
-        readers = _channels(waiting)
         ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
         for fd in ready:
             slot = readers[fd]
             if not waiting[slot].channel.read():
                 replies[slot] = (Trouble.CRASH, time.monotonic() - waiting[slot].sent)
-                del waiting[slot]
+                del waiting[slot], readers[fd]
     return replies

@@ -30,40 +30,40 @@ from typing import IO
 from referee.sandbox import kernel
 from referee.sandbox.privacy import slot_uid, switches_users
 
-STATUS = struct.Struct("<id")  # a monitor's last word: exit status, CPU seconds (robots/template.py)
+STATUS = struct.Struct("<id")  # a slot's last word from the template: exit status, CPU seconds (robots/template.py)
 READY_TIME = 30.0  # seconds the template may take to import and answer (a loaded machine)
 
 
 class Forked:
-    """One controller forked by the template: its pipes and the socket to its monitor, with the
-    part of `subprocess.Popen`'s interface ProcessBot uses. `returncode` follows bwrap: the
-    exit code, or 128 + the signal that killed it."""
+    """One controller forked by the template: its pipes and the socket the template watches it
+    by, with the part of `subprocess.Popen`'s interface ProcessBot uses. `returncode` follows
+    bwrap: the exit code, or 128 + the signal that killed it."""
 
-    pid = None  # in a PID namespace the referee cannot name: ended through its monitor
+    pid = None  # in a PID namespace the referee cannot name: ended through the template
 
-    def __init__(self, monitor: socket.socket, stdin: IO[bytes] | None, stdout: IO[bytes] | None):
-        self.monitor, self.stdin, self.stdout = monitor, stdin, stdout
+    def __init__(self, watch: socket.socket, stdin: IO[bytes] | None, stdout: IO[bytes] | None):
+        self.watch, self.stdin, self.stdout = watch, stdin, stdout
         self.returncode: int | None = None
-        self.cpu = 0.0  # CPU seconds of the controller and its monitor, once ended (for benchmarks)
-        self.problem = ""  # what the monitor could not do, if it failed before the controller ran
+        self.cpu = 0.0  # CPU seconds of the controller, once ended (for benchmarks)
+        self.problem = ""  # what its slot could not do, if it failed before the controller ran
 
     def _take(self, message: bytes) -> None:
         if message[:1] == b"s" and len(message) == 1 + STATUS.size:
             self.returncode, self.cpu = STATUS.unpack(message[1:])
-        else:  # a monitor that failed (its reason), or one that is gone without a word: killed
+        else:  # a slot that could not be made (its reason), or a template gone without a word: killed
             self.problem = message[1:].decode(errors="replace")
             self.returncode = 1 if message[:1] == b"e" else 128 + signal.SIGKILL
-        self.monitor.close()
+        self.watch.close()
 
     def wait(self, timeout: float | None = None) -> int:
         """The exit status, waiting at most `timeout` seconds (subprocess.TimeoutExpired)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while self.returncode is None:
             left = None if deadline is None else max(0.0, deadline - time.monotonic())
-            if not select.select([self.monitor], [], [], left)[0]:
+            if not select.select([self.watch], [], [], left)[0]:
                 raise subprocess.TimeoutExpired("controller", timeout or 0.0)
             try:
-                self._take(self.monitor.recv(512))
+                self._take(self.watch.recv(512))
             except OSError:
                 self._take(b"")
         return self.returncode
@@ -76,11 +76,11 @@ class Forked:
             return None
 
     def kill(self) -> None:
-        """Have the monitor kill the controller (its PID namespace goes with it)."""
+        """Have the template kill the controller (its PID namespace goes with it)."""
         try:
-            self.monitor.send(b"k")
+            self.watch.send(b"k")
         except OSError:
-            pass  # the monitor is gone: so is the controller
+            pass  # the template is gone: so is the controller
 
 
 class ForkServer:
@@ -136,34 +136,42 @@ class ForkServer:
         stdio: tuple[int, int, int],
         groups: list[int] | tuple[int, ...] = (),
     ) -> socket.socket:
-        """Fork a controller and return the socket to its monitor: `config` (uid, runner argv),
-        the team's `files`, `stdio` (the child's fds 0-2) and `groups` (the `cgroup.procs` of
-        its control groups, which it joins) go to the monitor, never to the template."""
+        """Fork a controller and return the socket the template watches it by (its status
+        comes there; `k` has it killed): `config` (uid, runner argv), the team's `files`,
+        `stdio` (the child's fds 0-2) and `groups` (the `cgroup.procs` of its control groups,
+        which it joins) go on a socket of their own to the forked child, never to the template."""
         bundle = os.memfd_create("team", 0)
         sizes = []
         for rel, data in files:
             os.write(bundle, data)
             sizes.append((rel, len(data)))
-        mine, its = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        watch, its_watch = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+        settings, its_settings = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         try:
             with self.lock:
-                socket.send_fds(self.control, [b"f"], [its.fileno()])
+                socket.send_fds(self.control, [b"f"], [its_watch.fileno(), its_settings.fileno()])
             message = json.dumps({**config, "files": sizes}).encode()
-            socket.send_fds(mine, [message], [*stdio, bundle, *groups])
+            socket.send_fds(settings, [message], [*stdio, bundle, *groups])
         except OSError:
-            mine.close()
+            watch.close()
             raise
         finally:
-            its.close()
+            for sock in (its_watch, its_settings, settings):
+                sock.close()
             os.close(bundle)
-        return mine
+        return watch
 
     def cpu(self) -> float:
-        """CPU seconds the template process has used so far (its forks are charged here)."""
+        """CPU seconds the template process has used so far (its forks are charged here): to
+        the nanosecond from the scheduler's own count where the kernel keeps it, else in clock
+        ticks (a start costs less than one)."""
         if self.pid is None:
             self.pid = kernel.init_pid(os.dup(self.info))
-        fields = Path(f"/proc/{self.pid}/stat").read_text().rsplit(")", 1)[1].split()
-        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        try:
+            return int(Path(f"/proc/{self.pid}/schedstat").read_text().split()[0]) / 1e9
+        except FileNotFoundError:
+            fields = Path(f"/proc/{self.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def alive(self) -> bool:
         return self.proc.poll() is None

@@ -127,7 +127,7 @@ def _forked(
     stdin_r, stdin_w = os.pipe()
     stdout_r, stdout_w = os.pipe()
     try:
-        monitor = server.spawn(config, team.files, (stdin_r, stdout_w, stderr), groups)
+        watch = server.spawn(config, team.files, (stdin_r, stdout_w, stderr), groups)
     except BaseException:
         os.close(stdin_w)
         os.close(stdout_r)
@@ -135,7 +135,7 @@ def _forked(
     finally:
         os.close(stdin_r)
         os.close(stdout_w)
-    return forkserver.Forked(monitor, open(stdin_w, "wb"), open(stdout_r, "rb"))
+    return forkserver.Forked(watch, open(stdin_w, "wb"), open(stdout_r, "rb"))
 
 
 def _plain(plan: Plan, limits: list[str], stderr: int, groups: list[int]) -> Launched:

@@ -279,7 +279,7 @@ class ProcessBot:
             return (FaultKind.MEMORY if self.loaded else FaultKind.LOAD), (
                 f"in {where}: {how}" if self.loaded else f"team {self.team.label}: {how}"
             )
-        problem = getattr(self.proc, "problem", "")  # a forked slot's monitor that failed
+        problem = getattr(self.proc, "problem", "")  # a forked slot that could not be made
         if problem:  # before the team's code ran: the sandbox's, said as it was
             return FaultKind.LOAD, f"team {self.team.label}: its sandbox could not be made: {problem}"
         if not self.loaded:
@@ -349,7 +349,7 @@ class ProcessBot:
                 exit_status(proc, 5.0)
         if isinstance(proc, forkserver.Forked):
             if proc.poll() is None:
-                proc.kill()  # its monitor kills its init: the PID namespace goes with it
+                proc.kill()  # the template kills its init: the PID namespace goes with it
         elif proc.returncode is None:  # unreaped: its pid names its session alone
             try:
                 os.killpg(proc.pid, signal.SIGKILL)  # its whole session, children included

@@ -1,8 +1,8 @@
 """Attacks a team could try on a controller forked from the template (root referee): the
-template's and monitor's processes, sockets and namespaces, what the fork shares, the
+template's process, sockets and namespaces, what the fork shares, the
 exchange's timing, kernel objects that outlive a process, leftovers. Each test keeps one
 attack and checks it was contained: the others unharmed, a typed fault, nothing left behind
-(the fixture), and the template holding no monitor once the match is over."""
+(the fixture), and the template holding no slot once the match is over."""
 
 import dataclasses
 import errno
@@ -73,7 +73,7 @@ def _below(root: int) -> dict[int, tuple[int, str]]:
 
 def assert_template_idle(timeout: float = 5.0) -> None:
     """Nothing runs below the referee but its templates (bwrap and the template it starts):
-    every slot's monitor and controller has ended (a bounded wait for the last of them)."""
+    every slot's controller has ended (a bounded wait for the last of them)."""
     assert forkserver.server() is not None, forkserver.unavailable()
     deadline = time.monotonic() + timeout
     while True:
@@ -109,8 +109,8 @@ class Mute(Controller):
     assert_template_idle()
 
 
-def test_signals_to_everything_it_can_name_leave_its_monitor_alone(tmp_path):
-    # its parent (the monitor) and the template are out of its PID namespace: no pid, no
+def test_signals_to_everything_it_can_name_leave_the_template_alone(tmp_path):
+    # its parent (the template) is out of its PID namespace: no pid, no
     # pidfd, no /proc entry, no process group or session of theirs to signal
     result = hostile_match(
         tmp_path,

@@ -99,8 +99,8 @@ class Reader(Controller):
 
 
 def test_a_slot_the_template_cannot_make_is_a_load_fault_saying_why():
-    # the monitor fails before the team's code runs (here: a CPU the machine has not): the
-    # fault says so, in the monitor's words, not "exited while its code was loading"
+    # the forked slot fails before the team's code runs (here: a CPU the machine has not): the
+    # fault says so, in the slot's words, not "exited while its code was loading"
     bot = ProcessBot(resolve(HONEST), FAST, slot=0)
     bot.cpus = [4095]
     try:
