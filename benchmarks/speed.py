@@ -9,13 +9,15 @@ per wall second unless said):
 - sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
 - full matches of asabe-race, isolated (each controller in its sandboxed process) and in this
   process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
-  and with `ref:dead-reckoning` (a controller that costs next to nothing): the ratio to bare is
-  the figure (target >= 0.5 isolated); the referee's CPU and the rest of the machine's (the
+  and with `ref:dead-reckoning` (a controller that costs next to nothing): the ratio to bare
+  stepping, measured just before and just after each match (`around`: a shared machine's
+  speed drifts), is the figure (targets: ref:dead-reckoning >= 0.5 isolated and >= 0.7 in this
+  process, ref:bac >= 0.3 isolated); the referee's CPU and the rest of the machine's (the
   controllers, their sandboxes) per simulated second are given apart;
 - grading: the machine's CPU (referee, workers, controllers) for grading `ref:bac` on asabe,
-  per simulated second, beside bare stepping's CPU per simulated second (target: no more);
-  and the same for `ref:dead-reckoning`, whose own computing is next to nothing: the
-  platform's share (referee, sandbox, exchange) of a grading;
+  per simulated second, beside bare 4-robot stepping's CPU per simulated second measured around
+  it (target: 1.5x); and the same for `ref:dead-reckoning`, whose own computing is next to
+  nothing: the platform's share (referee, sandbox, exchange) of a grading (target: 1.0x);
 - grading from the command line (`laserarena grade asabe --team ref:bac --workers 1`), as a
   grader runs it: the machine's CPU per simulated second with 4 seeds, and what a run costs
   whatever its matches (the interpreter, imports, loading the compiled kernels, the sandbox's
@@ -102,12 +104,32 @@ def world(seconds: float, repeat: int) -> dict:
     return median_of(repeat, once)
 
 
+def bare_beside(seconds: float = 20.0) -> dict:
+    """Bare stepping's wall and CPU seconds per simulated second, from a short run (a World.step
+    at a time): taken right before and after each measured run, so that a ratio compares two
+    figures of one moment, whatever the machine's speed does meanwhile (a shared virtual
+    machine's can swing by half within a minute)."""
+    c0, w0 = cpu(resource.RUSAGE_SELF), time.perf_counter()
+    sensing.run(seconds, False)
+    return {"wall": (time.perf_counter() - w0) / seconds, "cpu": (cpu(resource.RUSAGE_SELF) - c0) / seconds}
+
+
+def around(measured):
+    """`measured()`'s figures, and bare stepping's per simulated second (wall, CPU) measured
+    just before and just after it, averaged."""
+    before = bare_beside()
+    figures = measured()
+    after = bare_beside()
+    return figures, {k: (before[k] + after[k]) / 2 for k in before}
+
+
 def match(spec: str, isolate: bool, repeat: int) -> dict:
-    """A full asabe-race match (replay written), simulated s per wall s, and CPU per simulated s."""
+    """A full asabe-race match (replay written), simulated s per wall s, CPU per simulated s,
+    and its speed as a share of bare stepping's measured around it (`around`)."""
     level = load_level(levels.path("asabe-race"))
     teams = [resolve(spec)] * len(level.robots)
 
-    def once() -> dict:
+    def played() -> dict:
         with tempfile.TemporaryDirectory() as d:
             c0, m0, w0 = cpu(resource.RUSAGE_SELF), machine_cpu(), time.perf_counter()
             r = run_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
@@ -120,23 +142,33 @@ def match(spec: str, isolate: bool, repeat: int) -> dict:
             "others_cpu_per_s": max(0.0, everything - own) / r.end_time,
         }
 
+    def once() -> dict:
+        figures, bare = around(played)
+        return {**figures, "ratio": bare["wall"] * figures["x"]}
+
     return median_of(repeat, once)
 
 
 def grading(matches: int, spec: str = "ref:bac") -> dict:
-    """CPU per simulated second of grading `spec` on asabe with one worker (all processes)."""
+    """CPU per simulated second of grading `spec` on asabe with one worker (all processes),
+    beside bare 4-robot stepping's CPU per simulated second measured around it (`around`)."""
     path = levels.path("asabe")
     team = resolve(spec)
-    with tempfile.TemporaryDirectory() as d:
-        journal = g.Journal(Path(d) / "bench.sqlite")
-        jobs = g.make_jobs(
-            [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
-        )
-        c0 = machine_cpu()
-        g.grade(jobs, journal, workers=1, quiet=True)
-        used = machine_cpu() - c0
-        simulated = sum(result["end_time"] for _, result in journal.results(jobs))
-    return {"matches": matches, "cpu_per_s": used / simulated, "simulated_s": simulated}
+
+    def graded() -> dict:
+        with tempfile.TemporaryDirectory() as d:
+            journal = g.Journal(Path(d) / "bench.sqlite")
+            jobs = g.make_jobs(
+                [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
+            )
+            c0 = machine_cpu()
+            g.grade(jobs, journal, workers=1, quiet=True)
+            used = machine_cpu() - c0
+            simulated = sum(result["end_time"] for _, result in journal.results(jobs))
+        return {"matches": matches, "cpu_per_s": used / simulated, "simulated_s": simulated}
+
+    figures, bare = around(graded)
+    return {**figures, "bare_cpu_per_s": bare["cpu"], "ratio": figures["cpu_per_s"] / bare["cpu"]}
 
 
 def command_line_grading(seeds: int) -> tuple[float, float]:
@@ -162,14 +194,10 @@ def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
     for spec in ("ref:bac", "ref:dead-reckoning"):
         for isolate in (True, False):
             m = match(spec, isolate, repeat)
-            m["ratio"] = m["x"] / w["bare_x"]
             out["matches"][f"{spec} {'isolated' if isolate else 'in-process'}"] = m
     out["grading"] = {}
     for spec in ("ref:bac", "ref:dead-reckoning"):
-        gr = grading(matches, spec)
-        gr["bare_cpu_per_s"] = 1 / w["bare_x"]  # one core, busy stepping
-        gr["ratio"] = gr["cpu_per_s"] / gr["bare_cpu_per_s"]
-        out["grading"][spec] = gr
+        out["grading"][spec] = median_of(repeat, lambda: grading(matches, spec))
     (one, one_s), (four, four_s) = command_line_grading(1), command_line_grading(4)
     per_simulated_s = (four - one) / (four_s - one_s)  # what the three more matches cost
     out["command_line_grading"] = {
@@ -179,6 +207,13 @@ def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
         "match_cpu_per_s": per_simulated_s,
     }
     return out
+
+
+MATCH_TARGETS = {
+    "ref:dead-reckoning isolated": " (target >= 0.5)",
+    "ref:dead-reckoning in-process": " (target >= 0.7)",
+    "ref:bac isolated": " (target >= 0.3)",
+}
 
 
 def table(f: dict) -> list[tuple[str, str, str]]:
@@ -202,7 +237,7 @@ def table(f: dict) -> list[tuple[str, str, str]]:
             (
                 f"  full match, 4 x {name}",
                 f"{m['x']:.0f}x real time",
-                f"{m['ratio']:.2f} of bare{' (target >= 0.5)' if 'isolated' in name else ''}; CPU per simulated s: "
+                f"{m['ratio']:.2f} of bare{MATCH_TARGETS.get(name, '')}; CPU per simulated s: "
                 f"referee {1000 * m['referee_cpu_per_s']:.1f} ms, controllers and the rest "
                 f"{1000 * m['others_cpu_per_s']:.1f} ms",
             )
@@ -213,7 +248,7 @@ def table(f: dict) -> list[tuple[str, str, str]]:
                 f"grading {spec} on asabe",
                 f"{1000 * gr['cpu_per_s']:.1f} ms CPU per simulated s",
                 f"{gr['ratio']:.1f}x bare stepping's {1000 * gr['bare_cpu_per_s']:.2f} ms"
-                + (" (target <= 1x)" if spec == "ref:bac" else " (the platform's own share)"),
+                + (" (target <= 1.5x)" if spec == "ref:bac" else " (the platform's own share; target <= 1x)"),
             )
         )
     c = f["command_line_grading"]
