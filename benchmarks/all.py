@@ -4,7 +4,8 @@
     with two controllers, grading's CPU beside bare stepping's (benchmarks/speed.py);
 (b) localization solvers, scalar and vectorized; (c) rendering and encoding frames per second;
 (d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py); (f) how a
-match's cost grows with robots and beacons (benchmarks/scaling.py). Prints
+match's cost grows with robots and beacons (benchmarks/scaling.py); (g) a controller's start,
+forked from the sandbox's template (benchmarks/sandbox.py). Prints
 a table and writes the figures as JSON (--json): to docs/performance.json by default, the
 committed report the docs quote (benchmarks/quoted.py's `<!--p:KEY:STAT-->` markers, set here
 and held to it by tests/test_docs_figures.py), where each figure is in the unit the docs show
@@ -27,6 +28,7 @@ import env
 import grading
 import quoted
 import render
+import sandbox
 import scaling
 import solvers
 import speed
@@ -82,6 +84,8 @@ def report(f: dict, repeat: int) -> dict:
         "workers": g["workers"],
         "speedup": g["speedup"],
     }
+    if f["start"]:
+        out["start"] = dict(f["start"])
     out["env"] = dict(f["env"])  # microseconds per step, steps per second, ratios to bare: as env.py gives them
     for what in ("robots", "beacons"):
         for n, fig in f["scaling"][what].items():
@@ -115,6 +119,7 @@ def main() -> None:
     figures["grading"] = grading.measure(8)  # enough matches that each pool worker's start (imports, numba) is spread
     figures["env"] = env.measure(max(args.repeat, 5))  # cheap (seconds a round) and noisy: never fewer than 5
     figures["scaling"] = scaling.scaling(10.0, args.repeat)
+    figures["start"] = sandbox.forked_start(15)
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -131,6 +136,16 @@ def main() -> None:
     ]
     rows += [(f"(e) {a.strip()}", b, c) for a, b, c in env.table(figures["env"])]
     rows += [(f"(f) {a}", b, "") for a, b in scaling.rows(figures["scaling"])]
+    if figures["start"]:
+        st = figures["start"]
+        shares = ", ".join(f"{name} {st[name + '_ms']:.1f}" for name in sandbox.SHARES)
+        rows.append(
+            (
+                "(g) a forked controller's start",
+                f"{st['cpu_ms']:.1f} ms CPU, all processes",
+                f"target <= 5 ms ({shares})",
+            )
+        )
     width = max(len(a) for a, _, _ in rows)
     m = figures["machine"]
     print(f"LaserArena benchmarks on {m['cpus']} x {m['cpu']}, Python {m['python']} (medians of {args.repeat} runs)")

@@ -197,7 +197,7 @@ def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
             out["matches"][f"{spec} {'isolated' if isolate else 'in-process'}"] = m
     out["grading"] = {}
     for spec in ("ref:bac", "ref:dead-reckoning"):
-        out["grading"][spec] = median_of(repeat, lambda: grading(matches, spec))
+        out["grading"][spec] = median_of(repeat, lambda spec=spec: grading(matches, spec))
     (one, one_s), (four, four_s) = command_line_grading(1), command_line_grading(4)
     per_simulated_s = (four - one) / (four_s - one_s)  # what the three more matches cost
     out["command_line_grading"] = {
