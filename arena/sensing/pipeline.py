@@ -22,7 +22,7 @@ from arena import floor
 from arena.angles import TWO_PI
 from arena.rng import RandomTree
 from arena.sensing import hardware, reflector, sensor_array, sweep
-from arena.sensing.crossings import Crossings, Trajectory, find_phase_marks
+from arena.sensing.crossings import Trajectory, find_phase_marks
 from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
 from arena.sensing.occlusion import Occlusion
@@ -179,11 +179,15 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _detected(self, traj: Trajectory, lasers: Trajectory) -> tuple[Crossings, np.ndarray, np.ndarray, np.ndarray]:
+    def _detected(
+        self, traj: Trajectory, lasers: Trajectory
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The crossings of the beams leaving from `lasers`, which of them the detector model
         detects (not blocked by the bodies of `traj` or an obstacle, through the kind's gates and
         optics), when each fires relative to its crossing, and how many each robot detected:
-        arena.sensing.sweep's two passes, with each kept sweep's light drawn between them."""
+        arena.sensing.sweep's two passes, with each kept sweep's light drawn between them.
+        Returns (robot, beacon, rows t x y phi ... as `sweep.candidates` gives them, offset,
+        detected, counts)."""
         robot, beacon, step, s, rows, kept = sweep.candidates(
             lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, traj.x, traj.y, self.bx, self.by, self.facing,
             self._gains, self._axis_offsets, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates,
@@ -197,12 +201,12 @@ class Sensing:
         detected, offset, counts = sweep.response(
             robot, rows, draws, self._light_noise, optics_on, self._optics, self.n
         )
-        return Crossings(robot, beacon, step, s, *rows[:7]), offset, detected, counts
+        return robot, beacon, rows, offset, detected, counts
 
     def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
         """The beacons' pulses: the detected crossings (`_detected`) as the hardware reads them."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        c, offset, detected, per_robot = self._detected(traj, lasers)
+        crossing_robot, crossing_beacon, rows, offset, detected, per_robot = self._detected(traj, lasers)
         counts = per_robot.tolist()
         if not any(counts):
             return out
@@ -214,7 +218,7 @@ class Sensing:
             )
         window = (float(traj.t[0]), float(traj.t[-1]))
         source, robot, beacon, times, phase, (counts_, tied_) = pulses(
-            c.t, offset, detected, c.robot, c.beacon, c.phi, draws, *window, self.omega,
+            rows[0], offset, detected, crossing_robot, crossing_beacon, rows[3], draws, *window, self.omega,
             self.kind == "reflector", self._clock_hz, first_tick_after(window[0], p), self.direction, self._merging,
         )  # fmt: skip
         counts = counts_.tolist()
@@ -225,7 +229,9 @@ class Sensing:
             times = reflector.step_time(times, phase, self.omega[robot], steps, window[0])
         angles = quantize_angle(phase, steps).tolist() if latched else [None] * m
         labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
-        beams = zip(c.x[source].tolist(), c.y[source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist())
+        beams = zip(
+            rows[1, source].tolist(), rows[2, source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist()
+        )
         robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
             low = (p.get("rise_time", 0.0) - 2 * offset[source]).tolist()  # the optics' dwell, and the release
