@@ -1,7 +1,8 @@
 """The compiled hit passes (arena.sensing.sweep) against the kind modules' NumPy forms: on random
 trajectories, for every detector kind, `candidates` keeps the crossings that `find_crossings`,
 the occlusion kernel and `hardware.visible` keep, with `hardware.sensitivity`'s response, and
-`response` fires those `optics.optics` fires with the same log-normal light. The arc functions
+`response` fires those `optics.optics` fires with the same log-normal light, taking each robot's
+draws in order from its row of a block (normals.Normals). The arc functions
 differ in the last bit (the C library's against NumPy's: decision 0041), so floats are compared
 to 1e-12 and decisions exactly."""
 
@@ -63,13 +64,14 @@ def test_sweep_passes_keep_and_fire_what_the_kind_modules_do(kind):
             np.zeros(0) if gain is None else gain, np.zeros(0), reach, silhouette, code, sweep.gates(p, radius),
         )  # fmt: skip
         keep = rows[11] > 0
-        # one draw per kept sweep, grouped by robot: the light each of them brings
-        draws = g.normal(size=int(keep.sum())) if sigma else np.zeros(0)
-        light = np.ones(len(s))
+        # each robot's standard normals in a row of its own, one per kept sweep in crossing order
+        light, at = g.normal(size=(robots, 3 + int(keep.sum()))), g.integers(0, 3, robots)
+        factor, taken = np.ones(len(s)), at.copy()
         if sigma:
-            order = np.argsort(robot[keep], kind="stable")
-            light[np.nonzero(keep)[0][order]] = np.exp(sigma * draws)
-        c, want_keep, want_sens, want_fired = numpy_hits(traj, kind, p, gain, reach, silhouette, radius, light)
+            for i in np.nonzero(keep)[0]:
+                factor[i] = np.exp(sigma * light[robot[i], taken[robot[i]]])
+                taken[robot[i]] += 1
+        c, want_keep, want_sens, want_fired = numpy_hits(traj, kind, p, gain, reach, silhouette, radius, factor)
         assert np.array_equal(robot, c.robot) and np.array_equal(beacon, c.beacon) and np.array_equal(step, c.step)
         np.testing.assert_allclose(
             rows[:7], np.array([c.t, c.x, c.y, c.phi, c.beam_rate, c.distance, c.bearing]), rtol=1e-12, atol=1e-12
@@ -79,7 +81,10 @@ def test_sweep_passes_keep_and_fire_what_the_kind_modules_do(kind):
         if kind != "reflector":
             np.testing.assert_allclose(rows[10], want_sens, rtol=1e-12)
             np.testing.assert_allclose(rows[9], np.cos(optics.incidence(c, FACING)), rtol=1e-12)
-        detected, _, counts = sweep.response(robot, rows, draws, sigma, kind != "reflector", sweep.hardware(p), robots)
+        detected, _, counts = sweep.response(
+            robot, rows, light, at, sigma, kind != "reflector", sweep.hardware(p), robots
+        )
+        assert at.tolist() == taken.tolist()  # the positions moved past what was taken
         assert np.array_equal(detected, want_fired)
         assert counts.tolist() == np.bincount(robot[detected], minlength=robots).tolist()
         fired += int(detected.sum())

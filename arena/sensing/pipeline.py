@@ -25,6 +25,7 @@ from arena.sensing import hardware, reflector, sensor_array, sweep
 from arena.sensing.crossings import Trajectory, find_phase_marks
 from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
+from arena.sensing.normals import Normals
 from arena.sensing.occlusion import Occlusion
 from arena.sensing.pulses import pulses
 from arena.sensing.readout import false_times, first_tick_after, quantize_angle
@@ -32,11 +33,7 @@ from arena.sensing.spin import Spin
 from arena.world import World
 
 _NONE = np.zeros(0)  # a kernel's array argument that is not there
-
-
-def _grouped(draws: list[np.ndarray]) -> np.ndarray:
-    """Each robot's draws, one after the other (none: an empty array)."""
-    return np.concatenate(draws) if draws else _NONE
+_NO_ROWS, _NO_AT = np.zeros((0, 0)), np.zeros(0, np.int64)  # no draws
 
 
 class Sensing:
@@ -92,10 +89,16 @@ class Sensing:
         self._clock_hz = float(p.get("clock_hz", 0.0))
         self._kind = sweep.KIND_CODES.get(self.kind, -1)  # -1: light turrets, which sweep no detector
         self._gates = sweep.gates(p, float(level.beacons.radius))
-        self._optics = sweep.hardware(p)
+        self._optics = np.array(sweep.hardware(p))
+        # each kept sweep's light, each pulse's timing: standard normals from each robot's streams
+        lit = self._light_noise and self.kind in ("sensor_array", "flash_detector")
+        self._light = Normals(self.rng["detector"]) if lit else None
+        self._light_sigma = self._light_noise if lit else 0.0
+        self._timing = Normals(self.rng["timing"]) if self._timing_noise else None
         # Bac's merged measurements (arena.sensing.sensor_array.merge), as `pulses` takes them
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
-        self._merging = (merges[0], len(self.ids), merges[1], np.uint64(self.merge_key))
+        self._merging = np.array([float(merges[0]), len(self.ids), merges[1]])
+        self._merge_key = np.uint64(self.merge_key)
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
         self._last = world.state
@@ -179,48 +182,46 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _detected(
-        self, traj: Trajectory, lasers: Trajectory
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The crossings of the beams leaving from `lasers`, which of them the detector model
-        detects (not blocked by the bodies of `traj` or an obstacle, through the kind's gates and
-        optics), when each fires relative to its crossing, and how many each robot detected:
-        arena.sensing.sweep's two passes, with each kept sweep's light drawn between them.
-        Returns (robot, beacon, rows t x y phi ... as `sweep.candidates` gives them, offset,
-        detected, counts)."""
-        robot, beacon, step, s, rows, kept = sweep.candidates(
-            lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, traj.x, traj.y, self.bx, self.by, self.facing,
-            self._gains, self._axis_offsets, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates,
-        )  # fmt: skip
-        if self.occlusion.has_obstacles:
-            self.occlusion.clear_obstacles(rows, robot, kept)
-        draws = _NONE
-        if self._light_noise and self.kind != "reflector":  # one draw per kept sweep from its robot's stream
-            draws = _grouped([g.normal(size=k) for g, k in zip(self.rng["detector"], kept.tolist()) if k])
+    def _pulses(self, traj: Trajectory, lasers: Trajectory) -> tuple[np.ndarray, ...]:
+        """The batch's crossings of the beams leaving from `lasers` (`sweep.candidates`' rows),
+        the optics' offsets, and its pulses as the hardware reads them (`pulses`' results):
+        `sweep.hits` in one call, or, where the level has obstacles, its three passes with
+        pymunk's segment query after the first. Each robot's light and timing draws come from
+        its own streams, drawn ahead (normals.Normals)."""
+        need = (len(traj.t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
+        light, light_at = self._light.ready(need) if self._light else (_NO_ROWS, _NO_AT)
+        timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)
+        w0, w1 = float(traj.t[0]), float(traj.t[-1])
+        clock = np.array([self._timing_noise, w0, w1, self._clock_hz, first_tick_after(w0, self.params)])
+        bodies = (self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
+        beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
+        path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, traj.x, traj.y)
+        if not self.occlusion.has_obstacles:
+            return sweep.hits(
+                *path, *beacons, *bodies, light, light_at, self._light_sigma, self._optics, timing, timing_at, clock,
+                self.omega, self.direction, self._merging, self._merge_key,
+            )  # fmt: skip
+        robot, beacon, _, _, rows, kept = sweep.candidates(*path, *beacons, *bodies)
+        self.occlusion.clear_obstacles(rows, robot, kept)
         optics_on = self.kind != "reflector"
-        detected, offset, counts = sweep.response(
-            robot, rows, draws, self._light_noise, optics_on, self._optics, self.n
+        detected, offset, _ = sweep.response(
+            robot, rows, light, light_at, self._light_sigma, optics_on, tuple(self._optics.tolist()), self.n
         )
-        return robot, beacon, rows, offset, detected, counts
+        merging = (bool(self._merging[0]), int(self._merging[1]), float(self._merging[2]), self._merge_key)
+        read = pulses(
+            rows[0], offset, detected, robot, beacon, rows[3], timing, timing_at, self._timing_noise, w0, w1,
+            self.omega, not optics_on, self._clock_hz, float(clock[4]), self.direction, merging,
+        )  # fmt: skip
+        return rows, offset, *read
 
     def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
-        """The beacons' pulses: the detected crossings (`_detected`) as the hardware reads them."""
+        """The beacons' pulses (`_pulses`) as detections, per robot in event order."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        crossing_robot, crossing_beacon, rows, offset, detected, per_robot = self._detected(traj, lasers)
-        counts = per_robot.tolist()
-        if not any(counts):
+        rows, offset, source, robot, beacon, times, phase, (counts_, tied_) = self._pulses(traj, lasers)
+        if not len(source):
             return out
         p = self.params
-        draws = _NONE
-        if self._timing_noise:  # one draw per pulse from its robot's stream
-            draws = _grouped(
-                [g.normal(0.0, self._timing_noise, size=k) for g, k in zip(self.rng["timing"], counts) if k]
-            )
         window = (float(traj.t[0]), float(traj.t[-1]))
-        source, robot, beacon, times, phase, (counts_, tied_) = pulses(
-            rows[0], offset, detected, crossing_robot, crossing_beacon, rows[3], draws, *window, self.omega,
-            self.kind == "reflector", self._clock_hz, first_tick_after(window[0], p), self.direction, self._merging,
-        )  # fmt: skip
         counts = counts_.tolist()
         steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal

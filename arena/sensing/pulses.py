@@ -30,7 +30,9 @@ def pulses(
     robot: np.ndarray,
     beacon: np.ndarray,
     phi: np.ndarray,
-    draws: np.ndarray,
+    timing: np.ndarray,
+    timing_at: np.ndarray,
+    scale: float,
     w0: float,
     w1: float,
     omega: np.ndarray,
@@ -44,8 +46,9 @@ def pulses(
     robot, time and beacon: which crossing each pulse is, its robot, beacon, clock reading and
     the laser's phase when it fired; and per robot, its pulse count and whether two of its
     pulses read one time. A pulse fires at t + offset, no earlier than the period's start;
-    `draws` (one timing-noise draw per pulse, grouped by robot in crossing order; none: no
-    noise) jitter it within the period (w0, w1); a counter of `clock_hz` (0: none) truncates it,
+    timing noise of std `scale` (0: none) jitters it within the period (w0, w1), each robot's
+    pulses in crossing order drawing from row r of `timing` from `timing_at[r]` on
+    (normals.Normals); a counter of `clock_hz` (0: none) truncates it,
     no earlier than `first_tick`; `merging` = (whether to, the number of arrays, the rate, the
     key) applies Bac's merged measurements (sensor_array.merge), with each robot's spin sign
     `direction`. No tuple holds an array: numba reads those slowly at each call."""
@@ -55,13 +58,13 @@ def pulses(
     rob, bea = robot[source], beacon[source]
     for j in range(m):
         fired[j] = maximum(t[source[j]] + offset[source[j]], w0)
-    if draws.shape[0]:
-        k = 0
+    if scale > 0:
         for r in range(n_robots):
             for j in range(m):
                 if rob[j] == r:
-                    fired[j] = minimum(maximum(fired[j] + draws[k], w0), w1)
-                    k += 1
+                    draw = 0.0 + scale * timing[r, timing_at[r]]  # as normal(0, scale) gives it
+                    timing_at[r] += 1
+                    fired[j] = minimum(maximum(fired[j] + draw, w0), w1)
     for j in range(m):
         i = source[j]
         phase[j] = phi[i] + (fired[j] - (fired[j] if reflector else t[i])) * omega[rob[j]]

@@ -17,6 +17,7 @@ from arena.compiled import compiled, maximum, minimum, wrap_angle
 from arena.sensing.crossings import crossing_arrays, laser_to_beacons
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
+from arena.sensing.pulses import pulses
 
 REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
 KIND_CODES = {"reflector": REFLECTOR, "sensor_array": SENSOR_ARRAY, "flash_detector": FLASH_DETECTOR}
@@ -121,7 +122,8 @@ def candidates(
 def response(
     robot: np.ndarray,
     rows: np.ndarray,
-    draws: np.ndarray,
+    light: np.ndarray,
+    light_at: np.ndarray,
     sigma: float,
     optics_on: bool,
     hardware_: tuple[float, float, float, float, float],
@@ -130,23 +132,18 @@ def response(
     """Which of `candidates`' crossings (`rows`) fire, and how early: with light noise (`sigma`
     > 0), each kept sweep's response times exp(sigma x its draw), log-normal light: near a
     detector's limit the light hovers at the threshold, so such sweeps fire late or not at all
-    (`draws` grouped by robot, each robot's in crossing order), then the optics (optics.sweep_optics;
-    none for reflectors: `optics_on` false). Returns (detected, time offset, per robot the count
-    detected)."""
+    (each robot's standard normals from row r of `light`, from `light_at[r]` on, in crossing
+    order: normals.Normals), then the optics (optics.sweep_optics; none for reflectors:
+    `optics_on` false). Returns (detected, time offset, per robot the count detected)."""
     n = robot.shape[0]
     keep = rows[11] > 0.0
     sens = rows[10].copy()
     if sigma > 0:
-        cursor = np.zeros(robots, np.int64)
-        for c in range(n):
-            cursor[robot[c]] += 1 if keep[c] else 0
-        start = 0
-        for r in range(robots):
-            start, cursor[r] = start + cursor[r], start
         for c in range(n):
             if keep[c]:
-                sens[c] = sens[c] * math.exp(sigma * draws[cursor[robot[c]]])
-                cursor[robot[c]] += 1
+                r = robot[c]
+                sens[c] = sens[c] * math.exp(sigma * light[r, light_at[r]])
+                light_at[r] += 1
     offset = np.zeros(n)
     detected = keep
     if optics_on:
@@ -157,3 +154,51 @@ def response(
         if detected[c]:
             counts[robot[c]] += 1
     return detected, offset, counts
+
+
+@compiled()
+def hits(
+    x: np.ndarray,
+    y: np.ndarray,
+    h: np.ndarray,
+    phi: np.ndarray,
+    t: np.ndarray,
+    body_x: np.ndarray,
+    body_y: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    facing: np.ndarray,
+    gain: np.ndarray,
+    offset: np.ndarray,
+    reach: np.ndarray,
+    silhouette: np.ndarray,
+    kind: int,
+    g: np.ndarray,
+    light: np.ndarray,
+    light_at: np.ndarray,
+    sigma: float,
+    optics: np.ndarray,
+    timing: np.ndarray,
+    timing_at: np.ndarray,
+    clock: np.ndarray,
+    omega: np.ndarray,
+    direction: np.ndarray,
+    merging: np.ndarray,
+    key: np.uint64,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A batch's hits in one call, for a level without obstacles: `candidates`, `response` and
+    `pulses` in turn, with their arguments (`optics` = `hardware(params)` as an array; `clock` =
+    the timing noise's scale, the window's start and end, the clock's rate and its first tick;
+    `merging` = whether, the number of arrays and the rate). Returns the crossings' rows, the
+    optics' offsets, and `pulses`' results: which crossing each pulse is, its robot, beacon,
+    reading and phase, and per robot its count and whether two of its pulses read one time."""
+    robot, beacon, _, _, rows, _ = candidates(
+        x, y, h, phi, t, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
+    )
+    hardware_ = (optics[0], optics[1], optics[2], optics[3], optics[4])
+    detected, shift, _ = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_, x.shape[1])
+    source, rob, bea, times, phase, counts = pulses(
+        rows[0], shift, detected, robot, beacon, rows[3], timing, timing_at, clock[0], clock[1], clock[2], omega,
+        kind == REFLECTOR, clock[3], clock[4], direction, (merging[0] > 0, int(merging[1]), merging[2], key),
+    )  # fmt: skip
+    return rows, shift, source, rob, bea, times, phase, counts

@@ -1,0 +1,44 @@
+"""Each robot's standard normal draws from a stream of its own, drawn ahead in blocks, so that a
+compiled pass takes as many as it needs without coming back to Python between its stages.
+
+A Generator's normals do not depend on how many are drawn at a time (its ziggurat keeps no
+value over from one call to the next), so a pass that takes them in order from the block gets
+the very numbers it would get by drawing them one batch at a time, and `loc + scale * z` is
+the value `normal(loc, scale)` gives.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class Normals:
+    """Standard normal draws per robot (`streams`, one Generator each), kept ahead in a block a
+    row per robot, with each robot's position in its row (`at`): a kernel reads row r from
+    `at[r]` on and moves `at[r]` past what it took."""
+
+    def __init__(self, streams: list[np.random.Generator]):
+        self.streams = streams
+        self.values = np.zeros((len(streams), 0))
+        self.at = np.zeros(len(streams), np.int64)
+
+    def ready(self, need: int) -> tuple[np.ndarray, np.ndarray]:
+        """The block and the positions, with at least `need` draws left in every robot's row
+        (what is left is moved to the row's start and the rest drawn anew)."""
+        width = self.values.shape[1]
+        if width < 2 * need:  # room for twice the need: a refill every other batch at most
+            wider = np.zeros((len(self.streams), 2 * need))
+            for r, at in enumerate(self.at.tolist()):
+                left = width - at
+                wider[r, :left] = self.values[r, at:]
+                self.streams[r].standard_normal(out=wider[r, left:])
+            self.values, width = wider, 2 * need
+            self.at[:] = 0
+            return self.values, self.at
+        for r, at in enumerate(self.at.tolist()):
+            if width - at < need:
+                left = width - at
+                self.values[r, :left] = self.values[r, at:]
+                self.streams[r].standard_normal(out=self.values[r, left:])
+                self.at[r] = 0
+        return self.values, self.at
