@@ -60,7 +60,7 @@ def test_sweep_passes_keep_and_fire_what_the_kind_modules_do(kind):
         code, radius = sweep.KIND_CODES[kind], 0.02
         bx, by = BEACONS
         robot, beacon, step, s, rows, kept = sweep.candidates(
-            traj.x, traj.y, traj.h, traj.phi, traj.t, traj.x, traj.y, bx, by, FACING,
+            traj.x, traj.y, traj.h, traj.phi, traj.t, *sweep.bearings(traj.x, traj.y, bx, by), traj.x, traj.y, bx, by, FACING,
             np.zeros(0) if gain is None else gain, np.zeros(0), reach, silhouette, code, sweep.gates(p, radius),
         )  # fmt: skip
         keep = rows[11] > 0

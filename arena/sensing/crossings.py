@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import objmode
 
 from arena.angles import TWO_PI
 from arena.compiled import compiled, maximum, minimum, sign, wrap_angle
@@ -90,10 +89,11 @@ def find_crossings(
     turn per step), so the beam passes a beacon in step k exactly when d changes sign there
     without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
     hit at a step boundary is counted once, whichever way the beam turns. All of it is one
-    compiled call (`crossing_arrays`) but the bearings of every step, which are NumPy's."""
+    compiled call (`crossing_arrays`) but the bearings of every step, NumPy's `arctan2`."""
     off = beam_offset if beam_offset is not None and beam_offset.any() else _NO_OFFSET
     dx, dy = laser_to_beacons(traj.x, traj.y, bx, by)
-    robot, beacon, step, s, rows = crossing_arrays(traj.x, traj.y, traj.h, traj.phi, traj.t, bx, by, off, dx, dy)
+    grid = (dx, dy, np.arctan2(dy, dx))
+    robot, beacon, step, s, rows = crossing_arrays(traj.x, traj.y, traj.h, traj.phi, traj.t, bx, by, off, *grid)
     return Crossings(robot, beacon, step, s, *rows)
 
 
@@ -135,18 +135,17 @@ def crossing_arrays(
     offset: np.ndarray,
     dx: np.ndarray,
     dy: np.ndarray,
+    bearing: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """`find_crossings` but the grid's bearings: (robot, beacon, step, s, and the rows t, x, y,
-    phi, beam_rate, distance, bearing) from a trajectory (x, y, h, phi at the step ends `t`), the
-    beacons, each robot's beam offset (none: every beam on its axis) and the vectors from every
-    laser to every beacon (`laser_to_beacons`). The bearings of those vectors are NumPy's
-    `arctan2`, called here through numba's object mode: NumPy's SIMD code is several times
-    faster on the grid than the C library's. The arc functions of the crossings themselves are the
-    C library's (decision 0041)."""
+    """`find_crossings` but the grid: (robot, beacon, step, s, and the rows t, x, y, phi,
+    beam_rate, distance, bearing) from a trajectory (x, y, h, phi at the step ends `t`), the
+    beacons, each robot's beam offset (none: every beam on its axis), the vectors from every
+    laser to every beacon (`laser_to_beacons`) and their bearings, NumPy's `arctan2` (its SIMD
+    code is several times faster on the grid than the C library's; a kernel cannot call it
+    and still be cached). The arc functions of the crossings themselves are the C library's
+    (decision 0041)."""
     shifted = offset.shape[0] > 0
     k, r, b = dx.shape
-    with objmode(bearing="float64[:, :, ::1]"):
-        bearing = np.arctan2(dy, dx)
     beam = np.empty((k, r))
     shift = np.empty((k, r, b)) if shifted else np.empty((0, 0, 0))
     for i in range(k):

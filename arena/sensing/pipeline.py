@@ -195,7 +195,8 @@ class Sensing:
         clock = np.array([self._timing_noise, w0, w1, self._clock_hz, first_tick_after(w0, self.params)])
         bodies = (self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
         beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
-        path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, traj.x, traj.y)
+        grid = sweep.bearings(lasers.x, lasers.y, self.bx, self.by)
+        path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, *grid, traj.x, traj.y)
         if not self.occlusion.has_obstacles:
             return sweep.hits(
                 *path, *beacons, *bodies, light, light_at, self._light_sigma, self._optics, timing, timing_at, clock,

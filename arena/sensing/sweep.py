@@ -1,9 +1,10 @@
-"""A batch's beam-beacon hits before the hardware reads them, in two compiled passes around the
-random draws (whose counts the first pass gives): `candidates` finds every crossing, drops those
-another robot's silhouette blocks or the kind's gates refuse, and gives each detector's response
-there; `response` lets each sweep's light vary (`light_noise`) and applies the optics (which
-sweeps fire, and how early). The models are the kind modules' (reflector, sensor_array,
-flash_detector, optics); here they run on one batch in one call each.
+"""A batch's beam-beacon hits, in one compiled call (`hits`, decision 0041) of three stages:
+`candidates` finds every crossing, drops those another robot's silhouette blocks or the kind's
+gates refuse, and gives each detector's response there; `response` lets each sweep's light vary
+(`light_noise`) and applies the optics (which sweeps fire, and how early); then `pulses` reads
+them as the hardware does. Each robot's draws come in order from blocks drawn ahead from its own
+streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
+flash_detector, optics); here they run on one batch at once.
 """
 
 from __future__ import annotations
@@ -38,6 +39,13 @@ GATES = (
 )
 
 
+def bearings(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vectors from every laser (steps, robots) to every beacon and their bearings, NumPy's
+    `arctan2` (decision 0041): what `candidates` and `hits` take after the trajectory."""
+    dx, dy = laser_to_beacons(x, y, bx, by)
+    return dx, dy, np.arctan2(dy, dx)
+
+
 def gates(p: Mapping[str, float], radius: float) -> np.ndarray:
     """The hardware parameters `candidates` takes (`GATES`), then the beacons' `radius`, as one array."""
     return np.array([*(float(p.get(name, default)) for name, default in GATES), radius])
@@ -57,6 +65,9 @@ def candidates(
     h: np.ndarray,
     phi: np.ndarray,
     t: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    bearing: np.ndarray,
     body_x: np.ndarray,
     body_y: np.ndarray,
     bx: np.ndarray,
@@ -69,8 +80,9 @@ def candidates(
     kind: int,
     g: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The crossings of the beams leaving from (x, y, h, phi) at the step ends t, and which of
-    them may fire: not blocked by another robot's body (at `body_x`, `body_y`, with each robot's
+    """The crossings of the beams leaving from (x, y, h, phi) at the step ends t (dx, dy: the
+    vectors from each laser to each beacon at each step end, and their `bearing`: `bearings`),
+    and which of them may fire: not blocked by another robot's body (at `body_x`, `body_y`, with each robot's
     `reach` in a batch and `silhouette`: occlusion.blocked; the beacons' radius is `g`'s last),
     and through the gates of `kind` (reflector: range and incidence; flash detector without light
     noise: flash_detector.flash_limit). Beacons at (bx, by), facing `facing`, with each its
@@ -79,8 +91,7 @@ def candidates(
     the count of crossings kept), the response relative to a nominal detector head-on
     (hardware.sensitivity)."""
     radius = g[12]
-    dx, dy = laser_to_beacons(x, y, bx, by)
-    robot, beacon, step, s, rows = crossing_arrays(x, y, h, phi, t, bx, by, offset, dx, dy)
+    robot, beacon, step, s, rows = crossing_arrays(x, y, h, phi, t, bx, by, offset, dx, dy, bearing)
     n = s.shape[0]
     px, py, distance, bearing = rows[1], rows[2], rows[5], rows[6]
     hidden, qx, qy = blocked(px, py, bx[beacon], by[beacon], radius, robot, step, s, body_x, body_y, reach, silhouette)
@@ -163,6 +174,9 @@ def hits(
     h: np.ndarray,
     phi: np.ndarray,
     t: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    bearing: np.ndarray,
     body_x: np.ndarray,
     body_y: np.ndarray,
     bx: np.ndarray,
@@ -193,7 +207,7 @@ def hits(
     optics' offsets, and `pulses`' results: which crossing each pulse is, its robot, beacon,
     reading and phase, and per robot its count and whether two of its pulses read one time."""
     robot, beacon, _, _, rows, _ = candidates(
-        x, y, h, phi, t, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
+        x, y, h, phi, t, dx, dy, bearing, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
     )
     hardware_ = (optics[0], optics[1], optics[2], optics[3], optics[4])
     detected, shift, _ = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_, x.shape[1])

@@ -134,8 +134,10 @@ class ProcessBot:
         deadline = time.monotonic() + self.limits.setup_time
         channel = self.channel
         unsent = channel.send(Setup(v=PROTOCOL_VERSION, brief=brief), self.limits.setup_time)
-        if unsent:
+        if unsent and unsent is not Trouble.CRASH:
             return self._fault(0, 0.0, unsent, "setup")
+        # a controller that ended before its brief could be written (its team's module failed to
+        # load, say) told why first: what it wrote is read on, as from one that ended later
         reply = channel.receive(deadline - time.monotonic())
         if isinstance(reply, Loaded):
             self.loaded = True
