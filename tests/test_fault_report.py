@@ -24,14 +24,20 @@ class Boom(Controller):
 """
 
 
+def run_team(shared_dir, name: str, source: str, extra: list[str]) -> tuple:
+    """`laserarena run` of the mini level with a team file `name` holding `source`: the run's
+    output and its robot's first fault, as the result records it."""
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / name).write_text(source)
+    (shared_dir / name).chmod(0o644)
+    out = run_cli("run", "level.yaml", "--team", name, "--json", "r.json", *extra, cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    return out, json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"][0]
+
+
 @pytest.mark.parametrize("extra", [[], ["--in-process"]])
 def test_fault_message_log_and_traceback(shared_dir, extra):
-    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
-    (shared_dir / "boom.py").write_text(BOOM)
-    (shared_dir / "boom.py").chmod(0o644)
-    out = run_cli("run", "level.yaml", "--team", "boom.py", "--json", "r.json", *extra, cwd=shared_dir)
-    assert out.returncode == 0, out.stderr
-    fault = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"][0]
+    out, fault = run_team(shared_dir, "boom.py", BOOM, extra)
     # the mini level's control period is 0.05 s: tick 3 is at 0.15 s
     assert (fault["kind"], fault["tick"], fault["time"]) == ("exception", 3, pytest.approx(0.15))
     assert fault["message"] == "in step: ZeroDivisionError: division by zero"
@@ -67,11 +73,6 @@ class Loud(Controller):
 @pytest.mark.parametrize("extra", [[], ["--in-process"]])
 def test_a_fault_message_is_recorded_terminal_safe(shared_dir, extra):
     # a team's exception text with a screen clear, a colour, a bidirectional override and a bell
-    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
-    (shared_dir / "loud.py").write_text(ESCAPES)
-    (shared_dir / "loud.py").chmod(0o644)
-    out = run_cli("run", "level.yaml", "--team", "loud.py", "--json", "r.json", *extra, cwd=shared_dir)
-    assert out.returncode == 0, out.stderr
-    fault = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"][0]
+    out, fault = run_team(shared_dir, "loud.py", ESCAPES, extra)
     assert fault["message"] == "in step: ValueError: \\x1b[2J\\x1b[31mred\\u202e\\x07"
     assert "\x1b" not in out.stdout and "\u202e" not in out.stdout

@@ -27,7 +27,6 @@ from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
 from arena.sensing.normals import Normals
 from arena.sensing.occlusion import Occlusion
-from arena.sensing.pulses import pulses
 from arena.sensing.readout import false_times, first_tick_after, quantize_angle
 from arena.sensing.spin import Spin
 from arena.world import World
@@ -185,9 +184,9 @@ class Sensing:
     def _pulses(self, traj: Trajectory, lasers: Trajectory) -> tuple[np.ndarray, ...]:
         """The batch's crossings of the beams leaving from `lasers` (`sweep.candidates`' rows),
         the optics' offsets, and its pulses as the hardware reads them (`pulses`' results):
-        `sweep.hits` in one call, or, where the level has obstacles, its three passes with
-        pymunk's segment query after the first. Each robot's light and timing draws come from
-        its own streams, drawn ahead (normals.Normals)."""
+        `sweep.candidates` then `sweep.fire`, with pymunk's segment query between them where the
+        level has obstacles. Each robot's light and timing draws come from its own streams,
+        drawn ahead (normals.Normals)."""
         need = (len(traj.t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
         light, light_at = self._light.ready(need) if self._light else (_NO_ROWS, _NO_AT)
         timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)
@@ -197,23 +196,13 @@ class Sensing:
         beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
         grid = sweep.bearings(lasers.x, lasers.y, self.bx, self.by)
         path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, *grid, traj.x, traj.y)
-        if not self.occlusion.has_obstacles:
-            return sweep.hits(
-                *path, *beacons, *bodies, light, light_at, self._light_sigma, self._optics, timing, timing_at, clock,
-                self.omega, self.direction, self._merging, self._merge_key,
-            )  # fmt: skip
         robot, beacon, _, _, rows, kept = sweep.candidates(*path, *beacons, *bodies)
-        self.occlusion.clear_obstacles(rows, robot, kept)
-        optics_on = self.kind != "reflector"
-        detected, offset, _ = sweep.response(
-            robot, rows, light, light_at, self._light_sigma, optics_on, tuple(self._optics.tolist()), self.n
-        )
-        merging = (bool(self._merging[0]), int(self._merging[1]), float(self._merging[2]), self._merge_key)
-        read = pulses(
-            rows[0], offset, detected, robot, beacon, rows[3], timing, timing_at, self._timing_noise, w0, w1,
-            self.omega, not optics_on, self._clock_hz, float(clock[4]), self.direction, merging,
+        if self.occlusion.has_obstacles:  # pymunk's segment query, between the compiled stages
+            self.occlusion.clear_obstacles(rows, robot, kept)
+        return sweep.fire(
+            robot, beacon, rows, self._kind, light, light_at, self._light_sigma, self._optics, timing, timing_at,
+            clock, self.omega, self.direction, self._merging, self._merge_key,
         )  # fmt: skip
-        return rows, offset, *read
 
     def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
         """The beacons' pulses (`_pulses`) as detections, per robot in event order."""

@@ -1,8 +1,9 @@
-"""A batch's beam-beacon hits, in one compiled call (`hits`, decision 0041) of three stages:
+"""A batch's beam-beacon hits, in two compiled calls (decision 0041) of three stages:
 `candidates` finds every crossing, drops those another robot's silhouette blocks or the kind's
 gates refuse, and gives each detector's response there; `response` lets each sweep's light vary
 (`light_noise`) and applies the optics (which sweeps fire, and how early); then `pulses` reads
-them as the hardware does. Each robot's draws come in order from blocks drawn ahead from its own
+them as the hardware does (the last two in one call, `fire`: a level's obstacles are queried
+in pymunk between the calls). Each robot's draws come in order from blocks drawn ahead from its own
 streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
 flash_detector, optics); here they run on one batch at once.
 """
@@ -41,7 +42,7 @@ GATES = (
 
 def bearings(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The vectors from every laser (steps, robots) to every beacon and their bearings, NumPy's
-    `arctan2` (decision 0041): what `candidates` and `hits` take after the trajectory."""
+    `arctan2` (decision 0041): what `candidates` takes after the trajectory."""
     dx, dy = laser_to_beacons(x, y, bx, by)
     return dx, dy, np.arctan2(dy, dx)
 
@@ -168,26 +169,11 @@ def response(
 
 
 @compiled()
-def hits(
-    x: np.ndarray,
-    y: np.ndarray,
-    h: np.ndarray,
-    phi: np.ndarray,
-    t: np.ndarray,
-    dx: np.ndarray,
-    dy: np.ndarray,
-    bearing: np.ndarray,
-    body_x: np.ndarray,
-    body_y: np.ndarray,
-    bx: np.ndarray,
-    by: np.ndarray,
-    facing: np.ndarray,
-    gain: np.ndarray,
-    offset: np.ndarray,
-    reach: np.ndarray,
-    silhouette: np.ndarray,
+def fire(
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    rows: np.ndarray,
     kind: int,
-    g: np.ndarray,
     light: np.ndarray,
     light_at: np.ndarray,
     sigma: float,
@@ -200,17 +186,15 @@ def hits(
     merging: np.ndarray,
     key: np.uint64,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A batch's hits in one call, for a level without obstacles: `candidates`, `response` and
-    `pulses` in turn, with their arguments (`optics` = `hardware(params)` as an array; `clock` =
-    the timing noise's scale, the window's start and end, the clock's rate and its first tick;
-    `merging` = whether, the number of arrays and the rate). Returns the crossings' rows, the
-    optics' offsets, and `pulses`' results: which crossing each pulse is, its robot, beacon,
-    reading and phase, and per robot its count and whether two of its pulses read one time."""
-    robot, beacon, _, _, rows, _ = candidates(
-        x, y, h, phi, t, dx, dy, bearing, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
-    )
+    """What `candidates`' crossings (robot, beacon, `rows`) become: `response`, then `pulses`
+    (`optics` = `hardware(params)` as an array; `clock` = the timing noise's scale, the window's
+    start and end, the clock's rate and its first tick; `merging` = whether, the number of
+    arrays and the rate; `key` the merges' key). Returns the rows, the optics' offsets, and
+    `pulses`' results: which crossing each pulse is, its robot, beacon, reading and phase, and
+    per robot its count and whether two of its pulses read one time."""
     hardware_ = (optics[0], optics[1], optics[2], optics[3], optics[4])
-    detected, shift, _ = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_, x.shape[1])
+    robots = omega.shape[0]
+    detected, shift, _ = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_, robots)
     source, rob, bea, times, phase, counts = pulses(
         rows[0], shift, detected, robot, beacon, rows[3], timing, timing_at, clock[0], clock[1], clock[2], omega,
         kind == REFLECTOR, clock[3], clock[4], direction, (merging[0] > 0, int(merging[1]), merging[2], key),
