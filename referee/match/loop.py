@@ -62,6 +62,9 @@ class Match:
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level = level
         self.teams = teams
+        # first: a root referee's controller template starts now and imports while the world
+        # is made and a process's first match loads the compiled kernels
+        self.fleet = Fleet(teams, level.limits if limits is None else limits, logs, isolate)
         self.seed = level.seed if seed is None else seed
         self.ideal = ideal
         tree = RandomTree(self.seed, noise_key)  # noise_key: the grader's secret (docs/integrity.md)
@@ -73,8 +76,6 @@ class Match:
         self.trial = 0
         self.world = World(level, None if ideal else tree, self.starts)
         self.sensing = Sensing(self.world, tree, ideal)
-        limits = level.limits if limits is None else limits
-        self.fleet = Fleet(teams, limits, logs, isolate)
         self.inbox: list[list[SensorEvent]] = [[] for _ in teams]
         self.faults: list[list[Fault]] = [[] for _ in teams]
         self.stopped = [False] * len(teams)
