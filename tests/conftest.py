@@ -4,9 +4,14 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+# no wall-clock threshold in the suite: a property's first example may load or compile a kernel
+settings.register_profile("laserarena", deadline=None)
+settings.load_profile("laserarena")
 
 
 @pytest.fixture

@@ -174,3 +174,26 @@ def test_a_write_that_fails_in_the_compressors_thread_is_raised_in_the_match_and
     w.discard()
     assert w._compressor is not None and not w._compressor.is_alive()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_numbers_round_halfway_values_to_even_as_json_writes_them():
+    """Floats exactly halfway between two nine-place decimals (odd multiples of 2**-10 and
+    finer: 1e9 / 1024 ends in .5), and the floats next to them on both sides: the compiled
+    formatter's exact product must choose as Python's correctly rounded `round` does."""
+    from referee.records.replay_lines import numbers
+
+    halfway = [m / 2**k for k in range(10, 40, 3) for m in range(1, 3001, 2)]
+    values = [v for h in halfway for v in (h, math.nextafter(h, 0.0), math.nextafter(h, 1.0)) if 1e-4 <= v < 1e6]
+    values += [-v for v in values]
+    assert numbers(values) == [json.dumps(round(v, DECIMALS)) for v in values]
+
+
+def test_numbers_of_random_floats_are_what_json_writes():
+    """Floats of every magnitude the compiled formatter writes (1e-4 up to 1e6, both signs),
+    their bits drawn at random, a thousand at a time, against Python's own rounding."""
+    from referee.records.replay_lines import numbers
+
+    rng = random.Random(3)
+    for _ in range(100):
+        values = [rng.choice((1, -1)) * rng.uniform(1, 10) * 10.0 ** rng.randint(-4, 5) for _ in range(1000)]
+        assert numbers(values) == [json.dumps(round(v, DECIMALS)) for v in values]

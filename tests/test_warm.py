@@ -1,6 +1,6 @@
 """The install's warm-up (`python -P -m referee.match.warm`, decision 0040) compiles every
 kernel a match calls: after it, with its cache alone (a cache folder of the test's own), other
-matches of every level, with noise and ideal, load every kernel and compile none, so a user's
+matches of every level, with noise and ideal, their replays written, load every kernel and compile none, so a user's
 first match never waits for the compiler."""
 
 import os
@@ -9,19 +9,21 @@ import sys
 
 PROBE = """
 import dataclasses
+import tempfile
+from pathlib import Path
 import levels
 from numba.core import event
 from arena.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 
-with event.install_recorder("numba:compile") as compiled:
+with event.install_recorder("numba:compile") as compiled, tempfile.TemporaryDirectory() as folder:
     for name in levels.names():
         level = load_level(levels.path(name))
         level = dataclasses.replace(level, time_limit=min(level.time_limit, 8.0))
         teams = [resolve(level.default_controller)] * len(level.robots)
         for ideal in (False, True):
-            run_match(level, teams, seed=7, ideal=ideal, isolate=False)
+            run_match(level, teams, seed=7, ideal=ideal, isolate=False, replay=Path(folder) / "m.replay")
 print(sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in compiled.buffer if e.is_start}))
 """
 

@@ -4,14 +4,17 @@ install starts as fast as later ones (docs/decisions/0040-kernels-compiled-at-in
 
 numba compiles a kernel for the argument types of its first call and keeps it in its cache
 (arena/compiled.py); a few seconds of a match on every built-in level, with its noise and
-ideal, in this process, call every kernel a match calls with the types a match gives it.
+ideal, in this process, replays written, call every kernel a match calls with the types a
+match gives it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import levels
 from arena.loader import load_level
@@ -23,14 +26,15 @@ SECONDS = 3.0  # of each match: enough for every level's lasers to sweep every b
 
 def warm(seconds: float = SECONDS) -> float:
     """Run a short match of every built-in level, noisy and ideal, each slot its level's
-    default controller in this process; the CPU seconds it took."""
+    default controller in this process, its replay written (and dropped); the CPU seconds it took."""
     began = time.process_time()
-    for name in levels.names():
-        level = load_level(levels.path(name))
-        level = dataclasses.replace(level, time_limit=min(level.time_limit, seconds))
-        teams = [resolve(level.default_controller)] * len(level.robots)
-        for ideal in (False, True):
-            run_match(level, teams, ideal=ideal, isolate=False)
+    with tempfile.TemporaryDirectory() as folder:
+        for name in levels.names():
+            level = load_level(levels.path(name))
+            level = dataclasses.replace(level, time_limit=min(level.time_limit, seconds))
+            teams = [resolve(level.default_controller)] * len(level.robots)
+            for ideal in (False, True):
+                run_match(level, teams, ideal=ideal, isolate=False, replay=Path(folder) / "warm.replay")
     return time.process_time() - began
 
 

@@ -16,6 +16,9 @@ import operator
 from collections.abc import Iterable, Sequence
 from typing import Any, Protocol
 
+import numpy as np
+
+from referee.records import decimals
 from referee.records.canonical import DECIMALS
 
 
@@ -54,23 +57,18 @@ def number(value: float) -> str:
 
 
 def numbers(values: list[float]) -> list[str]:
-    """`number` of each value, formatted at once: one `%` for all of them, and a few plain
-    replaces that drop their trailing zeros (at most 9: 4, 4, 2, then 1, one line each). The
-    few that are not 0 yet round below 1e-4 (their text begins 0.0000), or reach 1e6, are
-    formatted one by one."""
+    """`number` of each value, formatted at once: in one compiled call (`decimals.write_fixed`)
+    where every one is a float it writes, else one by one."""
     if not values or set(map(type, values)) != {float}:  # every one a float, checked at C speed
         return list(map(number, values))
-    text = (_FIXED + "\n") * len(values) % tuple(values)
-    if "n" in text:  # nan, inf
+    out = np.empty(decimals.WIDTH * len(values), np.uint8)
+    size = decimals.write_fixed(np.array(values), out)
+    if size == decimals.NOT_FINITE:
         raise TypeError("not finite")
-    text = text.replace("0000\n", "\n").replace("0000\n", "\n").replace("00\n", "\n").replace("0\n", "\n")
-    text = text.replace(".\n", ".0\n")
-    texts = text.split("\n")
+    if size == decimals.OWN_FORM:  # zero, under 1e-4 once rounded, or 1e6 and more
+        return list(map(number, values))
+    texts = out[:size].tobytes().decode("ascii").split("\n")
     texts.pop()  # after the last newline
-    if text.startswith(("0.0000", "-0.0000")) or "\n0.0000" in text or "\n-0.0000" in text:
-        texts = list(map(number, values))
-    elif not -1e6 < min(values) <= max(values) < 1e6:
-        texts = list(map(number, values))
     return texts
 
 
