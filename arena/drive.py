@@ -100,7 +100,10 @@ class DiffDrive:
         self.target = (0.0, 0.0)  # true wheel speeds that command asks of the servos
         self.wheels = (0.0, 0.0)
         self.turn_factor = 1.0  # share of the wheels' turn rate the ground lets through
-        self._queue: deque[tuple[int, float, float]] = deque()
+        # commands on their way, in order: [due tick, left, right, what taking it does (`_effect`)]
+        self._queue: deque[list] = deque()
+        self._ahead = (0.0, 0.0)  # `commanded` once every command whose effect is worked out is taken
+        self._ahead_turn = 1.0  # and `turn_factor` then
         self._due = 0
         self._rate = 0.0
         self._motion = (0.0, body.angle)
@@ -115,39 +118,64 @@ class DiffDrive:
             seconds = self.errors.latency + self.errors.latency_jitter * self._link.random()
             delay = round(seconds / self.dt)
         self._due = max(self._due, tick + delay)
-        self._queue.append((self._due, left, right))
+        self._queue.append([self._due, left, right, None])
 
-    def _take(self, left: float, right: float) -> None:
-        """The servos get a new command: new wheel targets, and a new slip draw for a turn."""
-        if (left, right) == self.commanded:
-            return
-        self.commanded = (left, right)
-        top, e = self.model.max_wheel_speed, self.errors
-        self.target = (self.gains[0] * servo_response(left, top, e), self.gains[1] * servo_response(right, top, e))
-        if self._turns is not None and left != right:  # a turn's slip lasts through its slowing down
-            slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
-            self.turn_factor = 1.0 - slip * turn_share(left, right)
+    def _effect(self, entry: list) -> tuple[float, float, float] | tuple[()]:
+        """What taking a queued command does to the servos: its wheel targets and the turn
+        factor then, or () for a repeat of the command before it, which changes nothing. Worked
+        out once per command, in command order (so a turn's slip draw comes in the same order,
+        whether the command is taken a step at a time or by a compiled run)."""
+        if entry[3] is None:
+            left, right = entry[1], entry[2]
+            if (left, right) == self._ahead:
+                entry[3] = ()
+            else:
+                self._ahead = (left, right)
+                top, e = self.model.max_wheel_speed, self.errors
+                target = (self.gains[0] * servo_response(left, top, e), self.gains[1] * servo_response(right, top, e))
+                if self._turns is not None and left != right:  # a turn's slip lasts through its slowing down
+                    slip = min(1.0, max(0.0, e.turn_slip + e.turn_slip_sd * float(self._turns.standard_normal())))
+                    self._ahead_turn = 1.0 - slip * turn_share(left, right)
+                entry[3] = (*target, self._ahead_turn)
+        return entry[3]
+
+    def _take(self, entry: list) -> None:
+        """The servos get a command: new wheel targets, and for a turn a new slip."""
+        effect = self._effect(entry)
+        self.commanded = (entry[1], entry[2])
+        if effect:
+            self.target, self.turn_factor = effect[:2], effect[2]
 
     def halt(self) -> None:
         """Stop at once: wheels and targets at rest, commands on their way dropped, the control
         body still and at the robot's pose (for a robot carried to a new pose)."""
         self._queue.clear()
-        self.commanded = self.target = self.wheels = (0.0, 0.0)
-        self.turn_factor = 1.0
+        self.commanded = self.target = self.wheels = self._ahead = (0.0, 0.0)
+        self.turn_factor = self._ahead_turn = 1.0
         self._rate, self._motion = 0.0, (0.0, 0.0)
         self.control.position = self.body.position
         self.control.angle = self.body.angle
         self.control.velocity = (0.0, 0.0)
         self.control.angular_velocity = 0.0
 
-    def take_due(self, tick: int) -> int | None:
-        """Take the commands due at `tick`; return the tick the next one comes due (None: no
-        command waits)."""
+    def take_due(self, tick: int) -> None:
+        """Take the commands due at `tick` (or before)."""
         queue = self._queue
         while queue and queue[0][0] <= tick:
-            _, left, right = queue.popleft()
-            self._take(left, right)
-        return queue[0][0] if queue else None
+            self._take(queue.popleft())
+
+    def changes(self, until: int) -> list[tuple[float, ...]]:
+        """What the commands due before tick `until` do to the servos, in order: (due tick,
+        left target, right target, turn factor) for each that changes them (`_effect`), for a
+        compiled run to apply at their ticks (arena.stepping); `take_due` then takes them."""
+        out: list[tuple[float, ...]] = []
+        for entry in self._queue:
+            if entry[0] >= until:
+                break
+            effect = self._effect(entry)
+            if effect:
+                out.append((entry[0], *effect))
+        return out
 
     def numbers(self) -> tuple[float, ...]:
         """The drive's state and constants, in the order of a row of `arena.stepping`'s table."""

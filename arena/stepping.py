@@ -13,8 +13,10 @@ for a small world. This loop does the same arithmetic as `DiffDrive.update` and
   work is to wake a sleeping dynamic body, and control bodies are kinematic);
 - `cos` and `sin` are the C library's, as `math`'s are (LLVM may fetch both at once through
   its `sincos`, which gives the same bits); no fast-math, no fused multiply-add.
-Commands that come due and their random draws stay in Python: `World.run` stops the loop
-at each such tick. `tests/test_stepping.py` compares with `World.step`, bit for bit.
+What a command does to its drive's servos (its wheel targets, and a turn's slip, a random
+draw) is worked out in Python before the run (`DiffDrive.changes`); the loop applies it at the
+tick it comes due, as `DiffDrive.update` takes it. `tests/test_stepping.py` compares with
+`World.step`, bit for bit.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ from arena.compiled import compiled
 
 # a drive's numbers in its row of the `drives` table
 WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)
+# a servo change in its row of the `changes` table: when, whose, and its targets and turn factor
+DUE, SLOT, NEW_TARGET_L, NEW_TARGET_R, NEW_TURN = range(5)
 WORDS = 16  # doubles of a cpBody read or written (the layout's places are below 16)
 
 
@@ -90,6 +94,7 @@ def run_steps(
     controls: np.ndarray,
     drives: np.ndarray,
     layout: np.ndarray,
+    changes: np.ndarray,
     tick: int,
     clock: np.ndarray,
     watch: np.ndarray,
@@ -97,8 +102,9 @@ def run_steps(
     states: np.ndarray,
     velocities: np.ndarray,
 ) -> int:
-    """Up to `len(states)` physics steps from `tick`: each drive's update (its row of
-    `drives`, updated in place), chipmunk's step, then every robot's x, y and heading into
+    """Up to `len(states)` physics steps from `tick`: the servo changes come due (rows of
+    `changes`, in order of their due ticks), each drive's update (its row of `drives`, updated
+    in place), chipmunk's step, then every robot's x, y and heading into
     `states` (and velocity into `velocities`, if it has rows). `clock[0]` holds the tick of
     the step under way, for the collision callbacks. Stops after a step where a robot of
     `watch` (rows of state index, x, y) stands within sqrt(`near`) of its point; returns the
@@ -106,7 +112,14 @@ def run_steps(
     px, vx, a, w = layout[0], layout[1], layout[2], layout[3]
     n = bodies.shape[0]
     record_velocities = velocities.shape[0] > 0
+    change = 0
     for k in range(states.shape[0]):
+        while change < changes.shape[0] and changes[change, DUE] <= tick + k:
+            d = drives[int(changes[change, SLOT])]
+            d[TARGET_L] = changes[change, NEW_TARGET_L]
+            d[TARGET_R] = changes[change, NEW_TARGET_R]
+            d[TURN] = changes[change, NEW_TURN]
+            change += 1
         for r in range(n):
             body = carray(_doubles(bodies[r]), WORDS)
             heading = body[a]

@@ -10,6 +10,7 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from operator import itemgetter
 
 import numpy as np
 import pymunk
@@ -292,38 +293,37 @@ class World:
         velocities = np.empty((steps if speeds else 0, 2 * n))
         points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
         near = watch.near if watch else 0.0
-        done, stopped, since = 0, False, len(self.contacts)
+        done, since = 0, len(self.contacts)
         space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
         self._clock[0], self._compiled = self.tick, True
         try:
-            while done < steps and not stopped:
-                dues = [t for t in (drive.take_due(self.tick) for drive in self.drives) if t is not None]
-                count = min(steps - done, min(dues) - self.tick) if dues else steps - done
-                table = np.array([drive.numbers() for drive in self.drives])
-                ran = 0
-                try:
-                    ran = stepping.run_steps(
-                        function,
-                        space_address,
-                        self.dt,
-                        bodies,
-                        controls,
-                        table,
-                        places,
-                        self.tick,
-                        self._clock,
-                        points,
-                        near,
-                        states[done : done + count],
-                        velocities[done : done + count],
-                    )
-                finally:  # what the steps did stays told, whatever is raised after them
-                    stopped, ran = ran < 0, abs(ran)
-                    for drive, row in zip(self.drives, table.tolist()):
-                        drive.set_numbers(row)
-                    self.tick += ran
-                    done += ran
-                self._raise_deferred()
+            changes = np.array(self._changes(self.tick + steps), float).reshape(-1, 5)
+            table = np.array([drive.numbers() for drive in self.drives])
+            ran = 0
+            try:
+                ran = stepping.run_steps(
+                    function,
+                    space_address,
+                    self.dt,
+                    bodies,
+                    controls,
+                    table,
+                    places,
+                    changes,
+                    self.tick,
+                    self._clock,
+                    points,
+                    near,
+                    states,
+                    velocities,
+                )
+            finally:  # what the steps did stays told, whatever is raised after them
+                done = abs(ran)
+                self.tick += done
+                for drive, row in zip(self.drives, table.tolist()):
+                    drive.set_numbers(row)
+                    drive.take_due(self.tick - 1)  # what the run applied, taken
+            self._raise_deferred()
         finally:
             self._compiled = False
             space._locked = False
@@ -339,6 +339,13 @@ class World:
                 for row in velocities[:done].tolist()
             ]
         return states, moving
+
+    def _changes(self, until: int) -> list[tuple[float, ...]]:
+        """Every drive's servo changes due before tick `until` (`DiffDrive.changes`, its slot
+        after its tick), in order of their ticks: a drive's own stay in command order."""
+        rows = [(due, slot, *rest) for slot, drive in enumerate(self.drives) for due, *rest in drive.changes(until)]
+        rows.sort(key=itemgetter(0))  # stable
+        return rows
 
     def _run_stepwise(
         self, steps: int, speeds: bool, watch: Watch | None

@@ -138,6 +138,34 @@ def test_a_run_stops_at_its_watch_on_the_step_before_a_command_comes_due(monkeyp
     assert world.state == probe.state
 
 
+def test_a_turn_waiting_when_a_run_stops_early_is_taken_later_as_steps_take_it():
+    """A compiled run works out what a command does (a turn's slip is a random draw) before
+    the command comes due. A run its watch stops before then leaves the command waiting, worked
+    out once: the runs after it give what stepping gives, bit for bit, and so do the draws of
+    the turns after it."""
+    world, probe = World(LEVEL, RandomTree(5)), World(LEVEL, RandomTree(5))
+    for w in (world, probe):
+        w.command(0, 0.2, 0.2)
+        w.run(60)
+        w.command(0, 0.1, 0.3)  # a turn, due a few steps on
+        w.command(1, 0.3, -0.1)
+    due = probe.drives[0]._queue[-1][0]
+    assert due > probe.tick + 2
+    while probe.tick < due - 1:
+        probe.step()
+    goal = probe.state[0:2]  # where robot 0 stands two steps before its turn comes due
+    world.run(40, watch=Watch(((0, *goal),), 1e-18))
+    assert world.tick == due - 1 and world.drives[0]._queue[0][3]  # stopped, the turn worked out and waiting
+    for period in range(12):
+        want, _ = stepwise(probe, LEVEL.steps_per_control)
+        got, _ = world.run(LEVEL.steps_per_control)
+        assert got.tobytes() == want.tobytes(), f"period {period}"
+        assert drives(world) == drives(probe)
+        commands(world, period)
+        commands(probe, period)
+    assert world.drives[0].turn_factor != 1.0  # the turns did slip
+
+
 @pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
 def test_what_a_contact_callback_raises_comes_after_the_step(monkeypatch, compiled):
     """An exception in a contact callback (an interrupt landing there) is raised once
