@@ -32,24 +32,30 @@ class Wheels:
         dt = time - self.time
         if dt <= 0:
             return 0.0, 0.0, 0.0
-        means, ends = [], []
-        for now, goal in zip(self.speeds, self.target):
-            ramp = abs(goal - now) / self.accel  # time to reach the command
-            end = goal if ramp <= dt else now + (goal - now) * dt / ramp
-            if ramp >= dt:
-                mean = (now + end) / 2
-            else:
-                mean = ((now + goal) / 2 * ramp + goal * (dt - ramp)) / dt
-            means.append(mean)
-            ends.append(end)
-        self.time, self.speeds = time, (ends[0], ends[1])
-        return dt, (means[0] + means[1]) / 2, (means[1] - means[0]) / self.track
+        (left, left_mean), (right, right_mean) = (
+            _ramped(self.speeds[0], self.target[0], dt, self.accel),
+            _ramped(self.speeds[1], self.target[1], dt, self.accel),
+        )
+        self.time, self.speeds = time, (left, right)
+        return dt, (left_mean + right_mean) / 2, (right_mean - left_mean) / self.track
 
     def copy(self) -> Wheels:
         """An independent copy, to try commands on without touching this one."""
         out = Wheels(self.track, self.accel, self.time)
         out.speeds, out.target = self.speeds, self.target
         return out
+
+
+def _ramped(now: float, goal: float, dt: float, accel: float) -> tuple[float, float]:
+    """A wheel ramping from speed `now` towards `goal` at `accel` for `dt` s: its speed at the
+    end, and its mean speed over the time."""
+    if now == goal:  # at its command, as a wheel mostly is: the general form's numbers, at once
+        return goal, goal * dt / dt
+    ramp = abs(goal - now) / accel  # time to reach the command
+    end = goal if ramp <= dt else now + (goal - now) * dt / ramp
+    if ramp >= dt:
+        return end, (now + end) / 2
+    return end, ((now + goal) / 2 * ramp + goal * (dt - ramp)) / dt
 
 
 def heading_change(wheels: Wheels, plan: list[tuple[float, float, float]], top: float) -> float:
@@ -61,7 +67,7 @@ def heading_change(wheels: Wheels, plan: list[tuple[float, float, float]], top: 
     for k, (duration, left, right) in enumerate(plan):
         w.command(left, right, top)
         if k == len(plan) - 1:  # hold the last command until both wheels reach it
-            duration = max(abs(s - g) for s, g in zip(w.speeds, w.target)) / w.accel + 1e-9
+            duration = max(abs(w.speeds[0] - w.target[0]), abs(w.speeds[1] - w.target[1])) / w.accel + 1e-9
         dt, _, rate = w.advance(w.time + duration)
         turned += rate * dt
     return turned
