@@ -7,8 +7,9 @@ per wall second unless said):
   `World.step` at a time (pymunk's stepping, the reference of every ratio); and the same
   world stepped a control period at a time by the compiled loop a match uses (`World.run`);
 - sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
-- full matches of asabe-race, isolated (each controller in its sandboxed process) and in this
-  process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
+- full matches of asabe-race (a process's own start, the compiled kernels loaded and the
+  sandbox's template booted, done before any is timed), isolated (each controller in its
+  sandboxed process) and in this process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
   and with `ref:dead-reckoning` (a controller that costs next to nothing): the ratio to bare
   stepping, measured just before and just after each match (`around`: a shared machine's
   speed drifts), is the figure (targets: ref:dead-reckoning >= 0.5 isolated and >= 0.7 in this
@@ -28,6 +29,7 @@ CPU figures come from the machine's own count (/proc/stat): run on an otherwise 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import resource
@@ -128,6 +130,9 @@ def match(spec: str, isolate: bool, repeat: int) -> dict:
     and its speed as a share of bare stepping's measured around it (`around`)."""
     level = load_level(levels.path("asabe-race"))
     teams = [resolve(spec)] * len(level.robots)
+    with tempfile.TemporaryDirectory() as d:  # a process's start, once for all its matches (given
+        # apart below): the compiled kernels loaded, the sandbox's template booted, untimed
+        run_match(dataclasses.replace(level, time_limit=2.0), teams, replay=Path(d) / "m.replay", isolate=isolate)
 
     def played() -> dict:
         with tempfile.TemporaryDirectory() as d:
