@@ -194,9 +194,8 @@ def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> 
         if config.get("probe"):  # the referee's check that a slot can be made here
             os._exit(0)
         os.chdir("/tmp")
-        sys.path_importer_cache.pop(
-            TEAM_DIR, None
-        )  # /team is new; every other folder the template's finders cached is the same read-only one
+        # /team is new; every other folder the template's finders cached is the same read-only one
+        sys.path_importer_cache.pop(TEAM_DIR, None)
         sys.argv = [robots.runner.__file__, *config["argv"]]
         code = robots.runner.main(config["argv"])
     except BaseException:

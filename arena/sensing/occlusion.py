@@ -59,16 +59,14 @@ class Occlusion:
                 blocked_[i] = first is not None
         return blocked_
 
-    def clear_obstacles(self, rows: np.ndarray, robot: np.ndarray, kept: np.ndarray) -> None:
+    def clear_obstacles(self, rows: np.ndarray) -> None:
         """Drop the kept crossings of `rows` (sweep.candidates': laser x, y in rows 1-2, the
-        beacon's near edge in 7-8, kept in 11) whose segment an obstacle blocks, and count them
-        off `kept` (per robot)."""
+        beacon's near edge in 7-8, kept in 11) whose segment an obstacle blocks."""
         space = self.world.space
         for i in np.nonzero(rows[11] > 0.0)[0].tolist():
             segment = (rows[1, i], rows[2, i]), (rows[7, i], rows[8, i])
             if space.segment_query_first(*segment, 0.0, self.obstacle_filter) is not None:
                 rows[11, i] = 0.0
-                kept[robot[i]] -= 1
 
 
 @compiled()

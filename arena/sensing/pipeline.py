@@ -196,9 +196,9 @@ class Sensing:
         beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
         grid = sweep.bearings(lasers.x, lasers.y, self.bx, self.by)
         path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, *grid, traj.x, traj.y)
-        robot, beacon, _, _, rows, kept = sweep.candidates(*path, *beacons, *bodies)
+        robot, beacon, _, _, rows = sweep.candidates(*path, *beacons, *bodies)
         if self.occlusion.has_obstacles:  # pymunk's segment query, between the compiled stages
-            self.occlusion.clear_obstacles(rows, robot, kept)
+            self.occlusion.clear_obstacles(rows)
         return sweep.fire(
             robot, beacon, rows, self._kind, light, light_at, self._light_sigma, self._optics, timing, timing_at,
             clock, self.omega, self.direction, self._merging, self._merge_key,

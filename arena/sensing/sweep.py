@@ -80,7 +80,7 @@ def candidates(
     silhouette: np.ndarray,
     kind: int,
     g: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The crossings of the beams leaving from (x, y, h, phi) at the step ends t (dx, dy: the
     vectors from each laser to each beacon at each step end, and their `bearing`: `bearings`),
     and which of them may fire: not blocked by another robot's body (at `body_x`, `body_y`, with each robot's
@@ -88,9 +88,8 @@ def candidates(
     and through the gates of `kind` (reflector: range and incidence; flash detector without light
     noise: flash_detector.flash_limit). Beacons at (bx, by), facing `facing`, with each its
     `gain` (none: all nominal); `g` = gates(params, radius). Returns (robot, beacon, step, s,
-    rows t x y phi beam_rate distance bearing qx qy cos-incidence response keep, and per robot
-    the count of crossings kept), the response relative to a nominal detector head-on
-    (hardware.sensitivity)."""
+    rows t x y phi beam_rate distance bearing qx qy cos-incidence response keep), the response
+    relative to a nominal detector head-on (hardware.sensitivity)."""
     radius = g[12]
     robot, beacon, step, s, rows = crossing_arrays(x, y, h, phi, t, bx, by, offset, dx, dy, bearing)
     n = s.shape[0]
@@ -99,7 +98,6 @@ def candidates(
     out = np.empty((13, n))
     out[:7] = rows
     out[7], out[8] = qx, qy
-    kept = np.zeros(x.shape[1], np.int64)
     near, far, near_i, far_i, accept, eta = g[3], g[4], g[5], g[6], g[7], g[8]
     for c in range(n):
         inc = abs(wrap_angle(bearing[c] + math.pi - facing[beacon[c]]))
@@ -125,9 +123,7 @@ def candidates(
             if gain.shape[0]:
                 response = response * gain[beacon[c]]
         out[9, c], out[10, c], out[11, c] = cos_inc, response, 1.0 if keep else 0.0
-        if keep:
-            kept[robot[c]] += 1
-    return robot, beacon, step, s, out, kept
+    return robot, beacon, step, s, out
 
 
 @compiled()
@@ -139,14 +135,13 @@ def response(
     sigma: float,
     optics_on: bool,
     hardware_: tuple[float, float, float, float, float],
-    robots: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray]:
     """Which of `candidates`' crossings (`rows`) fire, and how early: with light noise (`sigma`
     > 0), each kept sweep's response times exp(sigma x its draw), log-normal light: near a
     detector's limit the light hovers at the threshold, so such sweeps fire late or not at all
     (each robot's standard normals from row r of `light`, from `light_at[r]` on, in crossing
     order: normals.Normals), then the optics (optics.sweep_optics; none for reflectors:
-    `optics_on` false). Returns (detected, time offset, per robot the count detected)."""
+    `optics_on` false). Returns (detected, time offset)."""
     n = robot.shape[0]
     keep = rows[11] > 0.0
     sens = rows[10].copy()
@@ -161,11 +156,7 @@ def response(
     if optics_on:
         ok, offset = sweep_optics(rows[5], rows[4], rows[9], sens, hardware_)
         detected = ok & keep
-    counts = np.zeros(robots, np.int64)
-    for c in range(n):
-        if detected[c]:
-            counts[robot[c]] += 1
-    return detected, offset, counts
+    return detected, offset
 
 
 @compiled()
@@ -193,8 +184,7 @@ def fire(
     `pulses`' results: which crossing each pulse is, its robot, beacon, reading and phase, and
     per robot its count and whether two of its pulses read one time."""
     hardware_ = (optics[0], optics[1], optics[2], optics[3], optics[4])
-    robots = omega.shape[0]
-    detected, shift, _ = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_, robots)
+    detected, shift = response(robot, rows, light, light_at, sigma, kind != REFLECTOR, hardware_)
     source, rob, bea, times, phase, counts = pulses(
         rows[0], shift, detected, robot, beacon, rows[3], timing, timing_at, clock[0], clock[1], clock[2], omega,
         kind == REFLECTOR, clock[3], clock[4], direction, (merging[0] > 0, int(merging[1]), merging[2], key),
