@@ -1,8 +1,4 @@
-"""The installed laserarena version, recorded in every result and replay."""
+"""The laserarena version, recorded in every result and replay; the package's own version
+(pyproject.toml reads it from here)."""
 
-from importlib import metadata
-
-try:
-    __version__ = metadata.version("laserarena")
-except metadata.PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0+unknown"
+__version__ = "0.2.0"
