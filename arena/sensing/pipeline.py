@@ -20,6 +20,7 @@ import numpy as np
 
 from arena import floor
 from arena.angles import TWO_PI
+from arena.heap import lasting
 from arena.rng import RandomTree
 from arena.sensing import hardware, reflector, sensor_array, sweep
 from arena.sensing.crossings import Trajectory, find_phase_marks
@@ -103,7 +104,8 @@ class Sensing:
         self._last = world.state
         self._last_t = world.time
         if not _loaded:
-            _load_kernels(world, ideal)
+            with lasting():  # numba's objects for the kernels live as long as the process
+                _load_kernels(world, ideal)
 
     def record(self) -> None:
         """Store the robots' poses after a physics step."""

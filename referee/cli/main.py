@@ -15,6 +15,7 @@ from types import FrameType
 from typing import TextIO
 
 from arena.errors import LaserArenaError
+from arena.heap import lasting
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
 from referee.terminal import safe
 
@@ -81,7 +82,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     warnings.showwarning = _show_warning
     try:
-        from referee.cli.arguments import parser
+        with lasting():  # the commands' modules (numba, numpy, ...) live as long as the process
+            from referee.cli.arguments import parser
 
         args = parser().parse_args(argv)
         return int(args.func(args))

@@ -21,6 +21,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
+from arena.heap import lasting
 from referee.contest.shipping import arrived
 from referee.errors import SandboxError, UserError
 from referee.sandbox import kernel
@@ -180,16 +181,19 @@ def _worker_stop(signum: int, frame: object) -> None:
 def _worker_init(parent: int) -> None:
     """In each pool worker: die with the grading process, however it ends (even SIGKILL).
     The kernel sends SIGTERM when the parent goes; SIGTERM ends the match cleanly (its
-    controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle."""
+    controllers are stopped by the match's own clean-up). Ctrl-C is the parent's to handle.
+    (No parent-death signal outside Linux: there the pool's own shutdown ends the workers.)
+    Then import what its matches need, once, out of the collector's way (arena.heap)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_stop)
-    if not sys.platform.startswith("linux"):
-        return  # no parent-death signal elsewhere: the pool's own shutdown ends the workers
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
-        raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
-    if os.getppid() != parent:  # the parent died before the line above: follow it now
-        os._exit(143)
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+        if os.getppid() != parent:  # the parent died before the line above: follow it now
+            os._exit(143)
+    with lasting():
+        import referee.match.loop  # noqa: F401
 
 
 def _on_pool(todo: list[tuple[K, MatchJob]], workers: int) -> Generator[tuple[K, Played]]:

@@ -1,0 +1,92 @@
+"""arena.heap: what a process keeps to its end is frozen out of the collector's way, and the
+collector comes back on as it was."""
+
+from __future__ import annotations
+
+import gc
+import subprocess
+import sys
+import textwrap
+
+from arena.heap import lasting
+
+
+class Node:
+    def __init__(self) -> None:
+        self.me = self  # a cycle: only the cyclic collector frees it
+
+
+def test_objects_made_inside_are_frozen_and_the_collector_comes_back_on():
+    assert gc.isenabled()
+    before = gc.get_freeze_count()
+    try:
+        with lasting():
+            assert not gc.isenabled()  # paused while the lasting objects are made
+            kept = [Node() for _ in range(1000)]
+        assert gc.isenabled()
+        assert gc.get_freeze_count() >= before + len(kept)
+    finally:
+        gc.unfreeze()  # this test process's heap back to the collector
+
+
+def test_nested_the_outer_one_turns_the_collector_back_on_and_off_stays_off():
+    try:
+        with lasting():
+            with lasting():
+                pass
+            assert not gc.isenabled()  # the inner one found it off: it leaves it off
+        assert gc.isenabled()
+        gc.disable()
+        try:
+            with lasting():
+                pass
+            assert not gc.isenabled()  # a caller that had it off keeps it off
+        finally:
+            gc.enable()
+    finally:
+        gc.unfreeze()
+
+
+def test_an_exception_inside_still_turns_the_collector_back_on():
+    try:
+        try:
+            with lasting():
+                raise ValueError("inside")
+        except ValueError:
+            pass
+        assert gc.isenabled()
+    finally:
+        gc.unfreeze()
+
+
+def test_a_command_and_a_first_sensing_leave_numba_out_of_the_collectors_sight():
+    """What a `laserarena` command imports, and the kernels a process's first Sensing loads,
+    are frozen: no collection walks them (gc.get_objects lists what collections see)."""
+    probe = textwrap.dedent(
+        """
+        import gc, io, contextlib
+        from referee.cli.main import main
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(["levels"]) == 0
+        import numba.core.typing.context as typing_context
+        seen = {id(o) for o in gc.get_objects()}
+        print("numba seen after the command:", id(typing_context.BaseContext) in seen)
+        import levels
+        from arena.loader import load_level
+        from arena.rng import RandomTree
+        from arena.sensing import spin
+        from arena.sensing.pipeline import Sensing
+        from arena.world import World
+        world = World(load_level(levels.path("asabe")))
+        Sensing(world, RandomTree(1))
+        loaded = [o for kernel in vars(spin).values() for o in getattr(kernel, "overloads", {}).values()]
+        seen = {id(o) for o in gc.get_objects()}
+        print("kernels loaded:", len(loaded) > 0, "seen:", any(id(o) in seen for o in loaded))
+        print("collector on:", gc.isenabled())
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "numba seen after the command: False" in proc.stdout
+    assert "kernels loaded: True seen: False" in proc.stdout
+    assert "collector on: True" in proc.stdout
