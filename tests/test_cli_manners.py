@@ -4,6 +4,7 @@ one line with the documented exit codes (docs/cli.md), team labels relative to h
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -102,3 +103,23 @@ def test_contest_help_says_what_the_command_does_and_what_its_levels_are(command
     usage, description = out.stdout.split("\n\n")[:2]
     assert "docs/contests.md" in description and "resumable" in description
     assert "level names or level files" in out.stdout
+
+
+@pytest.mark.parametrize("given, threads", [(None, 1), ("2", 2)])
+def test_the_command_runs_numpy_with_one_blas_thread_unless_the_user_says(given, threads):
+    """No spare OpenBLAS thread spinning beside the referee (the user's own number wins)."""
+    probe = (
+        "import contextlib, io, os\n"
+        "from referee.cli.main import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    assert main(['levels']) == 0\n"
+        "import numpy\n"
+        "numpy.ones((400, 400)) @ numpy.ones((400, 400))  # a product large enough to be threaded\n"
+        "print(len(os.listdir('/proc/self/task')))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    if given:
+        env["OPENBLAS_NUM_THREADS"] = given
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout) == threads

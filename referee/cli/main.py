@@ -18,6 +18,7 @@ from arena.errors import LaserArenaError
 from arena.heap import lasting
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
 from referee.terminal import safe
+from referee.threads import one_blas_thread
 
 RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
 # packages whose code, when an exception is raised inside it, loses it or turns it into another
@@ -78,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `laserarena ARGV` and return its exit code."""
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
+    one_blas_thread()  # before NumPy loads; a team's code run --in-process gets its sandbox's one
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     warnings.showwarning = _show_warning

@@ -31,6 +31,7 @@ from pathlib import Path
 import robots
 import robots.seccomp
 from referee.sandbox.privacy import slot_uid, switches_users
+from referee.threads import ONE_BLAS_THREAD
 from robots import protocol
 from robots.loading import STANDARD_VIEW
 
@@ -44,9 +45,7 @@ RUNNER_ENV = {  # every controller's interpreter, sandboxed or not: deterministi
     "PYTHONHASHSEED": "0",
     "PYTHONDONTWRITEBYTECODE": "1",
     "PYTHONSAFEPATH": "1",
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
+    **ONE_BLAS_THREAD,
 }
 SANDBOX_ENV = dict(  # the whole environment inside a sandbox; the runner adds TEAM_DIR once its limits are set
     RUNNER_ENV, PATH="/usr/bin:/bin", HOME="/tmp", LANG="C.UTF-8", PYTHONPATH=LIB_DIR
