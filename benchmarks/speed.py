@@ -22,7 +22,11 @@ per wall second unless said):
 - grading from the command line (`laserarena grade asabe --team ref:bac --workers 1`), as a
   grader runs it: the machine's CPU per simulated second with 4 seeds, and what a run costs
   whatever its matches (the interpreter, imports, loading the compiled kernels, the sandbox's
-  template), from runs with 1 and 4 seeds.
+  template), from runs with 1 and 4 seeds;
+- a single run from the command line (`laserarena run asabe-race`, 4 x ref:dead-reckoning,
+  replay and result written), a process of its own as a user starts it, beside a process of its
+  own that imports the arena, loads the level and steps the same world bare for as many
+  simulated seconds (the same ratio, whole processes: every start and exit included).
 CPU figures come from the machine's own count (/proc/stat): run on an otherwise idle machine.
 """
 
@@ -192,6 +196,46 @@ def command_line_grading(seeds: int) -> tuple[float, float]:
     return used, simulated
 
 
+BARE_PROCESS = """
+import sys
+sys.path.insert(0, {folder!r})
+import sensing
+sensing.run({seconds!r}, False)
+"""
+
+
+def process_cost(command: list[str]) -> tuple[float, float]:
+    """Wall seconds and machine CPU seconds of `command`, a process of its own, to its end."""
+    c0, w0 = machine_cpu(), time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True, timeout=600)
+    return time.perf_counter() - w0, machine_cpu() - c0
+
+
+def command_line_run(spec: str = "ref:dead-reckoning") -> dict:
+    """`laserarena run asabe-race` with 4 x `spec`, replay and result written, a process of its
+    own; beside a process that steps the same world bare (`sensing.run`, after importing the
+    arena and loading the level) for as many simulated seconds, timed just before and after it."""
+    with tempfile.TemporaryDirectory() as d:
+        result = Path(d) / "result.json"
+        command = [sys.executable, "-m", "referee", "run", "asabe-race", *["--team", spec] * 4]
+        command += ["--replay", str(Path(d) / "m.replay"), "--json", str(result), "--quiet"]
+        process_cost(command)  # untimed: the first reads the files from disk
+        simulated = json.loads(result.read_text())["end_time"]
+        bare = [sys.executable, "-c", BARE_PROCESS.format(folder=str(Path(__file__).parent), seconds=simulated)]
+        before = process_cost(bare)
+        wall, used = process_cost(command)
+        after = process_cost(bare)
+    bare_wall, bare_cpu = (before[0] + after[0]) / 2, (before[1] + after[1]) / 2
+    return {
+        "simulated_s": simulated,
+        "wall_s": wall,
+        "cpu_s": used,
+        "bare_wall_s": bare_wall,
+        "ratio": bare_wall / wall,
+        "cpu_ratio": used / bare_cpu,
+    }
+
+
 def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
     """Every speed figure, in one run."""
     w = world(seconds, max(repeat, 5))  # cheap (a second a run) and noisy: never fewer than 5
@@ -211,6 +255,7 @@ def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
         "fixed_cpu_s": one - per_simulated_s * one_s,
         "match_cpu_per_s": per_simulated_s,
     }
+    out["command_line_run"] = median_of(repeat, command_line_run)
     return out
 
 
@@ -263,6 +308,15 @@ def table(f: dict) -> list[tuple[str, str, str]]:
             f"{1000 * c['cpu_per_s']:.1f} ms CPU per simulated s",
             f"{c['ratio']:.1f}x bare; each run {c['fixed_cpu_s']:.2f} s whatever its matches, "
             f"then {1000 * c['match_cpu_per_s']:.1f} ms per simulated s",
+        )
+    )
+    r = f["command_line_run"]
+    rows.append(
+        (
+            "laserarena run asabe-race, 4 x ref:dead-reckoning",
+            f"{r['wall_s']:.2f} s wall, {r['simulated_s']:.0f} s simulated",
+            f"{r['ratio']:.2f} of a bare-stepping process's {r['bare_wall_s']:.2f} s (whole processes); "
+            f"CPU {r['cpu_ratio']:.1f}x its",
         )
     )
     return rows
