@@ -69,13 +69,8 @@ def report(f: dict, repeat: int) -> dict:
         "fixed_cpu_s": c["fixed_cpu_s"],
         "match_cpu_ms": 1000 * c["match_cpu_per_s"],
     }
-    r = sp["command_line_run"]
     out["run-command"] = {
-        "wall_s": r["wall_s"],
-        "simulated_s": r["simulated_s"],
-        "bare_wall_s": r["bare_wall_s"],
-        "ratio": r["ratio"],
-        "cpu_ratio": r["cpu_ratio"],
+        k: sp["command_line_run"][k] for k in ("wall_s", "simulated_s", "bare_wall_s", "ratio", "cpu_ratio")
     }
     out["solvers"] = {
         "total_scalar_us": s["total_scalar_us"],
