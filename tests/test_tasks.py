@@ -8,14 +8,23 @@ from helpers import variant
 from referee.match.tasks import TaskTracker
 
 
+def tracker_along(level, path):
+    """A tracker of `level` whose robots' targets are `path`, from the start."""
+
+    class Along(TaskTracker):
+        def targets(self, slot):
+            return tuple(path)
+
+    return Along(level)
+
+
 def test_still_to_travel_never_exceeds_a_path_that_finishes():
     # any path that comes within the radius of each target in order is at least as long
     rng = random.Random(7)
     level = variant("asabe", task__radius=0.1)
     for _ in range(300):
-        tracker = TaskTracker(level)
         path = [(rng.uniform(0, 1.8), rng.uniform(0, 1.2)) for _ in range(rng.randint(1, 5))]
-        tracker.targets = lambda slot, path=path: tuple(path)
+        tracker = tracker_along(level, path)
         x, y = rng.uniform(0, 1.8), rng.uniform(0, 1.2)
         bound = tracker.still_to_travel(0, x, y)
         for _ in range(20):
@@ -29,9 +38,10 @@ def test_still_to_travel_never_exceeds_a_path_that_finishes():
 
 def test_still_to_travel_by_hand():
     level = variant("asabe", task__radius=0.1)
-    tracker = TaskTracker(level)
-    tracker.targets = lambda slot: ((1.0, 0.0), (1.0, 1.0), (1.0, 0.05))
+    tracker = tracker_along(level, ((1.0, 0.0), (1.0, 1.0), (1.0, 0.05)))
     assert math.isclose(tracker.still_to_travel(0, 0.0, 0.0), 0.9 + 0.8 + 0.75)
+    tracker.next[0] = 1  # the first reached: to the second, then the last leg
+    assert math.isclose(tracker.still_to_travel(0, 1.0, 0.0), 0.9 + 0.75)
     tracker.next[0] = 2  # the last target only, the robot within its radius: nothing left to travel
     assert tracker.still_to_travel(0, 1.0, 0.0) == 0.0
     tracker.next[0] = 3

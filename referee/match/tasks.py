@@ -42,6 +42,18 @@ class TaskTracker:
         # from math.dist by an ulp); what counts as reached is confirmed with math.dist
         self.near = level.task.radius * (1 + 1e-9) + 1e-12
         self.deviation: list[list[float]] = [[] for _ in level.robots]
+        # per robot, per target k: at least how far the legs from target k to the last take
+        # (`still_to_travel`), summed once here rather than at every control period
+        self.legs_after = [self._legs_after(slot) for slot in range(len(level.robots))]
+
+    def _legs_after(self, slot: int) -> list[float]:
+        """For each target k of robot `slot`, the sum over the legs from it to the last target
+        of each leg's length less the radius at both ends (none below zero)."""
+        targets = self.targets(slot)
+        out = [0.0] * len(targets)
+        for k in range(len(targets) - 2, -1, -1):
+            out[k] = out[k + 1] + max(0.0, math.dist(targets[k], targets[k + 1]) - 2 * self.near)
+        return out
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
         """The points robot `slot` must reach in order."""
@@ -105,13 +117,10 @@ class TaskTracker:
         """A lower bound on how far robot `slot`, now at (x, y), must still travel to finish:
         it must come within the task radius of each target left, in order, so each leg is at
         least its length less the radius at both ends (`near`: never more than the truth)."""
-        targets, near = self.targets(slot)[self.next[slot] :], self.near
-        if not targets:
+        targets, k = self.targets(slot), self.next[slot]
+        if k == len(targets):
             return 0.0
-        travel = max(0.0, math.dist((x, y), targets[0]) - near)
-        for a, b in zip(targets, targets[1:]):
-            travel += max(0.0, math.dist(a, b) - 2 * near)
-        return travel
+        return max(0.0, math.dist((x, y), targets[k]) - self.near) + self.legs_after[slot][k]
 
     def progress(self, slot: int) -> float:
         """Task completion, 0..1: waypoints reached; or how much of the way to the goal."""
