@@ -44,7 +44,7 @@ class TaskTracker:
         self.deviation: list[list[float]] = [[] for _ in level.robots]
         # per robot, per target k: at least how far the legs from target k to the last take
         # (`still_to_travel`), summed once here rather than at every control period
-        self.legs_after = [self._legs_after(slot) for slot in range(len(level.robots))]
+        self._rest = [self._legs_after(slot) for slot in range(len(level.robots))]
 
     def _legs_after(self, slot: int) -> list[float]:
         """For each target k of robot `slot`, the sum over the legs from it to the last target
@@ -120,7 +120,7 @@ class TaskTracker:
         targets, k = self.targets(slot), self.next[slot]
         if k == len(targets):
             return 0.0
-        return max(0.0, math.dist((x, y), targets[k]) - self.near) + self.legs_after[slot][k]
+        return max(0.0, math.dist((x, y), targets[k]) - self.near) + self._rest[slot][k]
 
     def progress(self, slot: int) -> float:
         """Task completion, 0..1: waypoints reached; or how much of the way to the goal."""
