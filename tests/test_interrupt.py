@@ -231,6 +231,46 @@ def test_an_interrupt_inside_a_finalizer_is_not_lost():
     assert "Exception ignored" not in out.stderr
 
 
+CONVERTING_COMMAND = """
+import argparse, os, signal, sys, time
+import referee.cli.arguments
+from referee.cli.main import main
+
+def work(args):
+    # as NumPy's C init does when the interrupt lands in the import its PyCapsule_Import makes:
+    # the KeyboardInterrupt is lost, an ImportError raised instead
+    try:
+        if args.interrupt:
+            os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+    raise ImportError('PyCapsule_Import could not import module "datetime"')
+
+def parser():
+    p = argparse.ArgumentParser()
+    p.add_argument("--interrupt", action="store_true")
+    p.set_defaults(func=work)
+    return p
+
+referee.cli.arguments.parser = parser
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_an_interrupt_that_c_code_turns_into_another_error_is_still_the_interrupt():
+    """Raised inside C code that replaces it with its own error (an extension module's import),
+    the interrupt still ends the command quietly with 130; the same error with no interrupt is
+    the error it is."""
+    out = subprocess.run(
+        [sys.executable, "-c", CONVERTING_COMMAND, "--interrupt"], capture_output=True, text=True, timeout=60
+    )
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
+    assert out.stderr.strip() == "laserarena: interrupted"
+    plain = subprocess.run([sys.executable, "-c", CONVERTING_COMMAND], capture_output=True, text=True, timeout=60)
+    assert plain.returncode == 1 and "ImportError: PyCapsule_Import" in plain.stderr
+
+
 def test_an_interrupt_is_held_back_inside_numba_llvmlite_and_pymunk_only():
     """Where a raised interrupt would be lost or mangled (numba's C dispatcher turns it into a
     SystemError; cffi drops one raised in a pymunk callback) it waits; elsewhere it is raised."""

@@ -24,6 +24,7 @@ RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is tak
 # packages whose code, when an exception is raised inside it, loses it or turns it into another
 FRAGILE = ("numba", "llvmlite", "pymunk")
 LOSES_EXCEPTIONS = ("__del__", "__set_name__")  # functions whose raised exception Python drops or wraps
+_raised = False  # this command's interrupt has been raised (`_interrupt`)
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
@@ -32,12 +33,17 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     does not cut that clean-up short (SIGKILL still ends the process).
 
     Raised at a fragile moment (`_fragile`), the interrupt would be lost or mangled and, with
-    further signals ignored, the command left unstoppable: there it is taken again a moment later."""
+    further signals ignored, the command left unstoppable: there it is taken again a moment later.
+    Raised where C code turns it into another exception, that one is taken as the interrupt
+    (`main`): an extension module's import does so, as NumPy's does when the interrupt lands in
+    the `datetime` import of its `PyCapsule_Import`."""
+    global _raised
     if _fragile(frame):
         threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    _raised = True
     raise KeyboardInterrupt
 
 
@@ -77,6 +83,8 @@ def _show_warning(
 
 def main(argv: list[str] | None = None) -> int:
     """Run `laserarena ARGV` and return its exit code."""
+    global _raised
+    _raised = False
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
     one_blas_thread()  # before NumPy loads; a team's code run --in-process gets its sandbox's one
@@ -84,11 +92,16 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     warnings.showwarning = _show_warning
     try:
-        with lasting():  # the commands' modules (numba, numpy, ...) live as long as the process
-            from referee.cli.arguments import parser
+        try:
+            with lasting():  # the commands' modules (numba, numpy, ...) live as long as the process
+                from referee.cli.arguments import parser
 
-        args = parser().parse_args(argv)
-        return int(args.func(args))
+            args = parser().parse_args(argv)
+            return int(args.func(args))
+        except Exception:
+            if _raised:  # the interrupt, turned into this by the C code it landed in (`_interrupt`)
+                raise KeyboardInterrupt from None
+            raise
     except LaserArenaError as e:
         print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return e.exit_code
