@@ -1,5 +1,5 @@
 """`python -m referee` is the `laserarena` command."""
 
-from referee.cli.main import main
+from referee.cli.entry import run
 
-raise SystemExit(main())
+run()

@@ -204,31 +204,58 @@ def _race():
     return edited("asabe-race", {"time_limit": 10})
 
 
+INTERRUPTED_INSIDE = """
+import os, signal, sys, time, weakref
+from referee.cli.main import handle_interrupts
+
+handle_interrupts()
+
+
+def interrupt_here():
+    os.kill(os.getpid(), signal.SIGINT)
+    end = time.monotonic() + 0.05
+    while time.monotonic() < end:
+        pass  # the handler runs here
+
+
+{setup}
+try:
+    {trigger}
+    end = time.monotonic() + 20
+    while time.monotonic() < end:
+        time.sleep(0.01)
+    sys.exit(0)  # the interrupt was lost
+except KeyboardInterrupt:
+    os.kill(os.getpid(), signal.SIGINT)  # a second Ctrl-C during the clean-up: ignored
+    time.sleep(0.05)
+    sys.exit(130)
+"""
+
+
+def _interrupted_inside(setup: str, trigger: str) -> subprocess.CompletedProcess:
+    """A script that sends itself Ctrl-C from inside the code `setup` defines, run by `trigger`
+    (the command's handlers in place): exit 130 if the interrupt reached it, 0 if it was lost."""
+    script = INTERRUPTED_INSIDE.format(setup=setup, trigger=trigger)
+    return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+
+
 def test_an_interrupt_inside_a_finalizer_is_not_lost():
     """Python drops what a `__del__` raises (numba's LLVM objects run finalizers while compiled
     code loads): a Ctrl-C that lands there is taken again a moment later, not lost."""
-    script = (
-        "import os, signal, sys, time\n"
-        "from referee.cli.main import _interrupt\n"
-        "signal.signal(signal.SIGINT, _interrupt)\n"
-        "class Finalized:\n"
-        "    def __del__(self):\n"
-        "        os.kill(os.getpid(), signal.SIGINT)\n"
-        "        end = time.monotonic() + 0.05\n"
-        "        while time.monotonic() < end:\n"
-        "            pass  # the handler runs here, inside __del__\n"
-        "try:\n"
-        "    Finalized()  # dropped at once: its __del__ runs now\n"
-        "    end = time.monotonic() + 20\n"
-        "    while time.monotonic() < end:\n"
-        "        time.sleep(0.01)\n"
-        "    sys.exit(0)\n"
-        "except KeyboardInterrupt:\n"
-        "    sys.exit(130)\n"
-    )
-    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
-    assert out.returncode == 130, out.stderr
+    setup = "class Finalized:\n    def __del__(self):\n        interrupt_here()\n"
+    out = _interrupted_inside(setup, "Finalized()  # dropped at once: its __del__ runs now")
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
     assert "Exception ignored" not in out.stderr
+
+
+def test_an_interrupt_that_python_drops_in_a_weakref_callback_is_raised_again():
+    """Python drops what a weakref callback raises, after printing it (importlib's module
+    locks have such callbacks, run while modules load): a Ctrl-C raised there is raised again
+    a moment later, in the main thread's code, not lost; and a second one is still ignored."""
+    setup = "class Held:\n    pass\n\n\nheld = Held()\nref = weakref.ref(held, lambda ref: interrupt_here())\n"
+    out = _interrupted_inside(setup, "del held  # the callback runs now")
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
+    assert "Exception ignored" not in out.stderr and "Traceback" not in out.stderr, out.stderr
 
 
 CONVERTING_COMMAND = """
@@ -274,7 +301,7 @@ def test_an_interrupt_that_c_code_turns_into_another_error_is_still_the_interrup
 def test_an_interrupt_is_held_back_inside_numba_llvmlite_and_pymunk_only():
     """Where a raised interrupt would be lost or mangled (numba's C dispatcher turns it into a
     SystemError; cffi drops one raised in a pymunk callback) it waits; elsewhere it is raised."""
-    from referee.cli.main import _fragile
+    from referee.fragile import fragile
 
     def frame_of(filename: str, name: str = "f"):
         namespace: dict = {}
@@ -286,7 +313,44 @@ def test_an_interrupt_is_held_back_inside_numba_llvmlite_and_pymunk_only():
     import pymunk
 
     for package in (numba, llvmlite, pymunk):
-        assert _fragile(frame_of(os.path.join(os.path.dirname(package.__file__), "core.py")))
-    assert _fragile(frame_of(os.path.join(os.sep, "anywhere", "mod.py"), "__del__"))
-    assert not _fragile(frame_of(os.path.join(os.sep, "site-packages", "referee", "match", "loop.py")))
-    assert not _fragile(frame_of(os.path.join(os.sep, "home", "numba", "project", "mod.py")))  # a folder of that name
+        assert fragile(frame_of(os.path.join(os.path.dirname(package.__file__), "core.py")))
+    assert fragile(frame_of(os.path.join(os.sep, "anywhere", "mod.py"), "__del__"))
+    assert not fragile(frame_of(os.path.join(os.sep, "site-packages", "referee", "match", "loop.py")))
+    assert not fragile(frame_of(os.path.join(os.sep, "home", "numba", "project", "mod.py")))  # a folder of that name
+
+
+WORKER_STOPPED_IN_NUMBA = """
+import os, signal, sys, time
+import numba
+from referee.contest import runner
+
+LOAD = '''
+def load():
+    os.kill(os.getpid(), signal.SIGTERM)
+    end = time.monotonic() + 0.05
+    while time.monotonic() < end:
+        pass  # the handler runs here, in what Python takes for numba's code
+    return True
+'''
+runner._playing = True
+signal.signal(signal.SIGTERM, runner._worker_stop)
+namespace = {"os": os, "signal": signal, "time": time}
+exec(compile(LOAD, os.path.join(os.path.dirname(numba.__file__), "core", "caching.py"), "exec"), namespace)
+finished = False
+try:
+    finished = namespace["load"]()
+    end = time.monotonic() + 20
+    while time.monotonic() < end:
+        time.sleep(0.01)
+    sys.exit(2)  # never stopped
+except runner._Stopped:
+    sys.exit(0 if finished else 1)
+"""
+
+
+def test_a_grading_workers_stop_waits_while_numba_runs():
+    """A pool worker told to stop (SIGTERM) inside numba's machinery (loading a match's
+    kernels) takes the stop a moment later, once out of it: raised there, llvmlite's ctypes
+    callbacks would drop it and the worker would play on."""
+    out = subprocess.run([sys.executable, "-c", WORKER_STOPPED_IN_NUMBA], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr  # 1: stopped inside numba's code; 2: not at all

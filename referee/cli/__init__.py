@@ -1,4 +1,5 @@
-"""The `laserarena` command line: the entry point and its exits (`main`), each command's
+"""The `laserarena` command line: the process's first code (`entry`: an interrupt before the
+command's own handler is in place), the entry point and its exits (`main`), each command's
 arguments (`arguments`) and its thin implementation over the other rooms (`commands`), the
 console score table (`summary`), and the starter kit that `laserarena new` writes
 (`starter_kit`). Every error path ends in `referee.errors`, printed as one line.

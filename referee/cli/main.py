@@ -17,50 +17,68 @@ from typing import TextIO
 from arena.errors import LaserArenaError
 from arena.heap import lasting
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
+from referee.fragile import RETRY, fragile
 from referee.terminal import safe
 from referee.threads import one_blas_thread
 
-RETRY = 0.02  # seconds before an interrupt that came at a fragile moment is taken again
-# packages whose code, when an exception is raised inside it, loses it or turns it into another
-FRAGILE = ("numba", "llvmlite", "pymunk")
-LOSES_EXCEPTIONS = ("__del__", "__set_name__")  # functions whose raised exception Python drops or wraps
 _raised = False  # this command's interrupt has been raised (`_interrupt`)
+_lost = False  # and Python dropped it (`_unraisable`): the next signal handler call raises it again
+_shown_before = sys.unraisablehook  # what shows a dropped exception that is not our interrupt
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     """Ctrl-C (SIGINT) or SIGTERM: unwind the command, closing every controller sandbox and
-    worker on the way out. Further signals are ignored from here on, so that a second Ctrl-C
-    does not cut that clean-up short (SIGKILL still ends the process).
+    worker on the way out. Further signals are ignored from here on (`_after`), so that a
+    second Ctrl-C does not cut that clean-up short (SIGKILL still ends the process).
 
-    Raised at a fragile moment (`_fragile`), the interrupt would be lost or mangled and, with
+    Raised at a fragile moment (`referee.fragile`), the interrupt would be lost or mangled and, with
     further signals ignored, the command left unstoppable: there it is taken again a moment later.
-    Raised where C code turns it into another exception, that one is taken as the interrupt
-    (`main`): an extension module's import does so, as NumPy's does when the interrupt lands in
-    the `datetime` import of its `PyCapsule_Import`."""
+    Raised where Python drops it all the same (a weakref callback: importlib's module locks
+    have them), it is raised again a moment later (`_unraisable`). Raised where C code turns it into
+    another exception, that one is taken as the interrupt (`main`): an extension module's import
+    does so, as NumPy's does when the interrupt lands in the `datetime` import of its
+    `PyCapsule_Import`."""
     global _raised
-    if _fragile(frame):
+    if fragile(frame):
         threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
         return
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, _after)
+    signal.signal(signal.SIGTERM, _after)
     _raised = True
     raise KeyboardInterrupt
 
 
-def _fragile(frame: FrameType | None) -> bool:
-    """Whether `frame` runs where a raised exception does not reach the command: in a finalizer
-    (`__del__`: Python drops what it raises; numba's LLVM objects run them while compiled code
-    loads), in a class body's `__set_name__` (Python turns it into a RuntimeError: numpy's
-    `finfo` while numpy loads), in numba's or llvmlite's machinery (their C code turns it into
-    a SystemError), or in a pymunk callback from chipmunk (cffi prints it and goes on)."""
-    files = [getattr(sys.modules.get(name), "__file__", None) for name in FRAGILE]
-    folders = tuple(os.path.dirname(file) + os.sep for file in files if file)
-    while frame is not None:
-        code = frame.f_code
-        if code.co_name in LOSES_EXCEPTIONS or code.co_filename.startswith(folders):
-            return True
-        frame = frame.f_back
-    return False
+def _after(signum: int, frame: FrameType | None) -> None:
+    """A signal once the interrupt is raised: ignored, unless Python dropped the interrupt."""
+    global _lost
+    if _lost:
+        _lost = False
+        signal.signal(signal.SIGINT, _interrupt)  # as before it was raised: a fragile moment retries
+        signal.signal(signal.SIGTERM, _interrupt)
+        _interrupt(signum, frame)
+
+
+def _unraisable(hook: sys.UnraisableHookArgs) -> None:
+    """An exception Python drops (raised in a finalizer or a weakref callback): our interrupt,
+    lost there, is raised again a moment later, once the main thread has left that code (and
+    again, should it land in such code once more); any other goes to the hook that was in
+    place (Python's own, or a test runner's)."""
+    global _raised, _lost
+    if _raised and hook.exc_type is KeyboardInterrupt:
+        _raised, _lost = False, True
+        threading.Timer(RETRY, _thread.interrupt_main, (signal.SIGINT,)).start()  # `_after` takes it
+        return
+    _shown_before(hook)
+
+
+def handle_interrupts() -> None:
+    """Make Ctrl-C and SIGTERM this command's interrupt (`_interrupt`), from now on."""
+    global _raised, _lost, _shown_before
+    _raised = _lost = False
+    signal.signal(signal.SIGINT, _interrupt)
+    signal.signal(signal.SIGTERM, _interrupt)
+    if sys.unraisablehook is not _unraisable:
+        _shown_before, sys.unraisablehook = sys.unraisablehook, _unraisable
 
 
 _python_show_warning = warnings.showwarning
@@ -83,13 +101,10 @@ def _show_warning(
 
 def main(argv: list[str] | None = None) -> int:
     """Run `laserarena ARGV` and return its exit code."""
-    global _raised
-    _raised = False
     if "PYGAME_HIDE_SUPPORT_PROMPT" not in os.environ:  # no pygame banner in our output
         os.environ["PYGAME_HIDE_SUPPORT_PROMPT"] = "1"
     one_blas_thread()  # before NumPy loads; a team's code run --in-process gets its sandbox's one
-    signal.signal(signal.SIGINT, _interrupt)
-    signal.signal(signal.SIGTERM, _interrupt)
+    handle_interrupts()
     warnings.showwarning = _show_warning
     try:
         try:
