@@ -354,3 +354,29 @@ def test_a_grading_workers_stop_waits_while_numba_runs():
     callbacks would drop it and the worker would play on."""
     out = subprocess.run([sys.executable, "-c", WORKER_STOPPED_IN_NUMBA], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr  # 1: stopped inside numba's code; 2: not at all
+
+
+EARLY = """
+import os, signal, sys, time
+import referee.cli.entry
+
+
+class Interrupting:
+    # Ctrl-C while the command's own modules are still loading, before its handler is in place
+    def find_spec(self, name, path, target=None):
+        if name == "referee.cli.main":
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        return None
+
+
+sys.meta_path.insert(0, Interrupting())
+sys.argv = ["laserarena", "levels"]
+referee.cli.entry.run()
+"""
+
+
+def test_an_interrupt_before_the_commands_handler_is_in_place_is_one_line_and_130():
+    out = subprocess.run([sys.executable, "-c", EARLY], capture_output=True, text=True, timeout=60)
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
+    assert out.stderr == "laserarena: interrupted\n"
