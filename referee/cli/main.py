@@ -21,15 +21,14 @@ from referee.fragile import RETRY, fragile
 from referee.terminal import safe
 from referee.threads import one_blas_thread
 
-_raised = False  # this command's interrupt has been raised (`_interrupt`)
-_lost = False  # and Python dropped it (`_unraisable`): the next signal handler call raises it again
+_raised = False  # this command's interrupt is on its way out (`_interrupt`)
 _shown_before = sys.unraisablehook  # what shows a dropped exception that is not our interrupt
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     """Ctrl-C (SIGINT) or SIGTERM: unwind the command, closing every controller sandbox and
-    worker on the way out. Further signals are ignored from here on (`_after`), so that a
-    second Ctrl-C does not cut that clean-up short (SIGKILL still ends the process).
+    worker on the way out. Once raised, further signals are ignored, so that a second Ctrl-C
+    does not cut that clean-up short (SIGKILL still ends the process).
 
     Raised at a fragile moment (`referee.fragile`), the interrupt would be lost or mangled and, with
     further signals ignored, the command left unstoppable: there it is taken again a moment later.
@@ -39,23 +38,13 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     does so, as NumPy's does when the interrupt lands in the `datetime` import of its
     `PyCapsule_Import`."""
     global _raised
+    if _raised:
+        return
     if fragile(frame):
         threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
         return
-    signal.signal(signal.SIGINT, _after)
-    signal.signal(signal.SIGTERM, _after)
     _raised = True
     raise KeyboardInterrupt
-
-
-def _after(signum: int, frame: FrameType | None) -> None:
-    """A signal once the interrupt is raised: ignored, unless Python dropped the interrupt."""
-    global _lost
-    if _lost:
-        _lost = False
-        signal.signal(signal.SIGINT, _interrupt)  # as before it was raised: a fragile moment retries
-        signal.signal(signal.SIGTERM, _interrupt)
-        _interrupt(signum, frame)
 
 
 def _unraisable(hook: sys.UnraisableHookArgs) -> None:
@@ -63,18 +52,18 @@ def _unraisable(hook: sys.UnraisableHookArgs) -> None:
     lost there, is raised again a moment later, once the main thread has left that code (and
     again, should it land in such code once more); any other goes to the hook that was in
     place (Python's own, or a test runner's)."""
-    global _raised, _lost
+    global _raised
     if _raised and hook.exc_type is KeyboardInterrupt:
-        _raised, _lost = False, True
-        threading.Timer(RETRY, _thread.interrupt_main, (signal.SIGINT,)).start()  # `_after` takes it
+        _raised = False
+        threading.Timer(RETRY, _thread.interrupt_main, (signal.SIGINT,)).start()
         return
     _shown_before(hook)
 
 
 def handle_interrupts() -> None:
     """Make Ctrl-C and SIGTERM this command's interrupt (`_interrupt`), from now on."""
-    global _raised, _lost, _shown_before
-    _raised = _lost = False
+    global _raised, _shown_before
+    _raised = False
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
     if sys.unraisablehook is not _unraisable:
