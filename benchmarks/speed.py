@@ -180,6 +180,13 @@ def grading(matches: int, spec: str = "ref:bac") -> dict:
     return {**figures, "bare_cpu_per_s": bare["cpu"], "ratio": figures["cpu_per_s"] / bare["cpu"]}
 
 
+def process_cost(command: list[str], cwd: str | None = None) -> tuple[float, float]:
+    """Wall seconds and machine CPU seconds of `command`, a process of its own, to its end."""
+    c0, w0 = machine_cpu(), time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True, timeout=600, cwd=cwd)
+    return time.perf_counter() - w0, machine_cpu() - c0
+
+
 def command_line_grading(seeds: int) -> tuple[float, float]:
     """Machine CPU (s) and simulated s of `laserarena grade asabe --team ref:bac --workers 1
     --seeds N`, a process of its own, as a grader starts it."""
@@ -187,9 +194,7 @@ def command_line_grading(seeds: int) -> tuple[float, float]:
         journal = Path(d) / "grade.sqlite"
         command = [sys.executable, "-m", "referee", "grade", str(levels.path("asabe")), "--team", "ref:bac"]
         command += ["--seeds", str(seeds), "--workers", "1", "--db", str(journal), "--out", str(Path(d) / "board.csv")]
-        c0 = machine_cpu()
-        subprocess.run(command, check=True, capture_output=True, timeout=600, cwd=d)
-        used = machine_cpu() - c0
+        _, used = process_cost(command, cwd=d)
         simulated = sum(
             row[0] for row in sqlite3.connect(journal).execute("SELECT json_extract(result, '$.end_time') FROM matches")
         )
@@ -202,13 +207,6 @@ sys.path.insert(0, {folder!r})
 import sensing
 sensing.run({seconds!r}, False)
 """
-
-
-def process_cost(command: list[str]) -> tuple[float, float]:
-    """Wall seconds and machine CPU seconds of `command`, a process of its own, to its end."""
-    c0, w0 = machine_cpu(), time.perf_counter()
-    subprocess.run(command, check=True, capture_output=True, timeout=600)
-    return time.perf_counter() - w0, machine_cpu() - c0
 
 
 def command_line_run(spec: str = "ref:dead-reckoning") -> dict:
