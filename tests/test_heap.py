@@ -8,6 +8,8 @@ import subprocess
 import sys
 import textwrap
 
+from helpers import MINI_LEVEL
+
 from arena.heap import lasting
 
 
@@ -59,18 +61,42 @@ def test_an_exception_inside_still_turns_the_collector_back_on():
         gc.unfreeze()
 
 
-def test_a_command_and_a_first_sensing_leave_numba_out_of_the_collectors_sight():
-    """What a `laserarena` command imports, and the kernels a process's first Sensing loads,
-    are frozen: no collection walks them (gc.get_objects lists what collections see)."""
+def test_a_command_imports_only_what_it_needs_and_freezes_it(tmp_path):
+    """A command that plays no match (`levels`) never imports numba; one that does (`run`)
+    imports it and loads the kernels frozen: no collection walks them (gc.get_objects lists
+    what collections see)."""
+    (tmp_path / "level.yaml").write_text(MINI_LEVEL)
     probe = textwrap.dedent(
         """
-        import gc, io, contextlib
+        import gc, io, sys, contextlib
         from referee.cli.main import main
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["levels"]) == 0
+        print("numba imported for levels:", "numba" in sys.modules)
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(["run", "level.yaml", "--team", "ref:idle", "--in-process", "--quiet"]) == 0
         import numba.core.typing.context as typing_context
+        from arena.sensing import spin
         seen = {id(o) for o in gc.get_objects()}
-        print("numba seen after the command:", id(typing_context.BaseContext) in seen)
+        loaded = [o for kernel in vars(spin).values() for o in getattr(kernel, "overloads", {}).values()]
+        print("numba seen after run:", id(typing_context.BaseContext) in seen)
+        print("kernels loaded:", len(loaded) > 0, "seen:", any(id(o) in seen for o in loaded))
+        print("collector on:", gc.isenabled())
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "numba imported for levels: False" in proc.stdout
+    assert "numba seen after run: False" in proc.stdout
+    assert "kernels loaded: True seen: False" in proc.stdout
+    assert "collector on: True" in proc.stdout
+
+
+def test_a_first_sensing_leaves_its_kernels_out_of_the_collectors_sight():
+    """The kernels a user's process loads with its first Sensing are frozen too."""
+    probe = textwrap.dedent(
+        """
+        import gc
         import levels
         from arena.loader import load_level
         from arena.rng import RandomTree
@@ -87,6 +113,5 @@ def test_a_command_and_a_first_sensing_leave_numba_out_of_the_collectors_sight()
     )
     proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert "numba seen after the command: False" in proc.stdout
     assert "kernels loaded: True seen: False" in proc.stdout
     assert "collector on: True" in proc.stdout

@@ -16,13 +16,14 @@ from pathlib import Path
 import numpy as np
 
 import levels
+from arena.heap import lasting
 from arena.loader import find_level, load_level
 from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
 from referee.match.fleet import NO_LIMITS
-from referee.match.loop import run_match
 from referee.records.canonical import dumps
+from referee.sandbox import forkserver
 from referee.sandbox.teams import controller_problem, fill_slots
 from referee.terminal import safe
 
@@ -61,6 +62,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             raise UserError(f"{path}: the folder does not exist")
     if args.logs:
         Path(args.logs).mkdir(parents=True, exist_ok=True)
+    if not args.in_process:  # a root referee's controller template boots on the other CPU meanwhile
+        forkserver.start()
+    with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
+        from referee.match.loop import run_match
     result = run_match(
         level,
         teams,
