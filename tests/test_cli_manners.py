@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import textwrap
 
 import pytest
 from helpers import MINI_LEVEL, run_cli
@@ -123,3 +124,48 @@ def test_the_command_runs_numpy_with_one_blas_thread_unless_the_user_says(given,
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, env=env)
     assert out.returncode == 0, out.stderr
     assert int(out.stdout) == threads
+
+
+def _entry(body: str, **popen) -> subprocess.CompletedProcess:
+    """Run the console script's `run()` in a process of its own, `referee.cli.main.main`
+    replaced by `body` (the command), with a module-level witness whose finalizer says when
+    the interpreter tears the modules down."""
+    probe = (
+        "import atexit, sys\n"
+        "import referee.cli.main, referee.cli.entry\n"
+        "class Witness:\n"
+        "    def __del__(self):\n"
+        "        sys.stderr.write('torn down\\n')\n"
+        "keep = Witness()\n"
+        f"def command(argv=None):\n{textwrap.indent(body, '    ')}\n"
+        "referee.cli.main.main = command\n"
+        "referee.cli.entry.run()\n"
+    )
+    return subprocess.run([sys.executable, "-c", probe], timeout=60, **popen)
+
+
+def test_the_process_ends_with_the_commands_code_after_its_exit_handlers_without_teardown():
+    body = "atexit.register(lambda: print('the command closed its work'))\nprint('out')\nreturn 3"
+    proc = _entry(body, capture_output=True, text=True)
+    assert proc.returncode == 3
+    assert proc.stdout == "out\nthe command closed its work\n"  # flushed after every handler
+    assert "torn down" not in proc.stderr
+
+
+def test_a_command_that_raises_gets_pythons_own_way_out():
+    proc = _entry("raise RuntimeError('a bug')", capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert "Traceback" in proc.stderr and "RuntimeError: a bug" in proc.stderr
+    assert "torn down" in proc.stderr
+
+
+def test_a_reader_gone_before_the_last_output_is_a_closed_pipe():
+    """What the command printed is still buffered when it returns (a pipe's block buffering);
+    the reader is gone."""
+    reader, writer = os.pipe()
+    os.close(reader)
+    buffered = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    body = "print('a line the reader will never see')\nreturn 0"
+    proc = _entry(body, stdout=writer, stderr=subprocess.PIPE, env=buffered)
+    os.close(writer)
+    assert proc.stderr == b"" and proc.returncode == EXIT_PIPE
