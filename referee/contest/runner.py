@@ -28,7 +28,7 @@ from arena.heap import lasting
 from referee.contest.shipping import arrived
 from referee.errors import SandboxError, UserError
 from referee.fragile import RETRY, fragile
-from referee.sandbox import kernel
+from referee.sandbox import forkserver, kernel
 from referee.sandbox.teams import Team
 from referee.version import __version__
 
@@ -96,7 +96,9 @@ def _parsed(text: bytes, name: str) -> Level:
 
 def play(job: MatchJob) -> Played:
     """Run one job (in a worker), its replay in a scratch folder of its own."""
-    from referee.match.loop import run_match
+    forkserver.start()  # a root referee's template boots on the other CPU while a first match's modules load
+    with lasting():  # numba's objects live as long as this process (arena.heap)
+        from referee.match.loop import run_match
     from referee.records.canonical import dumps
 
     if job.software != __version__:
