@@ -176,7 +176,8 @@ def cmd_tournament(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    from referee.match.verify import verify
+    with lasting():  # numba's objects live as long as the process (arena.heap)
+        from referee.match.verify import verify
 
     ok, message = verify(Path(args.replay), args.team)
     print(safe(f"{args.replay}: {message}", 1000))
@@ -184,7 +185,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from referee.media.render import render
+    with lasting():  # numba's objects live as long as the process (arena.heap)
+        from referee.media.render import render
 
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
@@ -257,7 +259,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_map(args: argparse.Namespace) -> int:
-    from referee.media import accuracy_map as am
+    with lasting():  # numba's objects live as long as the process (arena.heap)
+        from referee.media import accuracy_map as am
 
     maps = [am.compute(find_level(args.level, controllers=controller_problem), cells=args.cells)]
     if args.compare:
