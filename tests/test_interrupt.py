@@ -380,3 +380,63 @@ def test_an_interrupt_before_the_commands_handler_is_in_place_is_one_line_and_13
     out = subprocess.run([sys.executable, "-c", EARLY], capture_output=True, text=True, timeout=60)
     assert out.returncode == EXIT_INTERRUPTED, out.stderr
     assert out.stderr == "laserarena: interrupted\n"
+
+
+def test_an_interrupt_inside_a_steady_section_is_taken_once_it_ends():
+    """A section that must not be cut short (a process started and not yet recorded for the
+    clean-up) finishes; the Ctrl-C that came meanwhile is taken right after it."""
+    setup = (
+        "from referee.fragile import steady\n\n\n"
+        "def section():\n"
+        "    with steady():\n"
+        "        interrupt_here()\n"
+        "        print('the section finished', flush=True)\n"
+    )
+    out = _interrupted_inside(setup, "section()")
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
+    assert out.stdout == "the section finished\n"
+
+
+TEMPLATE_STARTED = """
+import os, signal, subprocess, sys, time
+from referee.cli.main import handle_interrupts
+from referee.sandbox import forkserver
+
+handle_interrupts()
+assert forkserver.unavailable() is None, forkserver.unavailable()  # probed before Popen is watched
+real = subprocess.Popen
+
+
+class Popen(real):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        print(self.pid, flush=True)
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C the moment the template's process exists
+        end = time.monotonic() + 0.05
+        while time.monotonic() < end:
+            pass
+
+
+subprocess.Popen = Popen
+try:
+    forkserver.start()
+    time.sleep(5)
+    sys.exit(0)  # the interrupt was lost
+except KeyboardInterrupt:
+    print("recorded for the clean-up:", [s.proc.pid for s in forkserver._all], flush=True)
+    sys.exit(130)  # the exit handlers end the template
+"""
+
+
+def test_an_interrupt_as_the_template_starts_leaves_nothing_running():
+    """The command's first process, the controllers' template, now starts while numba loads,
+    when a Ctrl-C is likely: one that lands as it starts must not leave it unrecorded, which
+    would leave a half-made bwrap sandbox running after the command."""
+    out = subprocess.run([sys.executable, "-c", TEMPLATE_STARTED], capture_output=True, text=True, timeout=60)
+    assert out.returncode == EXIT_INTERRUPTED, out.stderr
+    pid, recorded = out.stdout.splitlines()
+    assert recorded == f"recorded for the clean-up: [{pid}]"
+    deadline = time.monotonic() + 10
+    while os.path.exists(f"/proc/{pid}") and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not os.path.exists(f"/proc/{pid}")

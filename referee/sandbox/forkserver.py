@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 from typing import IO
 
+from referee.fragile import steady
 from referee.sandbox import kernel
 from referee.sandbox.privacy import slot_uid, switches_users
 
@@ -213,8 +214,9 @@ def start() -> None:
         return
     current = getattr(_local, "server", None)
     if current is None or _local.pid != os.getpid() or not current.alive():
-        _local.server, _local.pid = ForkServer(), os.getpid()
-        _all.append(_local.server)
+        with steady():  # started and recorded for `_close_all`, or a Ctrl-C would orphan it
+            _local.server, _local.pid = ForkServer(), os.getpid()
+            _all.append(_local.server)
 
 
 def server() -> ForkServer | None:
