@@ -28,9 +28,10 @@ def _early(signum: int, frame: object) -> None:
 
 def _leave() -> None:
     """The last exit handler (registered first): end with the command's code once stdout and
-    stderr are flushed, skipping the interpreter's teardown of every module, some 40 ms after a
-    match (numba's and NumPy's objects freed one by one) and nothing a file or a child awaits.
-    Where the command raised instead of returning, Python's own way out, traceback and all."""
+    stderr are flushed, skipping the interpreter's teardown of every module: some 40 ms after a
+    match (numba's and NumPy's objects freed one by one), and no file or child of the command
+    waits on it. Where the command raised instead of returning, Python's own way out, traceback
+    and all."""
     if _code is None:
         return
     code = _code
