@@ -4,8 +4,10 @@ moment later instead of raising it there."""
 
 from __future__ import annotations
 
+import _thread
 import os
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
@@ -48,3 +50,9 @@ def fragile(frame: FrameType | None) -> bool:
             return True
         frame = frame.f_back
     return False
+
+
+def take_again(signum: int) -> None:
+    """Have signal `signum` taken again in the main thread `RETRY` seconds from now (its
+    handler runs then as if it had just come)."""
+    threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()

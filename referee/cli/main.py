@@ -5,11 +5,9 @@ that a Ctrl-C that comes while the commands' modules are still loading ends quie
 
 from __future__ import annotations
 
-import _thread
 import os
 import signal
 import sys
-import threading
 import warnings
 from types import FrameType
 from typing import TextIO
@@ -17,7 +15,7 @@ from typing import TextIO
 from arena.errors import LaserArenaError
 from arena.heap import lasting
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
-from referee.fragile import RETRY, fragile
+from referee.fragile import fragile, take_again
 from referee.terminal import safe
 from referee.threads import one_blas_thread
 
@@ -41,7 +39,7 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     if _raised:
         return
     if fragile(frame):
-        threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
+        take_again(signum)
         return
     _raised = True
     raise KeyboardInterrupt
@@ -55,7 +53,7 @@ def _unraisable(hook: sys.UnraisableHookArgs) -> None:
     global _raised
     if _raised and hook.exc_type is KeyboardInterrupt:
         _raised = False
-        threading.Timer(RETRY, _thread.interrupt_main, (signal.SIGINT,)).start()
+        take_again(signal.SIGINT)
         return
     _shown_before(hook)
 
@@ -97,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     try:
         try:
-            with lasting():  # the commands' modules (numba, numpy, ...) live as long as the process
+            with lasting():  # the commands' modules (numpy, the levels' loader, ...) live as long as the process
                 from referee.cli.arguments import parser
 
             args = parser().parse_args(argv)

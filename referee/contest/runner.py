@@ -7,14 +7,12 @@ worker that dies mid-match is retried without its match ever being counted twice
 
 from __future__ import annotations
 
-import _thread
 import ctypes
 import functools
 import os
 import signal
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Generator, Hashable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -27,7 +25,7 @@ from typing import TYPE_CHECKING, TypeVar
 from arena.heap import lasting
 from referee.contest.shipping import arrived
 from referee.errors import SandboxError, UserError
-from referee.fragile import RETRY, fragile
+from referee.fragile import fragile, take_again
 from referee.sandbox import forkserver, kernel
 from referee.sandbox.teams import Team
 from referee.version import __version__
@@ -180,7 +178,7 @@ def _worker_stop(signum: int, frame: FrameType | None) -> None:
     global _stopping
     if _playing:
         if fragile(frame):  # raised here, the stop would be lost (numba loading a match's kernels)
-            threading.Timer(RETRY, _thread.interrupt_main, (signum,)).start()
+            take_again(signum)
             return
         _stopping = True
         raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
