@@ -10,15 +10,20 @@ division rule, and the scalar forms of the NumPy calls the compiled loops of the
   last bit;
 - `np.maximum` and `np.minimum` keep their NaN rule (`maximum`, `minimum`), and a division by
   zero gives an infinity or a NaN, as in NumPy (`error_model="numpy"`), not an exception.
+
+A kernel found in the cache is loaded without first readying numba to compile (`_load_cached`,
+decision 0045): the cached machine code needs numba's runtime, not its typing and lowering
+registries, whose imports and installation were a tenth of a second of every run's start.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Literal, TypeVar, cast
+from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 from numba import njit
+from numba.core.runtime import rtsys
 
 from arena.angles import TWO_PI
 
@@ -33,11 +38,25 @@ def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
 
     def wrap(f: F) -> F:
         try:
-            return cast(F, njit(cache=True, error_model="numpy", inline=inline)(f))
+            kernel = njit(cache=True, error_model="numpy", inline=inline)(f)
         except RuntimeError:  # "cannot cache function ...: no locator available"
             return cast(F, njit(error_model="numpy", inline=inline)(f))
+        cache: Any = getattr(kernel, "_cache", None)  # numba's cache of this kernel
+        if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
+            cache.load_overload = lambda sig, target_context: _load_cached(cache, sig, target_context)
+        return cast(F, kernel)
 
     return wrap
+
+
+def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
+    """numba's `Cache.load_overload` (the kernel's machine code for `sig` from its cache, or
+    None) without its refresh of the target context: numba refreshes the context (importing
+    and installing every typing and lowering registry) so that it could compile, and compiling
+    refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to."""
+    rtsys.initialize(target_context)
+    with cache._guard_against_spurious_io_errors():
+        return cache._load_overload(sig, target_context)
 
 
 @compiled(inline="always")
