@@ -1,7 +1,10 @@
 """Ending a controller process: `close` may run any number of times, and it never signals a
-process it has already reaped (its number may by then name an unrelated process group)."""
+process it has already reaped (its number may by then name an unrelated process group). The
+controllers' template ends at once when its referee closes it."""
 
 import os
+import socket
+import subprocess
 import sys
 from pathlib import Path
 
@@ -58,3 +61,28 @@ def test_close_twice_never_signals_a_reaped_process(monkeypatch, sandboxed, fork
     assert proc.returncode is not None  # ended, and reaped
     assert all(code is None for pgid, code in signalled if pgid == proc.pid), signalled
     assert (proc.pid, None) in signalled  # its session was still ended, children and all
+
+
+def test_the_template_ends_without_its_teardown_once_the_referee_closes_it():
+    """The referee waits for its template's end: the template takes no interpreter teardown
+    (an exit handler registered before it serves never runs), and ends with 0."""
+    ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+    code = (
+        "import atexit, runpy, sys\n"
+        "atexit.register(print, 'torn down')\n"
+        "sys.argv = ['robots.template', sys.argv[1]]\n"
+        "runpy.run_module('robots.template', run_name='__main__')\n"
+    )
+    with subprocess.Popen(
+        [sys.executable, "-c", code, str(theirs.fileno())],
+        pass_fds=[theirs.fileno()],
+        stdout=subprocess.PIPE,
+        text=True,
+    ) as template:
+        theirs.close()
+        ours.settimeout(60)
+        assert ours.recv(16) == b"r"  # imported and serving
+        ours.close()
+        out, _ = template.communicate(timeout=60)
+    assert template.returncode == 0
+    assert "torn down" not in out
