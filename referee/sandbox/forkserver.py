@@ -108,25 +108,33 @@ class ForkServer:
         self.info = launch.info  # kept open: bwrap writes the template's pid there, and would fail on a closed pipe
         self.pid: int | None = None  # the template's host pid, once read from `info`
         self.control, self.lock, self.ready = ours, threading.Lock(), False
+        self.probe = self._probe()
 
-    def wait_ready(self) -> str | None:
-        """Wait for the template's imports, then fork a probe slot; why it cannot serve, or None."""
-        if self.ready:
-            return None
-        if not select.select([self.control], [], [], READY_TIME)[0] or self.control.recv(16) != b"r":
-            return "the controller template did not start"
+    def _probe(self) -> Forked | None:
+        """Ask for a probe slot (one that runs no controller) now: the template forks it as soon as
+        it has imported, so its check is done by the time the first match wants a slot. None if
+        the template is gone already."""
         null = os.open(os.devnull, os.O_RDWR)
         try:
-            probe = Forked(self.spawn({"probe": 1, "uid": slot_uid(0), "argv": []}, (), (null, null, null)), None, None)
+            return Forked(self.spawn({"probe": 1, "uid": slot_uid(0), "argv": []}, (), (null, null, null)), None, None)
+        except OSError:
+            return None
         finally:
             os.close(null)
+
+    def wait_ready(self) -> str | None:
+        """Wait for the template's imports and its probe slot's end; why it cannot serve, or None."""
+        if self.ready:
+            return None
+        if not select.select([self.control], [], [], READY_TIME)[0] or self.control.recv(16) != b"r" or not self.probe:
+            return "the controller template did not start"
         try:
-            status = probe.wait(READY_TIME)
+            status = self.probe.wait(READY_TIME)
         except subprocess.TimeoutExpired:
-            probe.kill()
+            self.probe.kill()
             return "a slot forked from the controller template did not start"
         if status != 0:
-            return f"a slot cannot be forked from the controller template: {probe.problem or status}"
+            return f"a slot cannot be forked from the controller template: {self.probe.problem or status}"
         self.ready = True
         return None
 
@@ -179,6 +187,8 @@ class ForkServer:
 
     def close(self) -> None:
         """End the template: its PID namespace, and every slot still in it, with it."""
+        if self.probe:
+            self.probe.watch.close()
         self.control.close()
         os.close(self.info)
         try:
