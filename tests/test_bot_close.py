@@ -80,9 +80,12 @@ def test_the_template_ends_without_its_teardown_once_the_referee_closes_it():
         text=True,
     ) as template:
         theirs.close()
-        ours.settimeout(60)
-        assert ours.recv(16) == b"r"  # imported and serving
-        ours.close()
+        try:
+            ours.settimeout(60)
+            said = ours.recv(16)
+        finally:
+            ours.close()  # the referee's end of the control socket: the template ends
         out, _ = template.communicate(timeout=60)
+    assert said == b"r"  # it had imported and was serving
     assert template.returncode == 0
     assert "torn down" not in out
