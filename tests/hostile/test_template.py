@@ -1,6 +1,7 @@
 """A controller forked from the template (root referee) holds nothing of it: no descriptor but
 its pipes and log, no capability, no writable mount but its own /tmp, /dev/shm and /dev/pts,
-no process but its own; and what one slot leaves there another cannot see."""
+no process but its own; and what one slot leaves there another cannot see. Its probe slot is
+forked as soon as it has imported."""
 
 import os
 
@@ -109,3 +110,17 @@ def test_a_slot_the_template_cannot_make_is_a_load_fault_saying_why():
         bot.close()
     assert fault is not None and fault.kind == "load", fault
     assert "its sandbox could not be made: OSError" in fault.message and "Invalid argument" in fault.message
+
+
+def test_the_probe_slot_is_forked_once_the_template_has_imported_without_being_waited_for():
+    # asked for when the template starts: by the time a match wants a slot, the check is done
+    assert forkserver.unavailable() is None, forkserver.unavailable()
+    template = forkserver.ForkServer()
+    try:
+        assert template.probe is not None
+        assert template.probe.wait(60) == 0, template.probe.problem  # nobody called wait_ready
+        assert not template.ready
+        assert template.wait_ready() is None and template.ready
+    finally:
+        template.close()
+    assert not template.alive()
