@@ -123,6 +123,8 @@ def main() -> None:
     figures["env"] = env.measure(max(args.repeat, 5))  # cheap (seconds a round) and noisy: never fewer than 5
     figures["scaling"] = scaling.scaling(10.0, args.repeat)
     figures["start"] = sandbox.forked_start(15)
+    if figures["start"]:
+        figures["start"].update(sandbox.floor(30))
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -149,6 +151,10 @@ def main() -> None:
                 f"target <= 5 ms ({shares})",
             )
         )
+        floor = f"{st['fork_ms']:.1f} ms CPU"
+        if "namespaces_ms" in st:
+            floor += f", {st['namespaces_ms']:.1f} with the slot's namespaces"
+        rows.append(("(g) its floor: a fork and exit", floor, "a process the template's size"))
     width = max(len(a) for a, _, _ in rows)
     m = figures["machine"]
     print(f"LaserArena benchmarks on {m['cpus']} x {m['cpu']}, Python {m['python']} (medians of {args.repeat} runs)")

@@ -8,17 +8,21 @@ group, messages and close), the template (the fork, charged to it) and the contr
 namespaces, mounts and privilege drop, the runner, the team's loading and setup, its exit).
 The kernel's own threads that later free a slot's network namespace and control group are
 not counted. Targets: a forked start under 5 ms of CPU, all processes; under 20 ms of sandbox
-overhead per spawned start.
+overhead per spawned start. Beside it, the floor under a forked start (benchmarks/fork_floor.py):
+a bare fork and exit of a process the template's size, and the same with the slot's namespaces.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import statistics
 import subprocess
+import sys
 import time
+from pathlib import Path
 
 import levels
 from arena.loader import load_level
@@ -90,6 +94,17 @@ def forked_start(starts: int = 15, spec: str = "ref:idle") -> dict:
 
 
 SHARES = ("referee", "template", "controller")
+FORK_FLOOR = Path(__file__).with_name("fork_floor.py")
+
+
+def floor(starts: int = 30) -> dict:
+    """benchmarks/fork_floor.py's figures, in a process of its own: the median CPU ms of a bare
+    fork and exit of a process holding what the template holds (`fork_ms`, and the child's page
+    faults, `fork_faults`) and, as root, of one that makes the slot's namespaces (`namespaces_ms`)."""
+    out = subprocess.run(
+        [sys.executable, str(FORK_FLOOR), "--starts", str(starts)], capture_output=True, text=True, check=True
+    )
+    return json.loads(out.stdout)
 
 
 def main() -> None:
@@ -130,6 +145,13 @@ def main() -> None:
             f"medians: referee {referee:.2f}, template {template:.2f}, controller {controller:.2f})"
         )
         print(f"  spawned / forked  CPU {cpu['spawned sandbox'] / cpu[f]:6.1f} x   wall {b / wall[f]:6.1f} x")
+        low = floor()
+        print(
+            f"  floor: fork+exit  {low['fork_ms']:7.2f} ms CPU of a process the template's size "
+            f"({low['fork_faults']:.0f} page faults in the child)"
+        )
+        if "namespaces_ms" in low:
+            print(f"  floor: namespaces {low['namespaces_ms']:7.2f} ms CPU: the same fork, with the slot's namespaces")
 
 
 if __name__ == "__main__":

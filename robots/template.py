@@ -52,6 +52,8 @@ PRELOAD = ("numpy", "numpy.linalg", *(f"robots.controllers.{m}" for m in REFEREN
 
 CLONE_NEWNS, CLONE_NEWCGROUP, CLONE_NEWUTS = 0x00020000, 0x02000000, 0x04000000
 CLONE_NEWIPC, CLONE_NEWPID, CLONE_NEWNET = 0x08000000, 0x20000000, 0x40000000
+# each slot's own namespaces (and its cgroup namespace, where the kernel has them)
+SLOT_NAMESPACES = CLONE_NEWNS | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
 MS_RDONLY, MS_NOSUID, MS_NODEV, MS_NOEXEC = 1, 2, 4, 8
 MS_REMOUNT, MS_BIND, MS_REC, MS_PRIVATE = 32, 4096, 16384, 1 << 18
 MOUNT_FLAGS = {"nosuid": MS_NOSUID, "nodev": MS_NODEV, "noexec": MS_NOEXEC, "noatime": 1024, "nodiratime": 2048}
@@ -227,8 +229,7 @@ def _slot(watch: socket.socket, config: socket.socket) -> None:
         settings = json.loads(message)
         _close_all_but({watch.fileno(), *fds})
         stdio, bundle, groups = fds[:3], fds[3], fds[4:]
-        flags = CLONE_NEWNS | CLONE_NEWNET | CLONE_NEWIPC | CLONE_NEWUTS
-        _check(_libc.unshare(flags), "unshare")
+        _check(_libc.unshare(SLOT_NAMESPACES), "unshare")
         _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
         points = _mount_points()  # as the template has them: what is below /tmp and /dev/shm
@@ -335,6 +336,15 @@ def _preload() -> None:
         sys.meta_path.insert(0, _Preloaded(stash))
 
 
+def prepare() -> None:
+    """What the template does once before it forks any slot: preload the imports, build the
+    seccomp filter, freeze what it holds out of the collector's way (fewer pages copied in each
+    child). benchmarks/fork_floor.py forks a process so prepared."""
+    _preload()
+    seccomp.prepare()  # the filter built once here, not in every controller
+    gc.freeze()
+
+
 def _started(fds: list[int], own_pids: int) -> _Watched | None:
     """The slot a request asks for, forked and watched: `fds` are its two sockets, the one the
     referee watches it by and the one its configuration comes on. None if none was made (the
@@ -364,9 +374,7 @@ def serve(control_fd: int) -> None:
     the referee closes the control socket (the slots still running then die with the template)."""
     control = socket.socket(fileno=control_fd)
     own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
-    _preload()
-    seccomp.prepare()  # the filter built once here, not in every controller
-    gc.freeze()  # the collector leaves the template's objects alone: fewer pages copied in each child
+    prepare()
     control.send(b"r")
     by_pidfd: dict[int, _Watched] = {}
     while True:

@@ -1,0 +1,67 @@
+"""What a forked controller start costs before it does anything of its own: a fork and an exit
+of a process holding what the controllers' template holds, bare and with a slot's namespaces.
+
+Run: python benchmarks/fork_floor.py [--starts 30]   (prints JSON; benchmarks/sandbox.py uses it)
+This process imports only the standard library and robots/template.py, and prepares itself as
+the template does (`template.prepare`: the preloaded imports, the seccomp filter, the frozen
+heap), so what it forks is the template's size. Each fork's CPU counts both sides: the parent's
+(copying the page tables) and the child's (the pages it writes, copied, and its exit). With the
+slot's namespaces (root only, outside the template's sandbox): a new PID namespace for the child
+as the template makes it, and the child unshares the rest as a slot does (`SLOT_NAMESPACES` and
+its cgroup namespace), then exits. The kernel's own threads that free a network namespace later
+are not counted. Medians of `--starts` forks after one untimed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+
+from robots import template
+
+
+def forks(starts: int, namespaces: bool) -> tuple[float, float]:
+    """Median CPU ms of a fork and exit from this process, both sides, and the child's page faults."""
+    own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
+    cpu, faults = [], []
+    for _ in range(starts + 1):
+        before = resource.getrusage(resource.RUSAGE_SELF)
+        if namespaces:
+            template._check(template._libc.unshare(template.CLONE_NEWPID), "unshare")
+        pid = os.fork()
+        if pid == 0:
+            code = 0
+            if namespaces:
+                code = template._libc.unshare(template.SLOT_NAMESPACES)
+                template._libc.unshare(template.CLONE_NEWCGROUP)
+            os._exit(1 if code else 0)
+        if namespaces:
+            template._check(template._libc.setns(own_pids, template.CLONE_NEWPID), "setns")
+        _, status, child = os.wait4(pid, 0)
+        if status:
+            raise SystemExit(f"the forked child could not make its namespaces (status {status})")
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        parent = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+        cpu.append(parent + child.ru_utime + child.ru_stime)
+        faults.append(child.ru_minflt)
+    os.close(own_pids)
+    return statistics.median(cpu[1:]) * 1e3, statistics.median(faults[1:])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--starts", type=int, default=30, help="forks of each kind (default 30)")
+    args = ap.parse_args()
+    template.prepare()
+    fork_ms, fork_faults = forks(args.starts, False)
+    out = {"fork_ms": fork_ms, "fork_faults": fork_faults}
+    if os.geteuid() == 0:
+        out["namespaces_ms"] = forks(args.starts, True)[0]
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
