@@ -5,6 +5,9 @@ Bare: `arena.world.World(level)` stepped a control period at a time (`world.run`
 on fixed wheel commands (gentle circles); each env gets the same wheel speeds as its action.
 Figures, each the median of `--repeat` interleaved rounds, as a ratio to bare stepping per
 control period (1.0: an env step costs no more than the physics of its period; target >= 0.5):
+- sensed: the same world with every laser and detector (`Sensing`, a period's states recorded
+  and flushed as a match does), CPU per control period: what any env step costs before the
+  referee's checks and the env's own work, so bare over it is the most an env step can reach;
 - single: `gymnasium.make("LaserArena-v0", level="asabe")`, CPU per step (and with `goal=True`,
   whose goal block runs the toolkit's tracker);
 - parallel: PettingZoo `parallel_env(level="asabe-race")` (4 agents) beside the 4-robot world;
@@ -29,6 +32,8 @@ import numpy as np
 
 import referee.gym  # registers LaserArena-v0
 from arena.loader import find_level
+from arena.rng import RandomTree
+from arena.sensing.pipeline import Sensing
 from arena.world import World
 from referee.gym import parallel
 
@@ -37,15 +42,20 @@ WHEELS = (0.08, 0.12)  # m/s, every robot in every figure
 Clock = Callable[[], float]
 
 
-def bare(name: str, periods: int, clock: Clock) -> float:
-    """Seconds (by `clock`) per control period of the level's world, stepped bare."""
+def bare(name: str, periods: int, clock: Clock, sensed: bool = False) -> float:
+    """Seconds (by `clock`) per control period of the level's world, stepped bare; or `sensed`:
+    every period's states recorded and flushed into detections, as a match does."""
     level = find_level(name)
     world = World(level)
+    sensing = Sensing(world, RandomTree(level.seed)) if sensed else None
     for slot in range(len(level.robots)):
         world.command(slot, *WHEELS)
     start = clock()
     for _ in range(periods):
-        world.run(level.steps_per_control)
+        states, _ = world.run(level.steps_per_control)
+        if sensing:
+            sensing.record_many(states)
+            sensing.flush()
     return (clock() - start) / periods
 
 
@@ -115,6 +125,7 @@ def round_of(periods: int) -> dict[str, float]:
     """One round of every figure, each beside the bare stepping it is compared with."""
     cpu = time.process_time
     f = {"bare_us": 1e6 * bare(LEVEL, periods, cpu), "bare_race_us": 1e6 * bare(RACE, periods, cpu)}
+    f["sensed_us"] = 1e6 * bare(LEVEL, periods, cpu, sensed=True)
     f["single_us"] = 1e6 * single(periods)
     f["goal_us"] = 1e6 * single(periods, goal=True)
     f["parallel_us"] = 1e6 * multi(periods)
@@ -134,6 +145,7 @@ def measure(repeat: int = 5, periods: int = 300) -> dict[str, float]:
     round_of(max(periods // 10, 5))  # untimed: loads the compiled kernels, fills the caches
     runs = [round_of(periods) for _ in range(repeat)]
     f = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    f["sensed_ratio"] = f["bare_us"] / f["sensed_us"]
     f["single_ratio"] = f["bare_us"] / f["single_us"]
     f["parallel_ratio"] = f["bare_race_us"] / f["parallel_us"]
     for n in (1, 2):
@@ -150,6 +162,11 @@ def table(f: dict[str, float]) -> list[tuple[str, str, str]]:
     rows = [
         (f"{LEVEL} bare stepping", f"{f['bare_us']:.0f} us CPU per control period", ""),
         (f"{RACE} bare stepping", f"{f['bare_race_us']:.0f} us CPU per control period", ""),
+        (
+            f"{LEVEL} stepping + sensing",
+            f"{f['sensed_us']:.0f} us CPU per control period",
+            f"{f['sensed_ratio']:.2f} of bare: the most an env step can reach",
+        ),
         ("LaserArena-v0, one env", f"{f['single_us']:.0f} us CPU per step", f"{f['single_ratio']:.2f} of bare"),
         ("  with goal=True", f"{f['goal_us']:.0f} us CPU per step", f"{f['bare_us'] / f['goal_us']:.2f} of bare"),
         (
