@@ -9,7 +9,7 @@ heap), so what it forks is the template's size. Each fork's CPU counts both side
 slot's namespaces (root only, outside the template's sandbox): a new PID namespace for the child
 as the template makes it, and the child unshares the rest as a slot does (`SLOT_NAMESPACES` and
 its cgroup namespace), then exits. The kernel's own threads that free a network namespace later
-are not counted. Medians of `--starts` forks after one untimed.
+are not counted. Medians of `--starts` forks of each kind, the kinds alternated, after one untimed.
 """
 
 from __future__ import annotations
@@ -23,32 +23,40 @@ import statistics
 from robots import template
 
 
-def forks(starts: int, namespaces: bool) -> tuple[float, float]:
-    """Median CPU ms of a fork and exit from this process, both sides, and the child's page faults."""
+def fork(own_pids: int, namespaces: bool) -> tuple[float, int]:
+    """CPU seconds of one fork and exit from this process, both sides, and the child's page faults."""
+    before = resource.getrusage(resource.RUSAGE_SELF)
+    if namespaces:
+        template._check(template._libc.unshare(template.CLONE_NEWPID), "unshare")
+    pid = os.fork()
+    if pid == 0:
+        code = 0
+        if namespaces:
+            code = template._libc.unshare(template.SLOT_NAMESPACES)
+            template._libc.unshare(template.CLONE_NEWCGROUP)
+        os._exit(1 if code else 0)
+    if namespaces:
+        template._check(template._libc.setns(own_pids, template.CLONE_NEWPID), "setns")
+    _, status, child = os.wait4(pid, 0)
+    if status:
+        raise SystemExit(f"the forked child could not make its namespaces (status {status})")
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    parent = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return parent + child.ru_utime + child.ru_stime, child.ru_minflt
+
+
+def forks(starts: int, kinds: tuple[bool, ...]) -> list[tuple[float, float]]:
+    """Per kind (with the slot's namespaces or not), the median CPU ms of a fork and exit and
+    the child's median page faults: the kinds alternated, so all see the same machine."""
     own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
-    cpu, faults = [], []
-    for _ in range(starts + 1):
-        before = resource.getrusage(resource.RUSAGE_SELF)
-        if namespaces:
-            template._check(template._libc.unshare(template.CLONE_NEWPID), "unshare")
-        pid = os.fork()
-        if pid == 0:
-            code = 0
-            if namespaces:
-                code = template._libc.unshare(template.SLOT_NAMESPACES)
-                template._libc.unshare(template.CLONE_NEWCGROUP)
-            os._exit(1 if code else 0)
-        if namespaces:
-            template._check(template._libc.setns(own_pids, template.CLONE_NEWPID), "setns")
-        _, status, child = os.wait4(pid, 0)
-        if status:
-            raise SystemExit(f"the forked child could not make its namespaces (status {status})")
-        after = resource.getrusage(resource.RUSAGE_SELF)
-        parent = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-        cpu.append(parent + child.ru_utime + child.ru_stime)
-        faults.append(child.ru_minflt)
+    runs: list[list[tuple[float, int]]] = [[] for _ in kinds]
+    for k in range(starts + 1):
+        for i, namespaces in enumerate(kinds):
+            cpu, faults = fork(own_pids, namespaces)
+            if k:  # the first of each kind is not counted
+                runs[i].append((cpu, faults))
     os.close(own_pids)
-    return statistics.median(cpu[1:]) * 1e3, statistics.median(faults[1:])
+    return [(statistics.median(c for c, _ in r) * 1e3, statistics.median(f for _, f in r)) for r in runs]
 
 
 def main() -> None:
@@ -56,10 +64,10 @@ def main() -> None:
     ap.add_argument("--starts", type=int, default=30, help="forks of each kind (default 30)")
     args = ap.parse_args()
     template.prepare()
-    fork_ms, fork_faults = forks(args.starts, False)
-    out = {"fork_ms": fork_ms, "fork_faults": fork_faults}
-    if os.geteuid() == 0:
-        out["namespaces_ms"] = forks(args.starts, True)[0]
+    figures = forks(args.starts, (False, True) if os.geteuid() == 0 else (False,))
+    out = {"fork_ms": figures[0][0], "fork_faults": figures[0][1]}
+    if len(figures) > 1:
+        out["namespaces_ms"] = figures[1][0]
     print(json.dumps(out))
 
 
