@@ -101,9 +101,10 @@ def floor(starts: int = 30) -> dict:
     """benchmarks/fork_floor.py's figures, in a process of its own: the median CPU ms of a bare
     fork and exit of a process holding what the template holds (`fork_ms`, and the child's page
     faults, `fork_faults`) and, as root, of one that makes the slot's namespaces (`namespaces_ms`)."""
-    out = subprocess.run(
-        [sys.executable, str(FORK_FLOOR), "--starts", str(starts)], capture_output=True, text=True, check=True
-    )
+    out = subprocess.run([sys.executable, str(FORK_FLOOR), "--starts", str(starts)], capture_output=True, text=True)
+    if out.returncode:
+        said = out.stderr.strip().splitlines() or [f"exit status {out.returncode}"]
+        raise SystemExit(f"{FORK_FLOOR.name}: {said[-1]}")
     return json.loads(out.stdout)
 
 
