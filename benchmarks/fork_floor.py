@@ -7,8 +7,8 @@ the template does (`template.prepare`: the preloaded imports, the seccomp filter
 heap), so what it forks is the template's size. Each fork's CPU counts both sides: the parent's
 (copying the page tables) and the child's (the pages it writes, copied, and its exit). With the
 slot's namespaces (root only, outside the template's sandbox): a new PID namespace for the child
-as the template makes it, and the child unshares the rest as a slot does (`SLOT_NAMESPACES` and
-its cgroup namespace), then exits. The kernel's own threads that free a network namespace later
+as the template makes it (`fork_init`), and the child unshares the rest as a slot does
+(`own_namespaces`), then exits. The kernel's own threads that free a network namespace later
 are not counted. Medians of `--starts` forks of each kind, the kinds alternated, after one untimed.
 """
 
@@ -19,30 +19,38 @@ import json
 import os
 import resource
 import statistics
+from typing import NoReturn
 
 from robots import template
 
 
 def fork(own_pids: int, namespaces: bool) -> tuple[float, int]:
-    """CPU seconds of one fork and exit from this process, both sides, and the child's page faults."""
+    """CPU seconds of one fork and exit from this process, both sides, and the child's page
+    faults; with `namespaces`, forked as the template forks a slot (`fork_init`), the child
+    making its own namespaces as a slot does (`own_namespaces`)."""
+
+    def child() -> NoReturn:
+        code = 1
+        try:
+            if namespaces:
+                template.own_namespaces()
+            code = 0
+        finally:
+            os._exit(code)
+
     before = resource.getrusage(resource.RUSAGE_SELF)
     if namespaces:
-        template._check(template._libc.unshare(template.CLONE_NEWPID), "unshare")
-    pid = os.fork()
-    if pid == 0:
-        code = 0
-        if namespaces:
-            code = template._libc.unshare(template.SLOT_NAMESPACES)
-            template._libc.unshare(template.CLONE_NEWCGROUP)
-        os._exit(1 if code else 0)
-    if namespaces:
-        template._check(template._libc.setns(own_pids, template.CLONE_NEWPID), "setns")
-    _, status, child = os.wait4(pid, 0)
+        pid = template.fork_init(child, own_pids)
+    else:
+        pid = os.fork()
+        if pid == 0:
+            child()
+    _, status, used = os.wait4(pid, 0)
     if status:
         raise SystemExit(f"the forked child could not make its namespaces (status {status})")
     after = resource.getrusage(resource.RUSAGE_SELF)
     parent = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-    return parent + child.ru_utime + child.ru_stime, child.ru_minflt
+    return parent + used.ru_utime + used.ru_stime, used.ru_minflt
 
 
 def forks(starts: int, kinds: tuple[bool, ...]) -> list[tuple[float, float]]:

@@ -36,8 +36,9 @@ import signal
 import socket
 import struct
 import sys
+from collections.abc import Callable
 from types import ModuleType
-from typing import Any
+from typing import Any, NoReturn
 
 import robots.runner
 from robots import protocol, seccomp
@@ -173,7 +174,7 @@ def _drop_privileges(uid: int) -> None:
     _prctl(PR_SET_DUMPABLE, 1)  # as after an exec: its own processes may inspect each other
 
 
-def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> None:
+def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> NoReturn:
     """The slot's init, its namespaces and mounts made (`_slot`): its control groups, its
     /proc, its descriptors, its uid, then the runner. Never returns."""
     code = 1
@@ -218,7 +219,14 @@ def _close_all_but(keep: set[int]) -> None:
     os.closerange(low, 1 << 20)
 
 
-def _slot(watch: socket.socket, config: socket.socket) -> None:
+def own_namespaces() -> None:
+    """Leave the template's mount, network, IPC and UTS namespaces for new ones of this process's
+    own, and its cgroup namespace where the kernel has them (bwrap's --unshare-cgroup-try)."""
+    _check(_libc.unshare(SLOT_NAMESPACES), "unshare")
+    _libc.unshare(CLONE_NEWCGROUP)
+
+
+def _slot(watch: socket.socket, config: socket.socket) -> NoReturn:
     """The forked child for one slot, the init of its new PID namespace (still root, in the
     template's sandbox): its configuration, namespaces and mounts, then the controller. Never
     returns; what fails before the team's code runs is said on `watch` (`e` and the reason)."""
@@ -229,8 +237,7 @@ def _slot(watch: socket.socket, config: socket.socket) -> None:
         settings = json.loads(message)
         _close_all_but({watch.fileno(), *fds})
         stdio, bundle, groups = fds[:3], fds[3], fds[4:]
-        _check(_libc.unshare(SLOT_NAMESPACES), "unshare")
-        _libc.unshare(CLONE_NEWCGROUP)  # where the kernel has cgroup namespaces (bwrap's --unshare-cgroup-try)
+        own_namespaces()
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
         points = _mount_points()  # as the template has them: what is below /tmp and /dev/shm
         _tmpfs("/tmp", points)
@@ -250,15 +257,16 @@ def _slot(watch: socket.socket, config: socket.socket) -> None:
     _controller(settings, stdio, groups)
 
 
-def _fork(watch: socket.socket, config: socket.socket, own_pids: int) -> int:
-    """Fork the slot of `watch` and `config` as the init of a new PID namespace; the template's
-    own children stay in its namespace (`own_pids`, restored at once). The child's pid."""
+def fork_init(child: Callable[[], NoReturn], own_pids: int) -> int:
+    """Fork a process that runs `child` (which never returns) as the init of a new PID
+    namespace; this process's later children stay in its own (`own_pids`, restored at once).
+    The child's pid."""
     _check(_libc.unshare(CLONE_NEWPID), "unshare")
     pid = -1
     try:
         pid = os.fork()
         if pid == 0:
-            _slot(watch, config)
+            child()
     finally:
         if pid != 0 and _libc.setns(own_pids, CLONE_NEWPID) != 0:
             os._exit(1)  # its next slots would be born in this one's namespace: the template ends
@@ -356,7 +364,7 @@ def _started(fds: list[int], own_pids: int) -> _Watched | None:
         return None
     watch, config = sockets
     try:
-        pid = _fork(watch, config, own_pids)
+        pid = fork_init(lambda: _slot(watch, config), own_pids)
     except OSError as e:
         try:
             watch.send(b"e" + protocol.describe(e)[:400].encode())
