@@ -18,7 +18,7 @@ from typing import Annotated
 
 from msgspec import Meta
 
-from robots.bounds import Byte, Count, Name, Point, Real, Size
+from robots.bounds import MAX_DRAWINGS, MAX_POINTS, MAX_TEXT, Byte, Count, Kind, Name, Point, Real, Size
 
 API_VERSION = 2  # 2: the start announced with its spread (`StartInfo`), localize trials
 
@@ -146,10 +146,10 @@ class Drawing:
     `points` in metres (a drawing without any is set aside with a warning); `radius` for
     circles; `text` for labels; `color` as RGB."""
 
-    kind: Name
-    points: Annotated[tuple[Point, ...], Meta(max_length=4096)] = ()
+    kind: Kind
+    points: Annotated[tuple[Point, ...], Meta(max_length=MAX_POINTS)] = ()
     radius: Size = 0.0
-    text: Annotated[str, Meta(max_length=4096)] = ""
+    text: Annotated[str, Meta(max_length=MAX_TEXT)] = ""
     color: tuple[Byte, Byte, Byte] = (255, 0, 255)
 
 
@@ -161,7 +161,7 @@ class Command:
     left: Real
     right: Real
     estimate: tuple[Real, Real, Real] | None = None
-    debug: Annotated[tuple[Drawing, ...], Meta(max_length=4096)] = ()
+    debug: Annotated[tuple[Drawing, ...], Meta(max_length=MAX_DRAWINGS)] = ()
 
 
 class Controller:

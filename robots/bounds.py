@@ -14,5 +14,12 @@ Real = Annotated[float, msgspec.Meta(ge=-LIMIT, le=LIMIT)]
 Size = Annotated[float, msgspec.Meta(ge=0, le=LIMIT)]  # a length or spread: never negative
 Count = Annotated[int, msgspec.Meta(ge=0, le=1 << 40)]
 Byte = Annotated[int, msgspec.Meta(ge=0, le=255)]
-Name = Annotated[str, msgspec.Meta(max_length=256)]
+NAME_CHARS = 256
+Name = Annotated[str, msgspec.Meta(max_length=NAME_CHARS)]
 Point = tuple[Real, Real]
+
+# A command's debug drawings: what the team side sends is within these (it folds or drops the
+# rest, naming why), so the referee's bound on an answer's bytes follows from them
+MAX_DRAWINGS, MAX_POINTS, MAX_TEXT = 256, 64, 80
+KIND_CHARS = 16  # a drawing's kind: point, line, circle, text (or `dropped`, the team side's note)
+Kind = Annotated[str, msgspec.Meta(max_length=KIND_CHARS)]

@@ -31,11 +31,10 @@ from typing import IO, Annotated, Any, Final, Generic, Literal, TypeVar
 import msgspec
 
 from robots.api import API_VERSION, Brief, Command, Drawing, Observation
-from robots.bounds import LIMIT, Name
+from robots.bounds import KIND_CHARS, LIMIT, MAX_DRAWINGS, MAX_POINTS, MAX_TEXT, NAME_CHARS, Name
 
 PROTOCOL_VERSION: Final = 1
 MAX_FRAME = 1 << 22  # 4 MiB: the largest honest message (a brief) is far below
-MAX_DRAWINGS, MAX_POINTS, MAX_TEXT = 256, 64, 80  # debug drawings beyond these are dropped
 
 
 class FaultKind(StrEnum):
@@ -90,9 +89,12 @@ class CommandMsg(Message, Generic[P], tag="command", frozen=True):
     command: P
 
 
+FAULT_CHARS = 4096  # the most characters a fault's message may have
+
+
 class FaultMsg(Message, tag="fault", frozen=True):
     kind: Name  # one of REPORTED, or the referee calls it a `protocol` fault
-    message: Annotated[str, msgspec.Meta(max_length=4096)]
+    message: Annotated[str, msgspec.Meta(max_length=FAULT_CHARS)]
 
 
 Raw = msgspec.Raw
@@ -115,6 +117,10 @@ _ENCODER = msgspec.json.Encoder(enc_hook=_number)
 
 class ProtocolError(Exception):
     """A malformed frame or message; the text names the field at fault."""
+
+
+class CommandError(ProtocolError):
+    """A well-formed `command` message whose command fails its checks (a `bad_command` fault)."""
 
 
 # ---- strict payloads ------------------------------------------------------------------------
@@ -153,34 +159,22 @@ def _twin(cls: type) -> type:
     )
 
 
-# each payload's check (its twin: unknown fields refused), then its decoding into the dataclass
+# each payload decoded into its twin (unknown fields refused, every bound checked)
 _CHECKS: dict[type, msgspec.json.Decoder[Any]] = {cls: msgspec.json.Decoder(_twin(cls)) for cls in PAYLOADS}
-_DECODERS: dict[type, msgspec.json.Decoder[Any]] = {cls: msgspec.json.Decoder(cls) for cls in PAYLOADS}
 
 T = TypeVar("T", Brief, Observation, Command)
 
 
 def decoded(raw: bytes | msgspec.Raw, cls: type[T]) -> T:
     """A payload (a message's `brief`, `obs` or `command`, raw as `parse` leaves it) as the API's
-    dataclass `cls`, checked: any failure is a ProtocolError naming the field. A Command's debug
-    drawings beyond the caps are dropped."""
-    what = PAYLOADS[cls]
-    _decode(_CHECKS[cls], raw, what)
-    out = _decode(_DECODERS[cls], raw, what)
-    if cls is Command and out.debug:
-        out = _capped(out)
-    return out
+    dataclass `cls`, checked: any failure is a ProtocolError naming the field. Its bytes are
+    decoded once, into the payload's strict twin, which is then made the dataclass."""
+    return _dataclass(_decode(_CHECKS[cls], raw, PAYLOADS[cls]), cls)
 
 
-def _capped(cmd: Command) -> Command:
-    """`cmd` with at most MAX_DRAWINGS drawings of at most MAX_POINTS points and MAX_TEXT characters."""
-    drawings = cmd.debug[:MAX_DRAWINGS]
-    return Command(
-        cmd.left,
-        cmd.right,
-        cmd.estimate,
-        tuple(Drawing(g.kind, g.points[:MAX_POINTS], g.radius, g.text[:MAX_TEXT], g.color) for g in drawings),
-    )
+def _dataclass(twin: Any, cls: type[T]) -> T:
+    """A payload decoded into its strict twin, as the API's dataclass `cls` (already checked)."""
+    return msgspec.convert(twin, cls, from_attributes=True)
 
 
 def wired(cmd: Command) -> Command:
@@ -285,6 +279,47 @@ def parse(data: bytes) -> Message:
     if len(data) > MAX_FRAME:
         raise ProtocolError(f"frame of {len(data)} bytes is over the {MAX_FRAME} limit")
     msg: Message = _decode(_MESSAGE, data, "message")
+    return msg
+
+
+# ---- answers: what the referee reads from a controller ----------------------------------------
+
+NUMBER_BYTES = len("-1.2345678901234567e-300")  # the longest number within LIMIT our encoder writes
+CHAR_BYTES = len("\\ud83d\\ude00")  # the most a character of text can take in JSON: an escaped surrogate pair
+_COMMAND: Any = _twin(Command)  # a command as it is checked (its strict twin)
+_ANSWER = msgspec.json.Decoder(Loaded | Ready | CommandMsg[_COMMAND] | FaultMsg)  # what a controller may send
+
+
+@functools.cache
+def answer_bound() -> int:
+    """The most bytes a controller's message can take within the schema's bounds: a `command`
+    with MAX_DRAWINGS drawings of MAX_POINTS points, every number NUMBER_BYTES long and every
+    character of text CHAR_BYTES (a `fault` message's longest is far below). Compact JSON, as
+    every writer of this protocol makes it: whitespace between tokens is not counted."""
+    n = -1.2345678901234567e-300
+    drawing = Drawing("", ((n, n),) * MAX_POINTS, -n, "", (255, 255, 255))  # a radius is never negative
+    longest = CommandMsg(v=PROTOCOL_VERSION, tick=1 << 40, command=Command(n, n, (n, n, n), (drawing,) * MAX_DRAWINGS))
+    command = len(_ENCODER.encode(longest)) + MAX_DRAWINGS * (KIND_CHARS + MAX_TEXT) * CHAR_BYTES
+    fault = (
+        len(_ENCODER.encode(FaultMsg(v=PROTOCOL_VERSION, kind="", message="")))
+        + (NAME_CHARS + FAULT_CHARS) * CHAR_BYTES
+    )
+    return max(command, fault)
+
+
+def answer(data: bytes | bytearray | memoryview) -> Message:
+    """A controller's message to the referee, decoded once and checked, a `command` message's
+    command made the API's Command. ProtocolError for a malformed message; CommandError (its
+    text naming the field) for a well-formed `command` message whose command fails its checks."""
+    try:
+        msg = _decode(_ANSWER, data, "message")
+    except ProtocolError as e:
+        text = str(e)
+        if text.rpartition(" - at `")[2].startswith("message.command"):
+            raise CommandError(text.replace("message", "command", 1).replace("`message.command", "`command")) from None
+        raise
+    if isinstance(msg, CommandMsg):
+        return CommandMsg(v=msg.v, tick=msg.tick, command=_dataclass(msg.command, Command))
     return msg
 
 

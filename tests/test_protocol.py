@@ -53,18 +53,39 @@ VALID = [
 
 
 def decode_everything(data: bytes) -> None:
-    """What the referee does with a controller's frame: the envelope, then its payload.
-    Anything decoded must be a clean, finite, bounded value."""
+    """What each side does with a frame: the referee decodes a controller's message once
+    (`answer`); a controller decodes the referee's envelope, then its payload. Each side either
+    decodes a clean, finite, bounded value or raises ProtocolError; the first error is raised
+    again when neither side takes the frame."""
+    errors = []
+    for side in (_as_the_referee, _as_a_controller):
+        try:
+            side(data)
+        except protocol.ProtocolError as e:
+            errors.append(e)
+    if len(errors) == 2:
+        raise errors[0]
+
+
+def _as_the_referee(data: bytes) -> None:
+    if isinstance(msg := protocol.answer(data), protocol.CommandMsg):
+        _clean(msg.command)
+
+
+def _as_a_controller(data: bytes) -> None:
     match protocol.parse(data):
         case protocol.CommandMsg(command=raw):
-            cmd = protocol.decoded(raw, Command)
-            assert protocol.command_problem(cmd) is None
-            assert all(math.isfinite(v) and abs(v) <= protocol.LIMIT for v in (cmd.left, cmd.right))
-            assert len(cmd.debug) <= protocol.MAX_DRAWINGS
+            _clean(protocol.decoded(raw, Command))
         case protocol.Step(obs=raw):
             protocol.decoded(raw, Observation)
         case protocol.Setup(brief=raw):
             protocol.decoded(raw, Brief)
+
+
+def _clean(cmd: Command) -> None:
+    assert protocol.command_problem(cmd) is None
+    assert all(math.isfinite(v) and abs(v) <= protocol.LIMIT for v in (cmd.left, cmd.right))
+    assert len(cmd.debug) <= protocol.MAX_DRAWINGS
 
 
 def only_protocol_errors(data: bytes) -> None:
@@ -157,6 +178,10 @@ def test_every_refusal_names_the_field():
     assert "command.debug[0].points[0][1]" in problem(b'{"left":0,"right":0,"debug":[{"kind":"x","points":[[0,1e9]]}]}')
     assert "command.debug[0].color[2]" in problem(b'{"left":0,"right":0,"debug":[{"kind":"x","color":[0,0,256]}]}')
     assert "unknown field" in problem(b'{"left":0,"right":0,"x":1}')
+    with pytest.raises(protocol.CommandError, match="at `command.debug"):  # the referee's one decoding says the same
+        protocol.answer(
+            b'{"v":1,"type":"command","tick":1,"command":{"left":0,"right":0,"debug":[{"kind":"x","points":[[0,1e9]]}]}}'
+        )
     with pytest.raises(protocol.ProtocolError, match="nested too deeply"):
         protocol.parse(b'{"v":1,"type":"command","tick":1,"command":' + b"[" * 100_000 + b"]" * 100_000 + b"}")
 
@@ -326,11 +351,14 @@ def test_an_overflowing_number_written_raw_is_a_bad_command(shared_dir):
     assert "command.left" in contained(hostile(shared_dir, body), "bad_command", shared_dir)
 
 
-def test_a_deeply_nested_frame_written_raw_is_a_protocol_fault(shared_dir):
-    body = RAW_WRITER.replace(
-        "PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":' + b"[" * 200_000 + b"]" * 200_000 + b"}")
-    )
-    assert "nested too deeply" in contained(hostile(shared_dir, body), "protocol", shared_dir)
+def test_a_deeply_nested_frame_written_raw_is_refused_at_its_first_bracket(shared_dir):
+    """200,000 nested lists where the schema wants an object: refused by type at the first
+    bracket (no recursion), as the whole frame (protocol) or as its command (bad_command)."""
+    deep = b"[" * 200_000 + b"]" * 200_000
+    whole = RAW_WRITER.replace("PAYLOAD", repr(deep))
+    assert "got `array`" in contained(hostile(shared_dir, whole), "protocol", shared_dir)
+    inner = RAW_WRITER.replace("PAYLOAD", repr(b'{"v":1,"type":"command","tick":TICK,"command":' + deep + b"}"))
+    assert "got `array` - at `command`" in contained(hostile(shared_dir, inner), "bad_command", shared_dir)
 
 
 @pytest.mark.parametrize("isolate", [True, False])

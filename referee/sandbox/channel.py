@@ -1,6 +1,9 @@
 """The framed channel to a controller process: protocol messages over its stdin and stdout,
-each write and each wait bounded by a deadline, never blocking beyond it. What goes wrong is a
-`Trouble` (the fault kind it leads to): the caller, which knows the allowances, judges it."""
+each write and each wait bounded by a deadline, and every read non-blocking: a controller that
+takes back bytes from its own pipe (it may reopen it) stalls nothing but its own answer. An
+answer is bounded in bytes from its header, before it is read (`protocol.answer_bound`), and
+decoded once. What goes wrong is a `Trouble` (the fault kind it leads to): the caller, which
+knows the allowances, judges it."""
 
 from __future__ import annotations
 
@@ -17,13 +20,19 @@ from robots import protocol
 
 class Trouble(StrEnum):
     """Why no message came or went: the process ended (`crash`), the deadline passed
-    (`timeout`), its bytes were no message (`protocol`; the channel's `problem` says why), or,
-    found by its log rather than here, it wrote more output than it may (`flood`)."""
+    (`timeout`), its bytes were no message (`protocol`) or a `command` message whose command
+    fails its checks (`bad_command`; the channel's `problem` says why for both), or, found by
+    its log rather than here, it wrote more output than it may (`flood`)."""
 
     CRASH = "crash"
     TIMEOUT = "timeout"
     PROTOCOL = "protocol"
+    BAD_COMMAND = "bad_command"
     FLOOD = "flood"
+
+
+HEAD = struct.Struct(">I")  # a frame's length
+READ_SIZE = 1 << 16  # bytes asked of the pipe at once (a pipe holds 64 KiB)
 
 
 class Channel:
@@ -34,7 +43,9 @@ class Channel:
             raise RuntimeError("the controller process has no pipes")
         self.stdin, self.stdout = stdin, stdout
         os.set_blocking(stdin.fileno(), False)  # once: `write` never blocks beyond its deadline
-        self.buf = b""
+        os.set_blocking(stdout.fileno(), False)  # and `read` never blocks at all
+        self.buf = bytearray()
+        self.arrived: float | None = None  # when the whole of the next frame had been read (`read`'s stamp)
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
 
     def fileno(self) -> int:
@@ -67,29 +78,52 @@ class Channel:
             return Trouble.CRASH
         return None
 
+    def whole(self) -> bool:
+        """Whether the next frame can be judged now: it has been read whole, or its header
+        alone says it is over the bound."""
+        if len(self.buf) < HEAD.size:
+            return False
+        (size,) = HEAD.unpack_from(self.buf)
+        return size > protocol.answer_bound() or len(self.buf) >= HEAD.size + size
+
     def message(self) -> protocol.Message | Trouble | None:
-        """The next whole message already read, `protocol` for a malformed one, None if none yet."""
-        if len(self.buf) < 4:
+        """The next whole message already read, decoded (`protocol`/`bad_command` for a malformed
+        one), None if none yet."""
+        if not self.whole():
             return None
-        (size,) = struct.unpack(">I", self.buf[:4])
-        if size > protocol.MAX_FRAME:
-            self.problem = f"a frame of {size} bytes is over the {protocol.MAX_FRAME} limit"
+        (size,) = HEAD.unpack_from(self.buf)
+        if size > protocol.answer_bound():
+            self.problem = f"a frame of {size} bytes is over the {protocol.answer_bound()}-byte bound of an answer (docs/protocol.md)"
             return Trouble.PROTOCOL
-        if len(self.buf) < 4 + size:
-            return None
-        frame, self.buf = self.buf[4 : 4 + size], self.buf[4 + size :]
+        frame = memoryview(self.buf)[HEAD.size : HEAD.size + size]
         try:
-            return protocol.parse(frame)
+            return protocol.answer(frame)
+        except protocol.CommandError as e:
+            self.problem = str(e)
+            return Trouble.BAD_COMMAND
         except protocol.ProtocolError as e:
             self.problem = str(e)
             return Trouble.PROTOCOL
+        finally:
+            frame.release()
+            del self.buf[: HEAD.size + size]
+            self.arrived = self.arrived if self.whole() else None
 
-    def read(self) -> bool:
-        """Read what the controller has written (one read; call when its output is readable);
-        False at end of stream (the process ended)."""
-        chunk = os.read(self.fileno(), 1 << 16)
+    def read(self, stamp: float | None = None) -> bool:
+        """Read what the controller's output holds now (one non-blocking read: call when select()
+        says it is readable; nothing may be there, if the controller took it back); False at end
+        of stream (the process ended). `stamp` (default now) is when the referee found it: a
+        frame this read completes is timed to it (`arrived`)."""
+        try:
+            chunk = os.read(self.fileno(), READ_SIZE)
+        except BlockingIOError:
+            return True
+        if not chunk:
+            return False
         self.buf += chunk
-        return bool(chunk)
+        if self.arrived is None and self.whole():
+            self.arrived = time.monotonic() if stamp is None else stamp
+        return True
 
     def receive(self, timeout: float) -> protocol.Message | Trouble:
         """The next message within `timeout` seconds (inf: wait for ever, --no-limits), or the trouble."""

@@ -55,6 +55,17 @@ def _channels(waiting: dict[int, ProcessBot]) -> dict[int, int]:
     return {bot.channel.fileno(): slot for slot, bot in waiting.items()}
 
 
+def _judged(bot: ProcessBot) -> Reply:
+    """The answer `bot` has read whole, decoded, and the seconds it took: from its observation's
+    sending to its arrival, plus its decoding (the bytes it sent cost the referee that long)."""
+    channel = bot.channel
+    arrived = channel.arrived
+    began = time.monotonic()
+    got = channel.message()
+    assert got is not None and arrived is not None
+    return got, max(0.0, arrived - bot.sent) + time.monotonic() - began
+
+
 def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
     """The answers that came in while the referee was busy since `began`, timed to `began`: the
     referee, not the controller, kept them waiting (later answers are timed as always). Their
@@ -64,35 +75,47 @@ def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
     for fd in select.select(list(readers), [], [], 0)[0]:
         slot = readers[fd]
         bot = waiting[slot]
-        channel = bot.channel
-        got = channel.message() if channel.read() else Trouble.CRASH
-        if got is not None:
-            replies[slot] = (got, max(0.0, began - bot.sent))
-            del waiting[slot]
+        if not bot.channel.read(max(began, bot.sent)):
+            replies[slot] = (Trouble.CRASH, max(0.0, began - bot.sent))
+        elif bot.channel.whole():
+            replies[slot] = _judged(bot)
+        else:
+            continue
+        del waiting[slot]
     return replies
 
 
 def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
-    """Every waiting bot's answer, or its trouble (`timeout` at its own deadline)."""
+    """Every waiting bot's answer, or its trouble (`timeout` at its own deadline). An answer is
+    timed to when the referee could first have seen it: the end of its wait in select(), or,
+    for one found at once after the referee decoded another's answer, the start of that work."""
     replies: dict[int, Reply] = {}
     readers = _channels(waiting)  # a bot's entry leaves with it
+    busy: float | None = None  # when the referee began decoding answers since it last looked
     while waiting:
-        now = time.monotonic()
         for slot, bot in list(waiting.items()):
-            channel = bot.channel
-            got = channel.message()
-            if got is None and now - bot.sent >= bot.limits.step_deadline:
-                got = Trouble.TIMEOUT
-            if got is not None:
-                replies[slot] = (got, now - bot.sent)
-                del waiting[slot], readers[channel.fileno()]
+            if bot.channel.whole():
+                busy = time.monotonic() if busy is None else busy
+                replies[slot] = _judged(bot)
+            elif time.monotonic() - bot.sent >= bot.limits.step_deadline:
+                replies[slot] = (Trouble.TIMEOUT, time.monotonic() - bot.sent)
+            else:
+                continue
+            del waiting[slot], readers[bot.channel.fileno()]
         if not waiting:
             break
-        left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
-        ready, _, _ = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))
+        ready: list[int] = select.select(list(readers), [], [], 0)[0] if busy is not None else []
+        if ready and busy is not None:
+            stamp = busy  # it came while the referee was decoding
+        else:
+            left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+            ready = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))[0]
+            stamp = time.monotonic()
+        busy = None
         for fd in ready:
             slot = readers[fd]
-            if not waiting[slot].channel.read():
-                replies[slot] = (Trouble.CRASH, time.monotonic() - waiting[slot].sent)
+            bot = waiting[slot]
+            if not bot.channel.read(max(stamp, bot.sent)):
+                replies[slot] = (Trouble.CRASH, time.monotonic() - bot.sent)
                 del waiting[slot], readers[fd]
     return replies

@@ -201,19 +201,15 @@ class ProcessBot:
         if not self.allowance.answered(took):
             return self._fault(obs.tick, obs.time, Trouble.TIMEOUT, "step")
         match reply:
-            case CommandMsg(tick=tick, command=raw) if tick == obs.tick:
-                return self._command(obs, raw)
+            case CommandMsg(tick=tick, command=cmd) if tick == obs.tick:
+                return self._command(obs, cmd)
             case CommandMsg(tick=tick):  # answered twice, or ahead
                 self.channel.problem = f"an answer for tick {tick} when tick {obs.tick} was asked"
         return self._fault(obs.tick, obs.time, _trouble(reply), "step")
 
-    def _command(self, obs: Observation, raw: protocol.Raw) -> Command | Fault:
-        """The command of an answer in time, checked: a bad one ends the controller."""
-        try:
-            cmd = protocol.decoded(raw, Command)
-        except protocol.ProtocolError as e:
-            self.close()
-            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
+    def _command(self, obs: Observation, cmd: Command) -> Command | Fault:
+        """The command of an answer in time (decoded within the schema's bounds), checked: a bad
+        one ends the controller."""
         problem = protocol.command_problem(protocol.sendable(cmd))
         if problem:
             self.close()
@@ -233,6 +229,8 @@ class ProcessBot:
             kind, message = self._crash(where)
         elif what is Trouble.TIMEOUT:
             kind, message = FaultKind.TIMEOUT, self.allowance.broken(where)
+        elif what is Trouble.BAD_COMMAND:
+            kind, message = FaultKind.BAD_COMMAND, self.channel.problem
         else:
             kind, message = FaultKind.PROTOCOL, f"in {where}: {self.channel.problem or 'malformed message'}"
         tail = self._traceback()
