@@ -28,9 +28,9 @@ import levels
 from arena.loader import load_level
 from referee.match.views import brief_for
 from referee.sandbox import forkserver, kernel
-from referee.sandbox.privacy import slot_uid
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
+from referee.sandbox.uids import slot_uid
 
 
 def _cpu() -> float:

@@ -13,7 +13,12 @@ and that reach past its slot's bounds are denied.
   mount a tmpfs and fill memory no limit of its slot sees. clone3 fails with ENOSYS (its flags
   lie in memory the filter cannot read), on which the C library falls back to clone;
 - bpf, perf_event_open and userfaultfd (EPERM): kernel interfaces that time other processes
-  or stall the kernel, and that no controller uses.
+  or stall the kernel, and that no controller uses;
+- setsid and setpgid (EPERM): a slot's processes stay in its one session, so where the kernel
+  shares CPU between sessions (autogroups) rather than control groups, no number of children
+  weighs more than one slot;
+- sockets of any family but AF_UNIX (EAFNOSUPPORT): a slot has no network, and socket buffers
+  over its loopback are memory a control group may not count.
 
 Every call made through another architecture's numbering (a 32-bit entry into the kernel,
 x32), which the filter cannot read, fails with ENOSYS. The template installs the filter in each
@@ -60,8 +65,13 @@ CALLS = {
     "bpf": (321, 280),
     "perf_event_open": (298, 241),
     "userfaultfd": (323, 282),
-    "clone": (56, 220),
+    "setsid": (112, 157),
+    "setpgid": (109, 154),
+    "clone": (56, 220),  # the last two are judged by their first argument
+    "socket": (41, 198),
 }
+ARGUMENT_CHECKED = ("clone", "socket")
+AF_UNIX = 1
 ERRORS = {
     **dict.fromkeys(("add_key", "request_key", "keyctl", "io_uring_setup", "io_uring_enter"), errno.ENOSYS),
     **dict.fromkeys(("io_uring_register", "clone3"), errno.ENOSYS),
@@ -88,11 +98,12 @@ def program() -> bytes | None:
     if known is None:
         return None
     arch, column = known
-    denied = {name: numbers[column] for name, numbers in CALLS.items() if name != "clone"}
-    clone = CALLS["clone"][column]
+    denied = {name: numbers[column] for name, numbers in CALLS.items() if name not in ARGUMENT_CHECKED}
+    clone, socket = (CALLS[name][column] for name in ARGUMENT_CHECKED)
     # layout: arch check, x32 check, one (JEQ, RET) pair per denied call, the clone check (JEQ,
-    # load flags, JSET, RET EPERM), allow, and the foreign-numbering RET at the end
-    foreign = 4 + 2 * len(denied) + 4 + 1  # the index of the last RET
+    # load flags, JSET, RET EPERM), the socket check (JEQ, load family, JEQ, RET EAFNOSUPPORT),
+    # allow, and the foreign-numbering RET at the end
+    foreign = 4 + 2 * len(denied) + 4 + 4 + 1  # the index of the last RET
     ops = [
         (BPF_LD_ABS_W, 0, 0, 4),  # seccomp_data.arch
         (BPF_JEQ, 0, foreign - 2, arch),
@@ -102,10 +113,14 @@ def program() -> bytes | None:
     for name, nr in denied.items():  # this call: its error; else skip that RET
         ops += [(BPF_JEQ, 0, 1, nr), _ret(ERRORS.get(name, errno.EPERM))]
     ops += [
-        (BPF_JEQ, 0, 3, clone),  # not clone: allow
+        (BPF_JEQ, 0, 3, clone),  # not clone: on to the socket check
         (BPF_LD_ABS_W, 0, 0, ARG0_LOW),  # clone's flags
-        (BPF_JSET, 0, 1, CLONE_NEW),
+        (BPF_JSET, 0, 5, CLONE_NEW),  # no namespace asked: allow
         _ret(errno.EPERM),
+        (BPF_JEQ, 0, 3, socket),  # not socket: allow
+        (BPF_LD_ABS_W, 0, 0, ARG0_LOW),  # its family
+        (BPF_JEQ, 1, 0, AF_UNIX),
+        _ret(errno.EAFNOSUPPORT),
         _ret(None),
         _ret(errno.ENOSYS),
     ]

@@ -1,44 +1,70 @@
-"""A control group per controller slot: the memory and process boundary the kernel keeps.
+"""Control groups: the memory, process and CPU boundary the kernel keeps around each controller slot.
 
-An address-space limit sees only what a process maps. A slot's private /tmp and /dev/shm,
-memfds, pipe buffers and the page cache it fills are memory too, owned by no mapping: a
-cgroup counts them all, with the process's own, against the slot's `memory_mb`, and its
-out-of-memory killer then chooses within the slot, never another slot or the referee. It
-also caps the slot's processes and threads (`pids`).
+- **memory**: an address-space limit sees only what a process maps. A slot's private /tmp and
+  /dev/shm, memfds, pipe and socket buffers and the page cache it fills are memory too, owned
+  by no mapping: the slot's group counts them all against its `memory_mb`, and its
+  out-of-memory killer then chooses within the slot, never another slot or the referee.
+- **pids**: at most so many processes and threads.
+- **cpu**: every slot weighs the same, whatever sessions, threads or children it has (a process
+  in a group of its own is in no session's autogroup); the referee's own group weighs
+  `REFEREE_WEIGHT` slots, so it keeps time; and the group of the whole run (the referee and its
+  slots) weighs what the organizer's `nice` says against the rest of the machine.
 
-Made where the referee is root and finds the controllers mounted: cgroup v2 (a `laserarena`
-group at the root of the unified hierarchy, with `memory` and `pids` enabled below it) or
-cgroup v1 (a group under the referee's own in the `memory` and `pids` hierarchies). Elsewhere
-`available()` says why not, and a slot keeps the limits its runner sets (docs/security.md).
-A controller joins its groups itself, before it drops root, by writing to descriptors of the
-groups' `cgroup.procs` that the referee opened (`SlotGroup.procs`).
+Layout, in each hierarchy: a group per referee process, `laserarena-<run>` (its name random,
+held by a lease while the process lives, `leases`), holding `referee` (this process, cpu) and
+one `slot-<n>` per controller. Groups whose run's lease no process holds (a killed referee's)
+are removed by the next referee, and a group that cannot be removed is left: neither fails a run.
+
+Made where the referee is root and finds the controllers mounted: cgroup v2 (below a `laserarena`
+group at the root of the unified hierarchy) or cgroup v1 (below the referee's own group in the
+`memory`, `pids` and `cpu` hierarchies); cpu is used where it is there. Elsewhere `available()`
+says why not, and a slot keeps the limits its runner sets (docs/security.md). A controller
+joins its groups itself, before it drops root, by writing to descriptors of the groups'
+`cgroup.procs` that the referee opened (`SlotGroup.procs`).
 """
 
 from __future__ import annotations
 
+import atexit
 import functools
 import itertools
 import os
+import re
+import secrets
 import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from referee.sandbox import leases
 from referee.sandbox.privacy import is_root
 
 PREFIX = "laserarena-"
+RUN_NAME = re.compile(r"laserarena-[0-9a-f]{12}")  # a run's group (older referees named theirs by pid)
 V2_PARENT = "laserarena"  # at the root of the unified hierarchy
-CONTROLLERS = ("memory", "pids")
+NEEDED, OPTIONAL = ("memory", "pids"), ("cpu",)
+KIND = "cgroups"  # the runs' leases
 REMOVE_TIME = 2.0  # seconds a slot's group may take to empty once its processes are killed
-_names = itertools.count()
+SLOT_WEIGHT = {1: 1024, 2: 100}  # cpu.shares (v1), cpu.weight (v2): the kernel's defaults
+REFEREE_WEIGHT = 8  # the referee's group weighs this many slots
+# the kernel's weight of each nice value -20..19 (sched_prio_to_weight), for cpu.shares (v1)
+NICE_WEIGHTS = (
+    *(88761, 71755, 56483, 46273, 36291, 29154, 23254, 18705, 14949, 11916),
+    *(9548, 7620, 6100, 4904, 3906, 3121, 2501, 1991, 1586, 1277),
+    *(1024, 820, 655, 526, 423, 335, 272, 215, 172, 137),
+    *(110, 87, 70, 56, 45, 36, 29, 23, 18, 15),
+)
 
 
 @dataclass(frozen=True)
 class Place:
-    """Where slot groups are made: a folder per hierarchy, and the cgroup version."""
+    """Where groups are made: a folder per hierarchy (one for v2), the cgroup version, and
+    whether the cpu controller is among them."""
 
     folders: tuple[Path, ...]
     version: int
+    cpu: bool
+    cpu_folder: Path | None = None  # the hierarchy the referee's own group is made in
 
 
 def _mounts() -> list[tuple[str, str, set[str]]]:
@@ -53,68 +79,91 @@ def _mounts() -> list[tuple[str, str, set[str]]]:
     return found
 
 
-def _own_v1(controller: str) -> str | None:
-    """This process's group in the v1 hierarchy of `controller` (/proc/self/cgroup)."""
+def _own(controller: str | None) -> str | None:
+    """This process's group in the v1 hierarchy of `controller`, or in the unified one (None)."""
     for line in Path("/proc/self/cgroup").read_text().splitlines():
-        _, names, path = line.split(":", 2)
-        if controller in names.split(","):
+        number, names, path = line.split(":", 2)
+        if controller in names.split(",") or controller is None and number == "0":
             return path
     return None
 
 
-def _place() -> Place | str:
-    """Where slot groups can be made, or why not."""
-    mounts = _mounts()
-    for unified, fstype, _ in mounts:
-        if fstype == "cgroup2":
-            root = Path(unified)
-            try:
-                enabled = set((root / "cgroup.controllers").read_text().split())
-            except OSError:
-                continue
-            if set(CONTROLLERS) <= enabled:
-                parent = root / V2_PARENT
-                parent.mkdir(exist_ok=True)
+def _enable(folder: Path, controllers: tuple[str, ...]) -> None:
+    (folder / "cgroup.subtree_control").write_text(" ".join(f"+{c}" for c in controllers))
+
+
+def _v2(mounts: list[tuple[str, str, set[str]]]) -> Place | None:
+    for point, fstype, _ in mounts:
+        if fstype != "cgroup2":
+            continue
+        root = Path(point)
+        try:
+            enabled = set((root / "cgroup.controllers").read_text().split())
+        except OSError:
+            continue
+        if set(NEEDED) <= enabled:
+            parent = root / V2_PARENT
+            parent.mkdir(exist_ok=True)
+            wanted = NEEDED + tuple(c for c in OPTIONAL if c in enabled)
+            for folder in (root, parent):
+                _enable(folder, NEEDED)
+            try:  # the cpu controller (refused where a real-time process sits in a group)
                 for folder in (root, parent):
-                    (folder / "cgroup.subtree_control").write_text(" ".join(f"+{c}" for c in CONTROLLERS))
-                return Place((parent,), 2)
-    folders = []
-    for controller in CONTROLLERS:
+                    _enable(folder, wanted)
+            except OSError:
+                wanted = NEEDED
+            return Place((parent,), 2, "cpu" in wanted, parent if "cpu" in wanted else None)
+    return None
+
+
+def _v1(mounts: list[tuple[str, str, set[str]]]) -> Place | str:
+    folders, cpu = [], None
+    for controller in NEEDED + OPTIONAL:
         point = next((p for p, t, options in mounts if t == "cgroup" and controller in options), None)
-        own = _own_v1(controller)
+        own = _own(controller)
         if point is None or own is None:
+            if controller in OPTIONAL:
+                continue
             return f"no cgroup hierarchy with the {controller} controller is mounted"
-        folders.append(Path(point + own.rstrip("/")) if own != "/" else Path(point))
-    return Place(tuple(folders), 1)
+        folder = Path(point + own.rstrip("/")) if own != "/" else Path(point)
+        folders.append(folder)
+        cpu = folder if controller == "cpu" else cpu
+    return Place(tuple(folders), 1, cpu is not None, cpu)
+
+
+def _place() -> Place | str:
+    """Where groups can be made, or why not."""
+    mounts = _mounts()
+    return _v2(mounts) or _v1(mounts)
+
+
+def _remove_tree(group: Path) -> None:
+    """Remove a group and the groups below it, where they are empty; leave what is not."""
+    for below in sorted((p for p in group.rglob("*") if p.is_dir()), key=lambda p: -len(p.parts)):
+        try:
+            below.rmdir()
+        except OSError:
+            pass
+    try:
+        group.rmdir()
+    except OSError:
+        pass
 
 
 def _sweep(place: Place) -> None:
-    """Remove the empty groups a referee that was killed left behind (its pid is gone)."""
+    """Remove the groups of runs that no live referee holds (a killed one's), and empty groups
+    of older referees. Nothing here may fail a run."""
     for folder in place.folders:
-        for group in folder.glob(f"{PREFIX}*"):
-            pid = group.name[len(PREFIX) :].split("-")[0]
-            if pid.isdigit() and not Path(f"/proc/{pid}").exists():
-                try:
-                    group.rmdir()
-                except OSError:
-                    pass
-
-
-@functools.cache
-def available() -> Place | str:
-    """Where this referee makes its slots' groups, or why it cannot (probed once: a group is
-    made, limited and removed)."""
-    if not is_root():
-        return "the referee is not root"
-    try:
-        place = _place()
-        if isinstance(place, str):
-            return place
-        _sweep(place)
-        SlotGroup(place, 64 << 20, 8).close()
-    except OSError as e:
-        return f"cannot make a control group: {e.strerror or e}"
-    return place
+        try:
+            groups = [p for p in folder.glob(f"{PREFIX}*") if p.is_dir()]
+        except OSError:
+            continue
+        for group in groups:
+            try:
+                if not RUN_NAME.fullmatch(group.name) or not leases.held(KIND, group.name):
+                    _remove_tree(group)
+            except OSError:
+                continue
 
 
 def _write(path: str, text: str) -> None:
@@ -126,19 +175,141 @@ def _write(path: str, text: str) -> None:
         os.close(fd)
 
 
-class SlotGroup:
-    """One slot's group in each hierarchy of `place`: at most `memory` bytes (no swap; 0: no
-    bound) and `pids` processes and threads. Its folders are plain strings: made and removed
-    for every controller, where pathlib's objects cost more than the system calls."""
+def _settle(settings: dict[str, object], folders: list[str]) -> None:
+    """Write each setting to each folder that has it (a hierarchy without it, or a kernel
+    without it, is passed over)."""
+    for key, value in settings.items():
+        for group in folders:
+            try:
+                _write(f"{group}/{key}", str(value))
+            except FileNotFoundError:
+                pass
 
-    def __init__(self, place: Place, memory: int, pids: int):
-        self.place, self.folders = place, list[str]()
-        name = f"{PREFIX}{os.getpid()}-{next(_names)}"
+
+class Run:
+    """This referee process's group in each hierarchy: its slots' groups go below it, and, where
+    there is a cpu controller, this process itself into its `referee` group."""
+
+    def __init__(self, place: Place):
+        self.place, self.pid = place, os.getpid()
+        self.slots = itertools.count()
+        self.name = f"{PREFIX}{secrets.token_hex(6)}"
+        lease = leases.take(KIND, self.name)
+        if lease is None:
+            raise OSError(f"the control group name {self.name} is held")
+        self.lease, self.folders = lease, list[str]()
+        self.home: str | None = None  # the group this process left for the run's `referee` group
         try:
             for folder in place.folders:
-                group = f"{folder}/{name}"
-                os.mkdir(group)
-                self.folders.append(group)
+                os.mkdir(f"{folder}/{self.name}")
+                self.folders.append(f"{folder}/{self.name}")
+            if place.version == 2:
+                _enable(Path(self.folders[0]), NEEDED + (OPTIONAL if place.cpu else ()))
+            if place.cpu:
+                self._weigh()
+        except OSError:
+            self.close()
+            raise
+
+    def _weigh(self) -> None:
+        """The run weighs as the organizer's nice says; the referee moves into a group of its
+        own that weighs REFEREE_WEIGHT slots (where it cannot move, it stays where it was)."""
+        nice = max(-20, min(19, os.getpriority(os.PRIO_PROCESS, 0)))
+        cpu = f"{self.place.cpu_folder}/{self.name}"
+        if self.place.version == 2:
+            _settle({"cpu.weight.nice": nice}, [cpu])
+        else:
+            _settle({"cpu.shares": NICE_WEIGHTS[nice + 20]}, [cpu])
+        referee = f"{cpu}/referee"
+        os.mkdir(referee)
+        key = "cpu.weight" if self.place.version == 2 else "cpu.shares"
+        _settle({key: SLOT_WEIGHT[self.place.version] * REFEREE_WEIGHT}, [referee])
+        v2 = self.place.version == 2  # v1: the cpu folder is this process's own group
+        home = f"{self.place.folders[0].parent}{(_own(None) or '/').rstrip('/')}" if v2 else str(self.place.cpu_folder)
+        try:
+            _write(f"{referee}/cgroup.procs", str(os.getpid()))
+            self.home = home
+        except OSError:
+            pass  # the referee weighs as before; its slots still weigh one each
+
+    def group(self) -> list[str]:
+        """A new slot group's folder in each hierarchy (made)."""
+        name = f"slot-{next(self.slots)}"
+        made = []
+        try:
+            for folder in self.folders:
+                os.mkdir(f"{folder}/{name}")
+                made.append(f"{folder}/{name}")
+        except OSError:
+            for group in made:
+                os.rmdir(group)
+            raise
+        return made
+
+    def close(self) -> None:
+        """Back to where this process was; remove the groups (what cannot be removed is left
+        for the next referee's sweep) and give the name up."""
+        if os.getpid() != self.pid or self.lease.fd < 0:
+            return
+        if self.home is not None:
+            try:
+                _write(f"{self.home}/cgroup.procs", str(os.getpid()))
+            except OSError:
+                pass
+        for folder in self.folders:
+            _remove_tree(Path(folder))
+        self.lease.release()
+
+
+_runs: dict[int, Run] = {}
+
+
+def run() -> Run:
+    """This process's run group (made on first use; a forked child makes its own)."""
+    current = _runs.get(os.getpid())
+    if current is None:
+        place = available()
+        if isinstance(place, str):
+            raise OSError(place)
+        current = _runs[os.getpid()] = Run(place)
+    return current
+
+
+@atexit.register
+def _close_run() -> None:
+    current = _runs.pop(os.getpid(), None)
+    if current is not None:
+        current.close()
+
+
+@functools.cache
+def available() -> Place | str:
+    """Where this referee makes its slots' groups, or why it cannot (probed once: stale groups
+    swept, a group made, limited and removed)."""
+    if not is_root():
+        return "the referee is not root"
+    try:
+        place = _place()
+        if isinstance(place, str):
+            return place
+        _sweep(place)
+        _runs[os.getpid()] = Run(place)
+    except OSError as e:
+        return f"cannot make a control group: {e.strerror or e}"
+    return place
+
+
+class SlotGroup:
+    """One slot's group in each hierarchy of this process's run: at most `memory` bytes (no
+    swap; TCP buffers too where cgroup v1 counts them apart; 0: no bound), `pids` processes and
+    threads, and one slot's weight of CPU. Its folders are plain strings: made and removed for
+    every controller, where pathlib's objects cost more than the system calls."""
+
+    def __init__(self, memory: int, pids: int):
+        current = run()
+        self.place = current.place
+        self.folders = current.group()
+        try:
             self._limit(memory, pids)
         except OSError:
             self.close()
@@ -146,18 +317,21 @@ class SlotGroup:
 
     def _limit(self, memory: int, pids: int) -> None:
         """Set the limits; `memory` 0: none (`--no-limits`)."""
-        bound: int | str = memory or ("max" if self.place.version == 2 else -1)
-        settings = (
+        v2 = self.place.version == 2
+        bound: int | str = memory or ("max" if v2 else -1)
+        settings: dict[str, object] = (
             {"memory.max": bound, "memory.swap.max": 0, "memory.oom.group": 1, "pids.max": pids}
-            if self.place.version == 2
-            else {"memory.limit_in_bytes": bound, "memory.memsw.limit_in_bytes": bound, "pids.max": pids}
+            if v2
+            else {
+                "memory.limit_in_bytes": bound,
+                "memory.memsw.limit_in_bytes": bound,
+                "memory.kmem.tcp.limit_in_bytes": bound,
+                "pids.max": pids,
+            }
         )
-        for key, value in settings.items():
-            for group in self.folders:
-                try:
-                    _write(f"{group}/{key}", str(value))
-                except FileNotFoundError:
-                    pass  # not in this hierarchy, or not on this kernel (swap accounting off)
+        if self.place.cpu:
+            settings["cpu.weight" if v2 else "cpu.shares"] = SLOT_WEIGHT[self.place.version]
+        _settle(settings, self.folders)
 
     def procs(self) -> list[int]:
         """Descriptors of the groups' `cgroup.procs`, opened for writing by this process: the

@@ -88,30 +88,33 @@ def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
 def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
     """Every waiting bot's answer, or its trouble (`timeout` at its own deadline). An answer is
     timed to when the referee could first have seen it: the end of its wait in select(), or,
-    for one found at once after the referee decoded another's answer, the start of that work."""
+    for one found at once after the referee decoded another's answer, the start of that work
+    (no deadline is judged before what came meanwhile is read)."""
     replies: dict[int, Reply] = {}
     readers = _channels(waiting)  # a bot's entry leaves with it
-    busy: float | None = None  # when the referee began decoding answers since it last looked
     while waiting:
+        busy = None  # when the referee began decoding answers in this round
         for slot, bot in list(waiting.items()):
             if bot.channel.whole():
                 busy = time.monotonic() if busy is None else busy
                 replies[slot] = _judged(bot)
-            elif time.monotonic() - bot.sent >= bot.limits.step_deadline:
-                replies[slot] = (Trouble.TIMEOUT, time.monotonic() - bot.sent)
-            else:
-                continue
-            del waiting[slot], readers[bot.channel.fileno()]
+                del waiting[slot], readers[bot.channel.fileno()]
         if not waiting:
             break
         ready: list[int] = select.select(list(readers), [], [], 0)[0] if busy is not None else []
         if ready and busy is not None:
             stamp = busy  # it came while the referee was decoding
         else:
-            left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - time.monotonic()
+            now = time.monotonic()
+            for slot, bot in list(waiting.items()):
+                if now - bot.sent >= bot.limits.step_deadline:
+                    replies[slot] = (Trouble.TIMEOUT, now - bot.sent)
+                    del waiting[slot], readers[bot.channel.fileno()]
+            if not waiting:
+                break
+            left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - now
             ready = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))[0]
             stamp = time.monotonic()
-        busy = None
         for fd in ready:
             slot = readers[fd]
             bot = waiting[slot]

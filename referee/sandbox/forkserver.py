@@ -28,8 +28,9 @@ from pathlib import Path
 from typing import IO
 
 from referee.fragile import steady
-from referee.sandbox import kernel
-from referee.sandbox.privacy import slot_uid, switches_users
+from referee.sandbox import cgroup, kernel
+from referee.sandbox.privacy import switches_users
+from referee.sandbox.uids import slot_uid
 
 STATUS = struct.Struct("<id")  # a slot's last word from the template: exit status, CPU seconds (robots/template.py)
 READY_TIME = 30.0  # seconds the template may take to import and answer (a loaded machine)
@@ -224,6 +225,7 @@ def start() -> None:
         return
     current = getattr(_local, "server", None)
     if current is None or _local.pid != os.getpid() or not current.alive():
+        cgroup.available()  # the referee in its run's group first: the template and its forks are its work
         with steady():  # started and recorded for `_close_all`, or a Ctrl-C would orphan it
             _local.server, _local.pid = ForkServer(), os.getpid()
             _all.append(_local.server)

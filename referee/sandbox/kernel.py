@@ -5,7 +5,7 @@ die with the namespace's init), mount namespace (a read-only view of the interpr
 standard library and of the packages a controller may import, `ALLOWED`, its own code at
 /team, a private /tmp and /dev/shm in memory), network namespace
 (loopback only), IPC and UTS namespaces. As root the controller then runs as a uid of its
-own (`referee.sandbox.privacy.slot_uid`); as an ordinary user it runs in a user namespace of its own.
+own (`referee.sandbox.uids.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
 to be readable by the controller's user and nothing is written to the host's disk.
 docs/security.md holds the threat model; docs/decisions/0013-bubblewrap-sandbox-per-slot.md
@@ -30,7 +30,8 @@ from pathlib import Path
 
 import robots
 import robots.seccomp
-from referee.sandbox.privacy import slot_uid, switches_users
+from referee.sandbox.privacy import switches_users
+from referee.sandbox.uids import slot_uid
 from referee.threads import ONE_BLAS_THREAD
 from robots import protocol
 from robots.loading import STANDARD_VIEW

@@ -26,10 +26,10 @@ from referee.sandbox.privacy import (
     drop_to,
     is_root,
     share_team_files,
-    slot_uid,
     switches_users,
 )
 from referee.sandbox.teams import Team
+from referee.sandbox.uids import slot_uid
 from robots.loading import is_file_spec
 
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)

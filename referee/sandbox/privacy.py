@@ -1,5 +1,5 @@
 """Keeping the truth from controllers: a non-dumpable referee and unprivileged controllers
-(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox/kernel.py).
+(`nobody` without a kernel sandbox; a uid per slot inside one, see referee/sandbox/uids.py).
 
 See docs/security.md for the threat model.
 """
@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import itertools
 import os
 import signal
 import stat
 import sys
-import threading
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -111,26 +109,3 @@ def share_team_files(files: tuple[tuple[str, bytes], ...], folder: Path) -> None
         target.parent.chmod(0o755)
         target.write_bytes(data)
         os.chmod(target, 0o644)
-
-
-SLOT_UIDS = range(1_800_000_000, 1_800_000_000 + (1 << 20))  # no account uses these: one per controller
-THREAD_SLOTS = 8  # of a referee process's 64 uids, each thread running matches takes 8 in turn
-_thread = threading.local()
-_threads = itertools.count()
-
-
-def _thread_index() -> int:
-    """This thread's number among those of this process that asked (0 for the first)."""
-    if not hasattr(_thread, "index"):
-        _thread.index = next(_threads)
-    return _thread.index
-
-
-def slot_uid(slot: int, referee: int | None = None) -> int:
-    """The host uid controller `slot` of the referee process `referee` (default: this one) runs
-    as when the referee is root: a uid of its own, so no two live controllers share one, even
-    in two matches played at once by two threads of one process (a Dask worker's): the
-    kernel counts processes, keys and other per-user quotas by uid. Each process has 64
-    uids, THREAD_SLOTS per thread: they repeat past 8 threads or 8 robots a match."""
-    pid = os.getpid() if referee is None else referee
-    return SLOT_UIDS.start + (pid % (len(SLOT_UIDS) // 64)) * 64 + (_thread_index() * THREAD_SLOTS + slot) % 64

@@ -115,9 +115,8 @@ class ProcessBot:
             return
         # the team's output: a pipe this process reads and caps (kept in a file of its own with --logs)
         self.team_log = TeamLog(int(self.limits.log_bytes), self.log)
-        place = cgroup.available()
-        if not isinstance(place, str):  # everything the slot holds, its tmpfs and pipes too, within memory_mb
-            self.group = cgroup.SlotGroup(place, int(self.limits.memory), MAX_PROCS)
+        if not isinstance(cgroup.available(), str):  # all the slot holds, its tmpfs and pipes too, within memory_mb
+            self.group = cgroup.SlotGroup(int(self.limits.memory), MAX_PROCS)
         groups = self.group.procs() if self.group else []
         plan = Plan(self.team, int(self.limits.memory), self.slot, self.sandboxed, self.forked, self.cpus)
         try:

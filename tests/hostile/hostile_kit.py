@@ -14,8 +14,8 @@ import levels
 from arena.level import ControllerLimits
 from arena.loader import parse_level
 from referee.match.loop import run_match
+from referee.sandbox import leases, uids
 from referee.sandbox.kernel import unavailable
-from referee.sandbox.privacy import slot_uid
 from referee.sandbox.teams import resolve
 
 FAST = ControllerLimits(setup_time=10, step_time=0.05, step_deadline=0.25, overage_bank=1.0, max_skips=3)
@@ -71,12 +71,33 @@ def assert_ended_for_memory(result: dict, mib: int) -> None:
     assert_others_unharmed(result)
 
 
-def sandboxed_processes(referee: int | None = None) -> list[int]:
-    """Host pids of controller processes still running for the referee process `referee` (default
-    this one): as root, those running as one of its slot uids; as an ordinary user, ours in a PID
+def slot_uids(referee: int | None = None) -> set[int]:
+    """The slot uids the referee process `referee` (default this one) holds while it lives: the
+    leases it has locked (/proc/locks), by the files' inodes in the leases' folder."""
+    pid = referee or os.getpid()
+    folder = leases.folder(uids.KIND)
+    names = {}
+    for entry in os.scandir(folder):
+        try:
+            names[entry.inode()] = int(entry.name)
+        except (OSError, ValueError):
+            continue
+    found = set()
+    for line in Path("/proc/locks").read_text().splitlines():
+        fields = line.split()  # "1: FLOCK  ADVISORY  WRITE PID MAJOR:MINOR:INODE 0 EOF" (waiters: "1: -> FLOCK ...")
+        if len(fields) >= 6 and fields[1] == "FLOCK" and fields[4] == str(pid):
+            inode = int(fields[5].rsplit(":", 1)[1])
+            if inode in names:
+                found.add(names[inode])
+    return found
+
+
+def sandboxed_processes(uids_of: set[int] | None = None) -> list[int]:
+    """Host pids of controller processes still running: as root, those running as one of the
+    uids `uids_of` (default: this process's slots'); as an ordinary user, ours in a PID
     namespace other than ours."""
-    uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
     me, ours = os.geteuid(), os.readlink("/proc/self/ns/pid")
+    held = slot_uids() if uids_of is None else uids_of
     found = []
     for entry in os.scandir("/proc"):
         if not entry.name.isdigit():
@@ -86,7 +107,7 @@ def sandboxed_processes(referee: int | None = None) -> list[int]:
             uid = int(status.split("\nUid:")[1].split()[0])
             if status.split("\nState:")[1].split()[0] == "Z":
                 continue  # dead; left for an init that does not reap (a container's) to collect
-            if me == 0 and uid in uids or me != 0 and uid == me and os.readlink(f"{entry.path}/ns/pid") != ours:
+            if me == 0 and uid in held or me != 0 and uid == me and os.readlink(f"{entry.path}/ns/pid") != ours:
                 found.append(int(entry.name))
         except (OSError, IndexError, ValueError):
             continue  # ended while we looked
@@ -106,10 +127,10 @@ def _describe(pid: int) -> str:
         return f"{pid}: gone"
 
 
-def wait_until_gone(referee: int | None = None, timeout: float = 10.0) -> list[int]:
-    """Poll (bounded) until no controller process of `referee` is left; the ones still there."""
+def wait_until_gone(uids_of: set[int] | None = None, timeout: float = 10.0) -> list[int]:
+    """Poll (bounded) until no controller process of the slot uids `uids_of` is left; the ones still there."""
     deadline = time.monotonic() + timeout
-    while (left := sandboxed_processes(referee)) and time.monotonic() < deadline:
+    while (left := sandboxed_processes(uids_of)) and time.monotonic() < deadline:
         time.sleep(0.05)
     return left
 
@@ -125,15 +146,15 @@ def tmp_entries() -> set[str]:
     return set(os.listdir("/tmp"))
 
 
-def assert_nothing_left(before: set[str], referee: int | None = None) -> None:
-    """No controller process alive, and nothing a controller owns added to /tmp."""
-    left = sandboxed_processes(referee)
+def assert_nothing_left(before: set[str]) -> None:
+    """No controller process of this referee alive, and nothing a controller owns added to /tmp."""
+    held = slot_uids()
+    left = sandboxed_processes(held)
     assert left == [], [_describe(pid) for pid in left]
-    uids = {slot_uid(s, referee or os.getpid()) for s in range(64)}
     added = []
     for name in tmp_entries() - before:
         try:
-            if os.lstat(f"/tmp/{name}").st_uid in uids:
+            if os.lstat(f"/tmp/{name}").st_uid in held:
                 added.append(name)
         except FileNotFoundError:
             continue

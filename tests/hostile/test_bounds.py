@@ -24,9 +24,9 @@ from hostile.hostile_kit import (
 )
 from referee.match.loop import Match
 from referee.sandbox import cgroup, kernel
-from referee.sandbox.privacy import slot_uid
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
+from referee.sandbox.uids import slot_uid
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="control groups and slot uids are a root referee's")
 

@@ -8,13 +8,24 @@ import time
 
 import pytest
 
-from hostile.hostile_kit import assert_contained, hostile_match, sandboxed_processes, team_file, wait_until_gone
+from hostile.hostile_kit import (
+    assert_contained,
+    hostile_match,
+    sandboxed_processes,
+    slot_uids,
+    team_file,
+    wait_until_gone,
+)
 
 DAEMON = """
 def daemonize():
-    # the textbook daemon: fork, setsid, fork again, the grandchild lives on (in a loop)
+    # the textbook daemon: fork, setsid, fork again, the grandchild lives on (in a loop); a
+    # sandbox refuses setsid (the slot's processes stay in one session), so it goes on without
     if os.fork() == 0:
-        os.setsid()
+        try:
+            os.setsid()
+        except PermissionError:
+            pass
         if os.fork() == 0:
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
             signal.signal(signal.SIGHUP, signal.SIG_IGN)
@@ -81,14 +92,15 @@ class Daemon(Controller):
         text=True,
     )
     try:
-        deadline, seen = time.monotonic() + 60, []
+        deadline, seen, held = time.monotonic() + 60, [], set()
         while seen[-2:] != [True, True] and time.monotonic() < deadline:  # twice: not a passing fork
-            seen.append(len(sandboxed_processes(referee.pid)) >= 5)  # four runners and the daemon
+            held |= slot_uids(referee.pid)  # the uids it holds while it lives
+            seen.append(len(sandboxed_processes(held)) >= 5)  # four runners and the daemon
             time.sleep(0.1)
         assert seen[-2:] == [True, True], "the match never got going"
         referee.send_signal(sig)
         referee.wait(timeout=60)
-        assert wait_until_gone(referee.pid) == []
+        assert wait_until_gone(held) == []
     finally:
         if referee.poll() is None:
             referee.kill()
