@@ -64,7 +64,8 @@ class Place:
     folders: tuple[Path, ...]
     version: int
     cpu: bool
-    cpu_folder: Path | None = None  # the hierarchy the referee's own group is made in
+    cpu_folder: Path | None = None  # where runs are made in the hierarchy that has cpu
+    cpu_mount: Path | None = None  # that hierarchy's mount point
 
 
 def _mounts() -> list[tuple[str, str, set[str]]]:
@@ -86,6 +87,15 @@ def _own(controller: str | None) -> str | None:
         if controller in names.split(",") or controller is None and number == "0":
             return path
     return None
+
+
+def _base(own: str) -> str:
+    """Where a referee in group `own` makes its run: there, or, for a process started from
+    within another referee's run (its `referee` group), beside that run, where every referee's
+    runs are (and are swept)."""
+    parts = own.rstrip("/").split("/")
+    cut = next((i for i, part in enumerate(parts) if RUN_NAME.fullmatch(part)), len(parts))
+    return "/".join(parts[:cut]) or "/"
 
 
 def _enable(folder: Path, controllers: tuple[str, ...]) -> None:
@@ -112,12 +122,13 @@ def _v2(mounts: list[tuple[str, str, set[str]]]) -> Place | None:
                     _enable(folder, wanted)
             except OSError:
                 wanted = NEEDED
-            return Place((parent,), 2, "cpu" in wanted, parent if "cpu" in wanted else None)
+            cpu = "cpu" in wanted
+            return Place((parent,), 2, cpu, parent if cpu else None, root if cpu else None)
     return None
 
 
 def _v1(mounts: list[tuple[str, str, set[str]]]) -> Place | str:
-    folders, cpu = [], None
+    folders, cpu, cpu_mount = [], None, None
     for controller in NEEDED + OPTIONAL:
         point = next((p for p, t, options in mounts if t == "cgroup" and controller in options), None)
         own = _own(controller)
@@ -125,10 +136,11 @@ def _v1(mounts: list[tuple[str, str, set[str]]]) -> Place | str:
             if controller in OPTIONAL:
                 continue
             return f"no cgroup hierarchy with the {controller} controller is mounted"
-        folder = Path(point + own.rstrip("/")) if own != "/" else Path(point)
+        folder = Path(point + _base(own).rstrip("/"))
         folders.append(folder)
-        cpu = folder if controller == "cpu" else cpu
-    return Place(tuple(folders), 1, cpu is not None, cpu)
+        if controller == "cpu":
+            cpu, cpu_mount = folder, Path(point)
+    return Place(tuple(folders), 1, cpu is not None, cpu, cpu_mount)
 
 
 def _place() -> Place | str:
@@ -224,8 +236,8 @@ class Run:
         os.mkdir(referee)
         key = "cpu.weight" if self.place.version == 2 else "cpu.shares"
         _settle({key: SLOT_WEIGHT[self.place.version] * REFEREE_WEIGHT}, [referee])
-        v2 = self.place.version == 2  # v1: the cpu folder is this process's own group
-        home = f"{self.place.folders[0].parent}{(_own(None) or '/').rstrip('/')}" if v2 else str(self.place.cpu_folder)
+        own = _own(None if self.place.version == 2 else "cpu")
+        home = f"{self.place.cpu_mount}{(own or '/').rstrip('/')}"
         try:
             _write(f"{referee}/cgroup.procs", str(os.getpid()))
             self.home = home

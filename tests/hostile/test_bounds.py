@@ -88,11 +88,7 @@ def test_memory_in_its_files_counts_against_its_limit(tmp_path, forked):
     # its private /tmp and /dev/shm, memfds and pipe buffers are memory no mapping holds: the
     # slot's control group counts them, and the kernel ends the slot that holds too much
     assert not isinstance(cgroup.available(), str), cgroup.available()
-    limits = dataclasses.replace(FAST, memory=160 << 20)
-    teams = [resolve(team_file(tmp_path, FILLER))] + [resolve(HONEST)] * 3
-    match = Match(short_race(), teams, seed=2, limits=limits)
-    match.fleet.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
-    assert_ended_for_memory(match.run(), 160)
+    assert_ended_for_memory(_on_path(tmp_path, FILLER, forked), 160)
 
 
 FILLER = """
@@ -124,6 +120,74 @@ class Filler(Controller):
             held.append(fd)
         raise RuntimeError(f"LEAK: still running with {len(held)} fills held")
 """
+
+
+def _on_path(tmp_path, body: str, forked: bool, memory: int = 160 << 20) -> dict:
+    """A short race, its slot 0 `body`, the slot forked from the template or spawned."""
+    limits = dataclasses.replace(FAST, memory=memory)
+    teams = [resolve(team_file(tmp_path, body))] + [resolve(HONEST)] * 3
+    match = Match(short_race(), teams, seed=2, limits=limits)
+    match.fleet.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
+    return match.run().to_dict()
+
+
+@pytest.mark.parametrize("forked", [True, False])
+def test_no_ip_socket_on_either_path(tmp_path, forked):
+    # TCP buffers over its own loopback are memory cgroup v1 counts apart from the slot's
+    # (601 MiB held with memory_mb 256, seen): a sandbox makes no socket but AF_UNIX
+    result = _on_path(
+        tmp_path,
+        """
+import errno, socket
+class Caller(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        made = []
+        for family, kind in ((socket.AF_INET, socket.SOCK_STREAM), (socket.AF_INET6, socket.SOCK_DGRAM),
+                             (socket.AF_NETLINK, socket.SOCK_RAW), (socket.AF_PACKET, socket.SOCK_RAW)):
+            try:
+                socket.socket(family, kind).close()
+                made.append(family)
+            except OSError as e:
+                if e.errno != errno.EAFNOSUPPORT:
+                    made.append((family, e.errno))
+        socket.socketpair()  # AF_UNIX: the one family left
+        raise RuntimeError(("contained: " if not made else "LEAK: ") + repr(made))
+""",
+        forked,
+    )
+    assert_contained(result)
+
+
+@pytest.mark.parametrize("forked", [True, False])
+def test_socket_buffers_count_against_its_limit(tmp_path, forked):
+    # AF_UNIX socket pairs filled to their send buffers: memory no mapping holds, counted by
+    # the slot's group; the kernel ends the slot that holds too much
+    result = _on_path(
+        tmp_path,
+        """
+import resource, socket
+class Filler(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (resource.getrlimit(resource.RLIMIT_NOFILE)[1],) * 2)
+        block, held, total = b"x" * 65536, [], 0
+        for _ in range(8192):
+            a, b = socket.socketpair()
+            a.setblocking(False)
+            try:
+                while True:
+                    total += a.send(block)
+            except BlockingIOError:
+                pass
+            held.append((a, b))
+        raise RuntimeError(f"LEAK: still running with {total >> 20} MiB in {len(held)} socket pairs")
+""",
+        forked,
+    )
+    assert_ended_for_memory(result, 160)
 
 
 def test_installed_packages_are_out_of_sight(tmp_path):

@@ -1,0 +1,99 @@
+"""Names a root referee holds cannot collide: two referees that each see themselves as pid 1
+(each in a PID namespace of its own, as in a container) hold no slot uid in common, and the
+control groups a killed referee left behind never fail the next run (docs/security.md)."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from hostile.hostile_kit import slot_uids, team_file, wait_until_gone
+from referee.sandbox import cgroup, leases
+
+pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="slot uids and control groups are a root referee's")
+
+HOLDER = """
+import json, os, sys, time
+from referee.sandbox.uids import slot_uid
+print(json.dumps({"pid": os.getpid(), "uids": [slot_uid(s) for s in range(8)]}), flush=True)
+sys.stdin.read()  # held until the test closes our input
+"""
+
+
+def test_referees_that_are_each_pid_one_hold_no_uid_in_common():
+    held = []
+    procs = [
+        subprocess.Popen(
+            ["unshare", "--pid", "--fork", "--mount-proc", sys.executable, "-c", HOLDER],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )  # fmt: skip
+        for _ in range(3)
+    ]
+    try:
+        for proc in procs:
+            assert proc.stdout is not None
+            held.append(json.loads(proc.stdout.readline()))
+    finally:
+        for proc in procs:
+            proc.communicate("", timeout=30)
+    assert [h["pid"] for h in held] == [1, 1, 1]  # what a pid-derived uid would have made alike
+    uids = [set(h["uids"]) for h in held]
+    assert all(len(u) == 8 for u in uids)
+    assert not (uids[0] & uids[1] or uids[0] & uids[2] or uids[1] & uids[2])
+
+
+KILLED = """
+import sys
+from hostile.hostile_kit import HONEST, short_race
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
+run_match(short_race(600.0), [resolve(sys.argv[1])] + [resolve(HONEST)] * 3, seed=2)
+"""
+
+
+def test_groups_a_killed_referee_left_never_fail_the_next_run(tmp_path):
+    place = cgroup.available()
+    assert not isinstance(place, str), place
+    slow = team_file(
+        tmp_path, "class Slow(Controller):\n    def step(self, obs):\n        return Command(0.05, 0.05)\n"
+    )
+    referee = subprocess.Popen([sys.executable, "-c", KILLED, slow], cwd=Path(__file__).parent.parent)
+    try:
+        deadline, uids, runs = time.monotonic() + 60, set(), set()
+        while len(runs) < 1 and time.monotonic() < deadline:
+            uids |= slot_uids(referee.pid)
+            runs = {p.name for f in place.folders for p in f.glob("laserarena-*") if (p / "slot-3").is_dir()}
+            time.sleep(0.1)
+        assert runs, "the match never got going"
+    finally:
+        referee.send_signal(signal.SIGKILL)
+        referee.wait(30)
+    assert wait_until_gone(uids) == []
+    left = {p for f in place.folders for p in f.glob("laserarena-*") if p.name in runs}
+    assert left, "a killed referee leaves its groups"
+    old_style = [f / f"laserarena-1-{n}" for f in place.folders for n in range(2)]  # pid-named, as older referees made
+    for group in old_style:
+        group.mkdir(exist_ok=True)
+    assert not any(leases.held(cgroup.KIND, name) for name in runs)
+    after = subprocess.run(
+        [sys.executable, "-c", NEXT], capture_output=True, text=True, timeout=300, cwd=Path(__file__).parent.parent
+    )
+    assert after.returncode == 0, after.stderr
+    assert all(not r["faults"] for r in json.loads(after.stdout)["robots"])
+    assert not any(p.exists() for p in left) and not any(p.exists() for p in old_style)
+
+
+NEXT = """
+import json
+from hostile.hostile_kit import HONEST, short_race
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
+print(json.dumps(run_match(short_race(), [resolve(HONEST)] * 4, seed=2).to_dict()))
+"""
