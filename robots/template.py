@@ -94,29 +94,9 @@ def _prctl(option: int, arg: int, arg3: int = 0) -> None:
         _check(-1, f"prctl {option}")
 
 
-def _mount_points() -> list[str]:
-    """Every mount point of this mount namespace, from its mountinfo."""
-    with open("/proc/self/mountinfo") as info:
-        return [line.split()[4] for line in info]
-
-
-def _tmpfs(target: str, points: list[str]) -> None:
-    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`, with
-    the mounts the template had below it (`points`: an interpreter or virtual environment
-    installed under /tmp, bound there read-only) bound again at their paths, above it."""
-    below = [p for p in points if p.startswith(target + "/")]
-    tops = sorted({p for p in below if not any(p.startswith(q + "/") for q in below)})
-    held = [os.open(p, os.O_PATH | os.O_DIRECTORY | os.O_CLOEXEC) for p in tops]  # reachable once covered
+def _tmpfs(target: str) -> None:
+    """A private, sticky, world-writable tmpfs of TMP_SIZE bytes (memory) at `target`."""
     _mount("tmpfs", target, "tmpfs", MS_NOSUID | MS_NODEV, f"mode=1777,size={TMP_SIZE}")
-    for point, fd in zip(tops, held):
-        folder = target
-        for part in point[len(target) + 1 :].split("/"):  # passable, not listable, as bwrap made them
-            folder = f"{folder}/{part}"
-            if not os.path.isdir(folder):
-                os.mkdir(folder)
-                os.chmod(folder, 0o711)
-        _mount(f"/proc/self/fd/{fd}", point, None, MS_BIND | MS_REC)
-        os.close(fd)
 
 
 def _read_only_everywhere(writable: tuple[str, ...]) -> None:
@@ -239,9 +219,8 @@ def _slot(watch: socket.socket, config: socket.socket) -> NoReturn:
         stdio, bundle, groups = fds[:3], fds[3], fds[4:]
         own_namespaces()
         _mount(None, "/", None, MS_REC | MS_PRIVATE)
-        points = _mount_points()  # as the template has them: what is below /tmp and /dev/shm
-        _tmpfs("/tmp", points)
-        _tmpfs("/dev/shm", points)
+        _tmpfs("/tmp")
+        _tmpfs("/dev/shm")
         _mount("devpts", "/dev/pts", "devpts", MS_NOSUID | MS_NOEXEC, f"newinstance,ptmxmode=0666,mode=620,max={PTYS}")
         _team(bundle, [(rel, int(size)) for rel, size in settings["files"]])
         os.close(bundle)

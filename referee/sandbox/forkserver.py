@@ -90,7 +90,7 @@ class ForkServer:
 
     def __init__(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        command = [kernel.PYTHON, "-s", "-m", "robots.template", str(theirs.fileno())]
+        command = [kernel.python(), "-s", "-m", "robots.template", str(theirs.fileno())]
         launch = kernel.template_launch(command, kernel.SANDBOX_ENV)
         try:
             self.proc = subprocess.Popen(

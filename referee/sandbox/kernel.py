@@ -1,9 +1,9 @@
 """One kernel sandbox per controller: bubblewrap (`bwrap`) namespaces around `robots.runner`.
 
 Each slot gets its own PID namespace (its processes see and signal only each other, and all
-die with the namespace's init), mount namespace (a read-only view of the interpreter's
-standard library and of the packages a controller may import, `ALLOWED`, its own code at
-/team, a private /tmp and /dev/shm in memory), network namespace
+die with the namespace's init), mount namespace (a read-only view of the system's /usr, of the
+interpreter and the packages a controller may import as `stage` staged them under neutral
+names, its own code at /team, a private /tmp and /dev/shm in memory), network namespace
 (loopback only), IPC and UTS namespaces. As root the controller then runs as a uid of its
 own (`referee.sandbox.uids.slot_uid`); as an ordinary user it runs in a user namespace of its own.
 The team's files are handed in as in-memory copies (memfd), so nothing of the checkout needs
@@ -15,7 +15,6 @@ why bubblewrap.
 from __future__ import annotations
 
 import functools
-import importlib.util
 import os
 import re
 import select
@@ -28,20 +27,15 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import robots
 import robots.seccomp
 from referee.sandbox.privacy import switches_users
+from referee.sandbox.stage import ALLOWED, LIB_DIR, PYTHON_DIR, stage
 from referee.sandbox.uids import slot_uid
 from referee.threads import ONE_BLAS_THREAD
 from robots import protocol
-from robots.loading import STANDARD_VIEW
 
 TEAM_DIR = "/team"  # the slot's code, read-only
-LIB_DIR = "/laserarena"  # the packages a controller may import besides the standard library
-ALLOWED = STANDARD_VIEW  # besides `robots` (each with its wheel's `.libs` folder, where it has one)
 TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not disk
-ROBOTS_DIR = Path(robots.__file__).resolve().parent
-PYTHON = os.path.normpath(os.path.abspath(sys.executable))  # as the sandbox can reach it (no `..`)
 RUNNER_ENV = {  # every controller's interpreter, sandboxed or not: deterministic hashing, one BLAS thread
     "PYTHONHASHSEED": "0",
     "PYTHONDONTWRITEBYTECODE": "1",
@@ -94,6 +88,10 @@ def unavailable() -> str | None:
         return "bubblewrap (bwrap) is not installed: apt-get install bubblewrap"
     if switches_users() and shutil.which("setpriv") is None:
         return "setpriv (util-linux) is not installed: apt-get install util-linux"
+    try:
+        stage()
+    except OSError as e:
+        return f"cannot stage the sandbox's view of the installation: {e.strerror or e}"
     trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
     try:  # a whole controller sandbox, bind mounts and privilege drop included, running `true`
         probe = subprocess.run(trial.argv, pass_fds=trial.pass_fds, capture_output=True, timeout=10)
@@ -124,10 +122,16 @@ def _namespaces(own_user_namespace: bool) -> list[str]:
     ]
 
 
+def python() -> str:
+    """The interpreter a sandbox runs, as its path reads there (`stage`)."""
+    return stage().python
+
+
 def _import_roots() -> list[str]:
     """Every folder where Python finds installed packages (site-packages and dist-packages, of
-    this interpreter, its base and the system's Pythons): each is covered by an empty folder in
-    a sandbox, so no installed package but `ALLOWED` is readable or importable there."""
+    this interpreter, its base and the system's Pythons): each one the system's /usr holds is
+    covered by an empty folder in a sandbox, so no installed package but `ALLOWED` is readable
+    or importable there."""
     stdlib = {os.path.realpath(sysconfig.get_paths()[key]) for key in ("stdlib", "platstdlib")}
     prefixes = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, "/usr", "/usr/local"}
     roots = set(site.getsitepackages()) | {site.getusersitepackages()}
@@ -150,41 +154,30 @@ def importable_in_sandbox(module: str) -> bool:
     return top in sys.stdlib_module_names or top in ("robots", *ALLOWED)
 
 
-def _allowed_packages() -> list[tuple[str, str]]:
-    """(folder on the host, its name in LIB_DIR) of each package of `ALLOWED` and of the
-    folder of shared libraries its wheel brings beside it (numpy.libs)."""
-    out = []
-    for name in ALLOWED:
-        spec = importlib.util.find_spec(name)
-        if spec is None or not spec.submodule_search_locations:
-            continue
-        folder = Path(list(spec.submodule_search_locations)[0]).resolve()
-        out.append((str(folder), name))
-        libs = folder.parent / f"{name}.libs"
-        if libs.is_dir():
-            out.append((str(libs.resolve()), libs.name))
-    return out
-
-
 def _parents(paths: list[str]) -> list[str]:
     """`--dir` for every folder above the mount points in `paths`: bwrap would create the missing
     ones closed to all but root (0700), and the controller's uid must pass through them. They
-    are made 0711, so it can pass through but not list them: the host's folder names (the
-    checkout's path, say) stay unseen. The import roots and the team's own folders stay
-    listable, as imports need."""
+    are made 0711 (it can pass through, not list them), but for the import roots and the
+    team's own folders, which imports list."""
     folders = sorted({str(p) for path in paths for p in Path(path).parents if str(p) != "/"})
-    mine = tuple(f"{root}/" for root in (LIB_DIR, TEAM_DIR))
+    mine = tuple(f"{root}/" for root in (LIB_DIR, TEAM_DIR, PYTHON_DIR))
     return [
         arg
         for f in folders
-        for arg in ("--perms", "0755" if f in (LIB_DIR, TEAM_DIR) or f.startswith(mine) else "0711", "--dir", f)
+        for arg in (
+            "--perms",
+            "0755" if f in (LIB_DIR, TEAM_DIR, PYTHON_DIR) or f.startswith(mine) else "0711",
+            "--dir",
+            f,
+        )
     ]
 
 
 def _system_view() -> list[str]:
-    """The read-only part of the file system a Python controller needs: /usr, the interpreter's
-    installation and virtual environment with every import folder but the standard library
-    covered, and at LIB_DIR `robots` and the `ALLOWED` packages."""
+    """The read-only part of the file system a Python controller needs: the system's /usr with
+    every import folder in it but the standard library covered, and the staged installation
+    (`stage`): the packages a controller may import at LIB_DIR, an interpreter from outside
+    /usr at PYTHON_DIR. No folder of the host's installation is bound: none can be named."""
     args = ["--ro-bind", "/usr", "/usr"]
     for top in ("/bin", "/sbin", "/lib", "/lib32", "/lib64", "/libx32"):
         if os.path.islink(top):
@@ -193,17 +186,11 @@ def _system_view() -> list[str]:
             args += ["--ro-bind", top, top]
     for f in SYSTEM_FILES:
         args += ["--ro-bind-try", f, f]
-    prefixes = {sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix, str(Path(PYTHON).parent.parent)}
-    for root in sorted(prefixes | {str(Path(p).resolve()) for p in prefixes}):  # a venv, a pyenv build
-        if root != "/usr" and not root.startswith("/usr/") and os.path.isdir(root):
-            args += ["--ro-bind", root, root]
-    bound = [args[i + 2] for i, a in enumerate(args) if a in ("--ro-bind", "--symlink")]
     for folder in _import_roots():
-        if any(Path(folder).is_relative_to(b) for b in bound):  # visible: covered
+        if Path(folder).is_relative_to("/usr"):  # visible: covered
             args += ["--perms", "0755", "--tmpfs", folder, "--remount-ro", folder]
-    args += ["--ro-bind", str(ROBOTS_DIR), f"{LIB_DIR}/robots"]
-    for folder, name in _allowed_packages():
-        args += ["--ro-bind", folder, f"{LIB_DIR}/{name}"]
+    for host, inside in stage().binds:
+        args += ["--ro-bind", host, inside]
     return _parents([args[i + 2] for i, a in enumerate(args) if a.startswith("--") and "bind" in a]) + args
 
 
@@ -238,8 +225,6 @@ def _sandbox(
     private = ["--proc", "/proc", "--dev", "/dev"]
     for folder in ("/tmp", "/dev/shm"):
         private += ["--perms", "1777", "--size", str(TMP_SIZE), "--tmpfs", folder]
-    # the private folders first: an interpreter or virtual environment under /tmp is bound over
-    # them, read-only, at its own path; only the rest of /tmp and /dev/shm stays writable
     args = (
         _namespaces(own_user_namespace)
         + ["--info-fd", str(info_w)]
@@ -248,7 +233,7 @@ def _sandbox(
         + team
         + ["--remount-ro", "/", "--chdir", "/tmp", "--clearenv"]
     )
-    for key, value in sorted(env.items()):
+    for key, value in sorted({**env, **dict(stage().env)}.items()):
         args += ["--setenv", key, value]
     return Launch(args + ["--"], tuple(fds), info)
 

@@ -98,7 +98,7 @@ def _sandboxed(plan: Plan, limits: list[str], stderr: int, groups: list[int]) ->
         config = {"uid": uid, "argv": [entry, *limits], **({"cpus": plan.cpus} if plan.cpus else {})}
         return Launched(_forked(server, plan.team, config, stderr, groups), in_sandbox=True)
     launch = kernel.launch(
-        [kernel.PYTHON, "-s", "-m", "robots.runner", entry, *limits], plan.team.files, kernel.SANDBOX_ENV, uid
+        [kernel.python(), "-s", "-m", "robots.runner", entry, *limits], plan.team.files, kernel.SANDBOX_ENV, uid
     )
     try:
         proc = subprocess.Popen(

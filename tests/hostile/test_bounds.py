@@ -227,7 +227,7 @@ def test_a_spawned_sandbox_sees_no_installed_package_either():
         "print(sorted(n for n in ('pymunk', 'yaml', 'referee', 'numpy', 'msgspec', 'robots') if importlib.util.find_spec(n)), "
         "'/team' in sys.path)"
     )
-    launch = kernel.launch([kernel.PYTHON, "-s", "-c", probe], (), kernel.SANDBOX_ENV, slot_uid(7))
+    launch = kernel.launch([kernel.python(), "-s", "-c", probe], (), kernel.SANDBOX_ENV, slot_uid(7))
     try:
         done = subprocess.run(launch.argv, pass_fds=launch.pass_fds, capture_output=True, text=True, timeout=60)
     finally:

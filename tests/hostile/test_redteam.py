@@ -646,7 +646,7 @@ def test_a_spawned_sandbox_is_closed_to_the_keyrings_too():
         "nr = {'x86_64': 248, 'aarch64': 217}[platform.machine()]; "
         "print(libc.syscall(nr, b'user', b'left', b'secret', 6, -4), ctypes.get_errno())"
     )
-    launch = kernel.launch([kernel.PYTHON, "-c", adder], (), kernel.SANDBOX_ENV, slot_uid(7))
+    launch = kernel.launch([kernel.python(), "-c", adder], (), kernel.SANDBOX_ENV, slot_uid(7))
     try:
         done = subprocess.run(launch.argv, pass_fds=launch.pass_fds, capture_output=True, text=True, timeout=60)
     finally:

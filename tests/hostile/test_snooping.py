@@ -5,10 +5,14 @@ import os
 import socket
 import sqlite3
 import sys
+from pathlib import Path
+
+import pytest
 
 from hostile.hostile_kit import FAST, HONEST, assert_contained, short_race, team_file
-from referee.match.loop import run_match
+from referee.match.loop import Match, run_match
 from referee.records.replay_reader import load
+from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
 
@@ -133,3 +137,37 @@ class Caller(Controller):
             pass  # nobody knocked
     finally:
         server.close()
+
+
+@pytest.mark.parametrize("forked", [True, False])  # from the template, or a sandbox spawned for it
+def test_no_folder_of_the_installation_can_be_named(tmp_path, forked):
+    """Whatever a controller reads of its own process (mounts, mappings, paths, environment,
+    control group), it finds no folder name of the host's installation: the interpreter's, the
+    virtual environment's, the product's or the checkout's; what it runs is staged at neutral
+    paths (docs/security.md)."""
+    import robots
+
+    host = {os.path.realpath(p) for p in (sys.prefix, sys.base_prefix, sys.executable, os.getcwd())}
+    host |= {str(Path(robots.__file__).resolve().parents[1]), str(Path(__file__).resolve().parents[2])}
+    names = sorted(h for h in host if not Path(h).is_relative_to("/usr"))  # the system's /usr is bound whole
+    assert names
+    body = f"""
+import json, sys
+NAMES = {names!r}
+class Looker(Controller):
+    def step(self, obs):
+        if obs.tick != 3:
+            return Command(0.05, 0.05)
+        import numpy
+        seen = []
+        for what in ("mountinfo", "mounts", "mountstats", "maps", "cgroup", "environ", "cmdline"):
+            seen.append(open("/proc/self/" + what, "rb").read().decode(errors="replace"))
+        seen += [sys.executable, sys.prefix, sys.base_prefix, json.dumps(sys.path), numpy.__file__, repr(os.environ)]
+        found = sorted({{n for n in NAMES for text in seen if n in text}})
+        raise RuntimeError(("contained: " if not found else "LEAK: ") + repr(found))
+"""
+    limits = FAST
+    teams = [resolve(team_file(tmp_path, body))] + [resolve(HONEST)] * 3
+    match = Match(short_race(), teams, seed=2, limits=limits)
+    match.fleet.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
+    assert_contained(match.run().to_dict(), words="contained: []")
