@@ -5,7 +5,8 @@
 (b) localization solvers, scalar and vectorized; (c) rendering and encoding frames per second;
 (d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py); (f) how a
 match's cost grows with robots and beacons (benchmarks/scaling.py); (g) a controller's start,
-forked from the sandbox's template (benchmarks/sandbox.py). Prints
+forked from the sandbox's template (benchmarks/sandbox.py); (h) what the slot's boundary costs
+per slot and per answer (benchmarks/boundary.py). Prints
 a table and writes the figures as JSON (--json): to docs/performance.json by default, the
 committed report the docs quote (benchmarks/quoted.py's `<!--p:KEY:STAT-->` markers, set here
 and held to it by tests/test_docs_figures.py), where each figure is in the unit the docs show
@@ -24,6 +25,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import boundary
 import env
 import grading
 import quoted
@@ -89,6 +91,7 @@ def report(f: dict, repeat: int) -> dict:
     }
     if f["start"]:
         out["start"] = dict(f["start"])
+    out["boundary"] = dict(f["boundary"])
     out["env"] = dict(f["env"])  # microseconds per step, steps per second, ratios to bare: as env.py gives them
     for what in ("robots", "beacons"):
         for n, fig in f["scaling"][what].items():
@@ -125,6 +128,7 @@ def main() -> None:
     figures["start"] = sandbox.forked_start(15)
     if figures["start"]:
         figures["start"].update(sandbox.floor(30))
+    figures["boundary"] = boundary.measure()
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -155,6 +159,25 @@ def main() -> None:
         if "namespaces_ms" in st:
             floor += f", {st['namespaces_ms']:.1f} with the slot's namespaces"
         rows.append(("(g) its floor: a fork and exit", floor, "a process the template's size"))
+    b = figures["boundary"]
+    if "cpu_group_ms" in b:
+        rows.append(("(h) a slot's cpu group", f"{b['cpu_group_ms']:.2f} ms", "made, weighed, removed"))
+        rows.append(("(h) a slot's memory, pids, cpu groups", f"{b['groups_ms']:.2f} ms", "made, limited, removed"))
+    rows.append(("(h) the stage held, per referee", f"{b['stage_ms']:.2f} ms", "its sources' identities hashed"))
+    rows.append(
+        (
+            "(h) an answer decoded",
+            f"{b['answer_us']:.1f} us once",
+            f"{b['answer_twice_us']:.1f} us as before (envelope, check, decode)",
+        )
+    )
+    rows.append(
+        (
+            "(h) the largest legal answer",
+            f"{b['largest_answer_ms']:.0f} ms once",
+            f"{b['largest_answer_twice_ms']:.0f} ms as before; its sender's budget pays",
+        )
+    )
     width = max(len(a) for a, _, _ in rows)
     m = figures["machine"]
     print(f"LaserArena benchmarks on {m['cpus']} x {m['cpu']}, Python {m['python']} (medians of {args.repeat} runs)")

@@ -3,10 +3,12 @@ a Controller class handed to the Python API made a team that ships its source (`
 what every controller does for the match (the `Bot` protocol, `bot`) and the `Fault` it reports
 (`fault`; the match makes the record of it), one controller process per slot inside its own
 kernel sandbox (`process`: started by `launch`, spoken to over a framed `channel`, within its
-time `allowance`), one tick's exchange with all of them at once (`exchange`), the in-process
-call site for debugging (`in_process`), the privilege drop and process hygiene they rely on
-(`privacy`), each slot's control group (`cgroup`) and log pipe (`log`), and one CPU shared by a
-referee and its lone controller (`affinity`).
+time `allowance`; the sandbox made by `kernel`, or forked by `forkserver`, from the
+installation as `stage` staged it), one tick's exchange with all of them at once (`exchange`),
+the in-process call site for debugging (`in_process`), the privilege drop and process hygiene
+they rely on (`privacy`), each slot's uid (`uids`) and control groups (`cgroup`), held by
+`leases`, its log pipe (`log`), and one CPU shared by a referee and its lone controller
+(`affinity`).
 
 It may import `robots` but its toolkit (the border's messages, the spec grammar, the reference
 controllers' registry, the sandbox's entry points), `arena.level` (a level's controller limits

@@ -187,15 +187,25 @@ def _write(path: str, text: str) -> None:
         os.close(fd)
 
 
+BEST_EFFORT = (
+    "memory.kmem.tcp.limit_in_bytes",
+    "memory.memsw.limit_in_bytes",
+    "memory.swap.max",
+)  # kernels refuse some
+
+
 def _settle(settings: dict[str, object], folders: list[str]) -> None:
     """Write each setting to each folder that has it (a hierarchy without it, or a kernel
-    without it, is passed over)."""
+    without it, is passed over, as is a refusal of one of BEST_EFFORT)."""
     for key, value in settings.items():
         for group in folders:
             try:
                 _write(f"{group}/{key}", str(value))
             except FileNotFoundError:
                 pass
+            except OSError:
+                if key not in BEST_EFFORT:
+                    raise
 
 
 class Run:

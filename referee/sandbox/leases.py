@@ -7,7 +7,6 @@ in (a container's referee is pid 1 in each), and a name a killed referee held is
 
 from __future__ import annotations
 
-import fcntl
 import functools
 import os
 import stat
@@ -65,6 +64,8 @@ def folder(kind: str) -> Path:
 
 def take(kind: str, name: str) -> Lease | None:
     """Hold the name `name` of `kind`, or None if a live process holds it."""
+    import fcntl  # POSIX only: leases are a root referee's, on Linux
+
     path = folder(kind) / name
     while True:
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o600)

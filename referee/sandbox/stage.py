@@ -17,7 +17,6 @@ makes a new one. Stages no referee holds and none has used for `KEEP_DAYS` are r
 
 from __future__ import annotations
 
-import fcntl
 import functools
 import hashlib
 import importlib.util
@@ -167,7 +166,7 @@ def _sweep(folder: Path, keep: str) -> None:
             if entry.name.endswith(".part"):
                 shutil.rmtree(entry, ignore_errors=True)
                 continue
-            fd = _lock(folder, entry.name, fcntl.LOCK_EX)
+            fd = _lock(folder, entry.name, exclusive=True)
             if fd is not None:
                 shutil.rmtree(entry, ignore_errors=True)
                 os.unlink(folder / f".{entry.name}.lock")
@@ -176,9 +175,12 @@ def _sweep(folder: Path, keep: str) -> None:
             continue
 
 
-def _lock(folder: Path, name: str, how: int) -> int | None:
-    """A lock (`how`) on the stage `name` (its file `.NAME.lock`), held by the descriptor
-    returned, or None if another holds it otherwise."""
+def _lock(folder: Path, name: str, exclusive: bool) -> int | None:
+    """A lock (shared, or `exclusive`) on the stage `name` (its file `.NAME.lock`), held by the
+    descriptor returned, or None if another holds it otherwise."""
+    import fcntl  # POSIX only: a sandbox is Linux's
+
+    how = fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH
     fd = os.open(folder / f".{name}.lock", os.O_RDWR | os.O_CREAT | os.O_CLOEXEC | os.O_NOFOLLOW, 0o600)
     try:
         fcntl.flock(fd, how | fcntl.LOCK_NB)
@@ -198,7 +200,7 @@ def stage() -> Stage:
         digest.update("\0".join([inside, *_identity(host, inside == f"{LIB}/robots")]).encode())
     name, folder = digest.hexdigest()[:24], home()
     for _ in range(50):  # another referee may be removing it (unused for days): then it is made again
-        held = _lock(folder, name, fcntl.LOCK_SH)
+        held = _lock(folder, name, exclusive=False)
         if held is not None:
             _held[name] = held
             break

@@ -384,8 +384,8 @@ class Eager(Controller):
 
 
 def test_huge_answers_every_tick_cost_the_others_nothing(tmp_path):
-    # each answer a valid command padded with drawings to just under the 4 MiB frame limit:
-    # the referee reads and decodes it, keeps the capped drawings, and times the others alone
+    # 3000 drawings of 64 points every tick: the team side sends the 255 a command may hold
+    # and one note of the rest; the referee decodes it, and times the others alone
     result = hostile_match(
         tmp_path,
         """
