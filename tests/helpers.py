@@ -95,10 +95,17 @@ _SECRETS = Path(tempfile.mkdtemp(prefix="laserarena-test-secrets-"))
 atexit.register(shutil.rmtree, _SECRETS, True)
 
 
-def secret_file(secret: str) -> str:
-    """A file holding `secret`, for `--secret-file` (a secret never goes on a command line)."""
-    path = _SECRETS / hashlib.sha256(secret.encode()).hexdigest()[:16]
-    path.write_text(secret + "\n")
+def strong_secret(name: str) -> str:
+    """A noise secret of 256 bits named by `name`: the same name gives the same secret, so runs
+    compared across journals draw the same noise (a weak secret would be refused)."""
+    return hashlib.sha256(f"laserarena-test-secret:{name}".encode()).hexdigest()
+
+
+def secret_file(name: str) -> str:
+    """A file holding `strong_secret(name)`, for `--secret-file` (a secret never goes on a
+    command line)."""
+    path = _SECRETS / hashlib.sha256(name.encode()).hexdigest()[:16]
+    path.write_text(strong_secret(name) + "\n")
     return str(path)
 
 
