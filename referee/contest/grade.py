@@ -25,7 +25,7 @@ from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
-from referee.terminal import Progress, csv_text, safe
+from referee.terminal import Progress, csv_text, markdown_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
@@ -231,10 +231,10 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     ]
     for r in rows:
         rms = "-" if r["position_rms"] is None else f"{1000 * r['position_rms']:.1f}"
-        team = safe(r["team"]).replace("|", "\\|")
         md.append(
-            f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
+            f"| {markdown_text(r['level'])} | {markdown_text(r['team'])} | {r['matches']} "
+            f"| {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
             f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
         )
-    md += [f"\nNote: {safe(note, 500)}" for note in notes]
+    md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
     return "\n".join(md) + "\n"
