@@ -139,6 +139,29 @@ def descendants(root: int) -> dict[int, str]:
     return found
 
 
+def stop_point(proc: subprocess.Popen, db: Path, table: str = "matches") -> dict[int, str]:
+    """Wait, at most 120 s, until the run `proc` has committed a row to `table` of its journal
+    `db` (or has ended); return every process seen below it meanwhile."""
+    import sqlite3
+    import time
+    from contextlib import closing
+
+    below: dict[int, str] = {}
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        below.update(descendants(proc.pid))
+        try:
+            if db.exists():
+                with closing(sqlite3.connect(db)) as c:  # closed at once: a reader holds off the run's commits
+                    if c.execute(f"SELECT 1 FROM {table} LIMIT 1").fetchall():
+                        break
+        except sqlite3.OperationalError:  # not made yet, or held a moment by the run
+            pass
+        time.sleep(0.05)
+    below.update(descendants(proc.pid))
+    return below
+
+
 def alive(pid: int, started: str) -> bool:
     try:
         fields = open(f"/proc/{pid}/stat").read().rpartition(")")[2].split()

@@ -198,7 +198,8 @@ def cmd_journal_backup(args: argparse.Namespace) -> int:
     from referee.contest.journal import backup
 
     matches, heats = backup(Path(args.db), Path(args.out))
-    print(f"wrote {safe(args.out)} (0600): {matches} matches, {heats} heats; it holds the noise secret too")
+    counts = f"{matches} match{'es' * (matches != 1)}, {heats} heat{'s' * (heats != 1)}"
+    print(f"wrote {safe(args.out)} (0600): {counts}; it holds the noise secret too")
     return 0
 
 
