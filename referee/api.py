@@ -307,12 +307,12 @@ def leaderboard(
     found = contest_levels(levels)
     db, board = Path(db), Path(out) if out is not None else None
     _whole("seeds", seeds)
+    given = _secret(secret)  # before anything is written: a class team's source beside the journal
     if scheduler is None:  # fail closed before any match (a Dask worker asks for itself)
         sandbox_missing(unsandboxed)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any match
     _outputs(db, board)
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
-    given = _secret(secret)
     with g.Journal(db) as journal:
         jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(given), __version__)
         g.grade(
@@ -354,6 +354,7 @@ def tournament(
     found = contest_levels(levels)
     db, folder = Path(db), Path(out) if out is not None else None
     _whole("rounds", rounds)
+    given = _secret(secret)  # before anything is written: a class team's source beside the journal
     if scheduler is None:  # fail closed before any heat (a Dask worker asks for itself)
         sandbox_missing(unsandboxed)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any heat
@@ -361,7 +362,6 @@ def tournament(
     _outputs(db, folder)
     if folder is not None and folder.exists() and not folder.is_dir():
         raise UserError(f"out {folder}: not a folder")
-    given = _secret(secret)
     with Journal(db) as journal:
         start = time.perf_counter()
         heats = t.plan(found, entrants, rounds, journal.secret(given), __version__)

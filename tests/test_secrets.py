@@ -111,8 +111,14 @@ def test_every_command_that_reads_a_secret_refuses_a_weak_one(tmp_path):
 
 
 def test_the_python_api_refuses_a_weak_secret_before_any_match(tmp_path):
+    from robots.api import Command, Controller
+
+    class Still(Controller):  # a class team: its source would be shipped beside the journal
+        def step(self, observation):
+            return Command(0.0, 0.0)
+
     with pytest.raises(UserError, match="secret: a weak secret") as refused:
-        api.grade("bac-line", ["ref:bac"], seeds=1, workers=1, db=tmp_path / "r.sqlite", secret="Summer2024")
+        api.grade("bac-line", ["ref:bac", Still], seeds=1, workers=1, db=tmp_path / "r.sqlite", secret="Summer2024")
     assert "Summer2024" not in str(refused.value)
     with pytest.raises(UserError, match="secret: a weak secret"):
         api.tournament("bac-line", ["ref:bac"], workers=1, db=tmp_path / "t.sqlite", secret="qwertyuiop")
