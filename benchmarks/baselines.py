@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import levels
+from referee.terminal import markdown_text
 
 WHO = ("reference", "blind", "sensorless")
 
@@ -128,7 +129,7 @@ def markdown(rows: list[dict], seeds: int, seconds: float, workers: int) -> str:
         ref, blind, still, n = r["reference"], r["blind"], r["sensorless"], r["seeds"]
         task = "-" if r["localize"] else f"{ref['reached']} of {n}"
         lines.append(
-            f"| {r['level']} | {r['controller']} | {ref['score_median']:.1f} ({ref['score_min']:.1f} to "
+            f"| {markdown_text(r['level'])} | {markdown_text(r['controller'])} | {ref['score_median']:.1f} ({ref['score_min']:.1f} to "
             f"{ref['score_max']:.1f}) | {_mm(ref['rms_mm_median'])} / {_mm(ref['rms_mm_worst'])} | "
             f"{task} | {blind['score_median']:.1f} "
             f"({blind['score_min']:.1f} to {blind['score_max']:.1f}) | {_mm(blind['rms_mm_median'])} | "

@@ -41,6 +41,7 @@ from referee.media import error_series
 from referee.records.replay_format import Replay
 from referee.records.replay_writer import MemoryRecorder
 from referee.sandbox.teams import resolve
+from referee.terminal import markdown_text
 
 IN = 0.0254  # m
 SIMI = "Simi 2000 (seed 003)"
@@ -758,7 +759,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
         d = o.row.digits
         half, twice = (sensitivity[(s.key, s.level, f)] for f in FACTORS)
         lines.append(
-            f"| {s.level} | `{s.key.rsplit('.', 1)[-1]}` | {value:g} | `{o.row.key}` ({o.row.unit or 'value'}) | "
+            f"| {markdown_text(s.level)} | `{s.key.rsplit('.', 1)[-1]}` | {value:g} | `{o.row.key}` ({o.row.unit or 'value'}) | "
             f"{half:.{d}f} | {o.centre:.{d}f} | {twice:.{d}f} |"
         )
     lines += [
@@ -772,7 +773,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
         "|---|---|---|---|",
     ]
     for name, key, value, comment in level_parameters():
-        lines.append(f"| {name} | `{key}` | {value} | {comment.replace('|', '/')} |")
+        lines.append(f"| {markdown_text(name)} | `{key}` | {markdown_text(value)} | {markdown_text(comment, 1000)} |")
     return "\n".join(lines) + "\n"
 
 

@@ -238,6 +238,18 @@ def _whole(name: str, value: object) -> int:
     return value
 
 
+def _secret(secret: str | None) -> str | None:
+    """A noise secret given to `grade` or `tournament`, judged as a secret file's is (None:
+    the journal's own)."""
+    from referee.contest.noise_secret import checked
+
+    if secret is None:
+        return None
+    if not isinstance(secret, str):
+        raise UserError(f"secret must be a string, got {type(secret).__name__}")
+    return checked(secret, "secret")
+
+
 @dataclass(frozen=True)
 class Leaderboard:
     """A grade's leaderboard rows and the notes a published leaderboard carries (teams
@@ -264,8 +276,9 @@ def grade(
 
     Every finished match is committed to the journal `db` at once; a second call with the same
     arguments resumes and runs only what is missing. `out` also writes leaderboard CSV, .json
-    and .md; `secret` overrides the journal's noise secret; `scheduler` grades on a Dask
-    cluster; `quiet=False` shows the progress bar on a terminal. A team that cannot be read
+    and .md; `secret` overrides the journal's noise secret (at least 128 bits: a weak one is
+    refused, docs/integrity.md); `scheduler` grades on a Dask cluster; `quiet=False` shows the
+    progress bar on a terminal. A team that cannot be read
     is left out with a warning. Without a kernel sandbox grading is refused (SandboxError)
     unless `unsandboxed=True`, which the journal and the leaderboard then record."""
     board = leaderboard(levels, teams, seeds, workers, db, out, secret, scheduler, quiet, unsandboxed)
@@ -294,16 +307,19 @@ def leaderboard(
     found = contest_levels(levels)
     db, board = Path(db), Path(out) if out is not None else None
     _whole("seeds", seeds)
+    given = _secret(secret)  # before anything is written: a class team's source beside the journal
     if scheduler is None:  # fail closed before any match (a Dask worker asks for itself)
         sandbox_missing(unsandboxed)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any match
     _outputs(db, board)
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
-    journal = g.Journal(db)
-    jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(secret), __version__)
-    g.grade(jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=resolved, unsandboxed=unsandboxed)
-    rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
-    notes = _notes(journal, refused)
+    with g.Journal(db) as journal:
+        jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(given), __version__)
+        g.grade(
+            jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=resolved, unsandboxed=unsandboxed
+        )
+        rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
+        notes = _notes(journal, refused)
     if board is not None:
         g.write_leaderboard(rows, board, notes)
     return Leaderboard(tuple(LeaderboardRow(**r) for r in rows), notes)
@@ -338,6 +354,7 @@ def tournament(
     found = contest_levels(levels)
     db, folder = Path(db), Path(out) if out is not None else None
     _whole("rounds", rounds)
+    given = _secret(secret)  # before anything is written: a class team's source beside the journal
     if scheduler is None:  # fail closed before any heat (a Dask worker asks for itself)
         sandbox_missing(unsandboxed)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any heat
@@ -345,18 +362,25 @@ def tournament(
     _outputs(db, folder)
     if folder is not None and folder.exists() and not folder.is_dir():
         raise UserError(f"out {folder}: not a folder")
-    journal = Journal(db)
-    start = time.perf_counter()
-    heats = t.plan(found, entrants, rounds, journal.secret(secret), __version__)
-    planned = time.perf_counter()
-    read = [e.team for e in entrants]  # their files read once, when resolved
-    ran = t.play_heats(
-        heats, found, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=read, unsandboxed=unsandboxed
-    )
-    played = time.perf_counter()
-    outcome = t.outcome(heats, entrants, journal)
-    rated = time.perf_counter()
-    notes = _notes(journal, refused)
+    with Journal(db) as journal:
+        start = time.perf_counter()
+        heats = t.plan(found, entrants, rounds, journal.secret(given), __version__)
+        planned = time.perf_counter()
+        read = [e.team for e in entrants]  # their files read once, when resolved
+        ran = t.play_heats(
+            heats,
+            found,
+            journal,
+            workers=workers,
+            scheduler=scheduler,
+            quiet=quiet,
+            teams=read,
+            unsandboxed=unsandboxed,
+        )
+        played = time.perf_counter()
+        outcome = t.outcome(heats, entrants, journal)
+        rated = time.perf_counter()
+        notes = _notes(journal, refused)
     if folder is not None:
         report.write(outcome, folder, f"Tournament: {', '.join(lv.name for lv, _ in found)}", notes)
         for heat in outcome.heats:

@@ -1,5 +1,6 @@
 """The terminal's side of every command: text from teams (names, fault messages) made safe to
-print or to open as a spreadsheet (CSV), and the one progress bar every long command shows."""
+print, to open as a spreadsheet (CSV) or to render as Markdown, and the one progress bar every
+long command shows."""
 
 from __future__ import annotations
 
@@ -38,6 +39,22 @@ def csv_text(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
     w.writerow([csv_cell(h) for h in header])
     w.writerows([csv_cell(v) for v in row] for row in rows)
     return buf.getvalue()
+
+
+MARKDOWN_ENTITIES = {"&": "&amp;", "<": "&lt;", ">": "&gt;"}  # no tag, no entity of the text's own
+MARKDOWN_PUNCTUATION = frozenset("\\`*_[]|~")  # emphasis, code, links and images, table cells, strikeout
+
+
+def markdown_text(value: object, limit: int = 200) -> str:
+    """`value` as Markdown that renders as the text itself, in a table cell or a paragraph:
+    control characters shown as `safe` shows them (one line: a newline would end the row);
+    `&`, `<` and `>` as HTML entities (no raw HTML, no autolink); backslash, backtick, `*`,
+    `_`, `[`, `]`, `|` and `~` escaped with a backslash (no emphasis, code, link, image or
+    extra cell). Every Markdown file the product writes puts team, level and file text
+    through it."""
+    return "".join(
+        MARKDOWN_ENTITIES.get(c) or ("\\" + c if c in MARKDOWN_PUNCTUATION else c) for c in safe(value, limit)
+    )
 
 
 class Progress:

@@ -95,10 +95,17 @@ _SECRETS = Path(tempfile.mkdtemp(prefix="laserarena-test-secrets-"))
 atexit.register(shutil.rmtree, _SECRETS, True)
 
 
-def secret_file(secret: str) -> str:
-    """A file holding `secret`, for `--secret-file` (a secret never goes on a command line)."""
-    path = _SECRETS / hashlib.sha256(secret.encode()).hexdigest()[:16]
-    path.write_text(secret + "\n")
+def strong_secret(name: str) -> str:
+    """A noise secret of 256 bits named by `name`: the same name gives the same secret, so runs
+    compared across journals draw the same noise (a weak secret would be refused)."""
+    return hashlib.sha256(f"laserarena-test-secret:{name}".encode()).hexdigest()
+
+
+def secret_file(name: str) -> str:
+    """A file holding `strong_secret(name)`, for `--secret-file` (a secret never goes on a
+    command line)."""
+    path = _SECRETS / hashlib.sha256(name.encode()).hexdigest()[:16]
+    path.write_text(strong_secret(name) + "\n")
     return str(path)
 
 
@@ -130,6 +137,29 @@ def descendants(root: int) -> dict[int, str]:
                 found[child] = start[child]
                 frontier.append(child)
     return found
+
+
+def stop_point(proc: subprocess.Popen, db: Path, table: str = "matches") -> dict[int, str]:
+    """Wait, at most 120 s, until the run `proc` has committed a row to `table` of its journal
+    `db` (or has ended); return every process seen below it meanwhile."""
+    import sqlite3
+    import time
+    from contextlib import closing
+
+    below: dict[int, str] = {}
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        below.update(descendants(proc.pid))
+        try:
+            if db.exists():
+                with closing(sqlite3.connect(db)) as c:  # closed at once: a reader holds off the run's commits
+                    if c.execute(f"SELECT 1 FROM {table} LIMIT 1").fetchall():
+                        break
+        except sqlite3.OperationalError:  # not made yet, or held a moment by the run
+            pass
+        time.sleep(0.05)
+    below.update(descendants(proc.pid))
+    return below
 
 
 def alive(pid: int, started: str) -> bool:

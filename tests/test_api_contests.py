@@ -11,7 +11,7 @@ import subprocess
 import sys
 
 import pytest
-from helpers import edited, secret_file
+from helpers import edited, secret_file, strong_secret
 
 SCRIPT = """
 import sys
@@ -25,11 +25,11 @@ class Forward(Controller):
 
 def main(kind):
     if kind == "grade":
-        rows = grade("short.yaml", ["ref:idle", Forward], seeds=2, workers=1, db="api.sqlite", out="api.csv", secret="s")
+        rows = grade("short.yaml", ["ref:idle", Forward], seeds=2, workers=1, db="api.sqlite", out="api.csv", secret=SECRET)
         for r in rows:
             print(r.team, r.level, r.matches, repr(r.score_mean), repr(r.score_ci95), r.faults)
     else:
-        done = tournament("race.yaml", ["ref:idle", Forward], rounds=1, workers=2, db="api.sqlite", secret="s")
+        done = tournament("race.yaml", ["ref:idle", Forward], rounds=1, workers=2, db="api.sqlite", secret=SECRET)
         for s in done.standings:
             print("S", s.rank, s.team, repr(s.rating), repr(s.mu), repr(s.sigma), s.heats, repr(s.mean_score))
         for h in done.heats:
@@ -73,7 +73,7 @@ def _journal(path, table):
 
 def test_grade_matches_the_command_line_and_resumes(shared_dir):
     (shared_dir / "short.yaml").write_text(edited("bac-line", {"time_limit": 3}))
-    (shared_dir / "api.py").write_text(SCRIPT)
+    (shared_dir / "api.py").write_text(SCRIPT.replace("SECRET", repr(strong_secret("s"))))
     got = _python(shared_dir, "grade")
     journal = _journal(shared_dir / "api.sqlite", "matches")
     assert len(journal) == 4  # 2 teams x 1 level x 2 seeds
@@ -116,7 +116,7 @@ def test_grade_matches_the_command_line_and_resumes(shared_dir):
 
 def test_tournament_matches_the_command_line_and_resumes(shared_dir):
     (shared_dir / "race.yaml").write_text(edited("asabe-race", {"time_limit": 3}))
-    (shared_dir / "api.py").write_text(SCRIPT)
+    (shared_dir / "api.py").write_text(SCRIPT.replace("SECRET", repr(strong_secret("s"))))
     got = _python(shared_dir, "tournament")
     assert got[-1] == ["ran", "4"]  # two teams on four slots: one group, one heat per start slot
     _cli(

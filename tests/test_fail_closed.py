@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 import pytest
-from helpers import edited, run_cli
+from helpers import edited, run_cli, strong_secret
 
 from referee import api
 from referee.errors import SandboxError
@@ -46,7 +46,7 @@ def test_a_grade_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path, monk
     pretend_no_sandbox(monkeypatch)
     level = tmp_path / "short.yaml"
     level.write_text(edited("bac-line", {"time_limit": 2}))
-    options = dict(seeds=1, workers=1, db=tmp_path / "r.sqlite", out=tmp_path / "lb.csv", secret="s")
+    options = dict(seeds=1, workers=1, db=tmp_path / "r.sqlite", out=tmp_path / "lb.csv", secret=strong_secret("s"))
     with pytest.raises(SandboxError, match="no kernel sandbox"):
         api.grade(level, ["ref:idle"], **options)
     rows = api.grade(level, ["ref:idle"], unsandboxed=True, **options)
@@ -61,7 +61,7 @@ def test_a_tournament_without_a_sandbox_runs_with_the_flag_and_says_so(tmp_path,
     pretend_no_sandbox(monkeypatch)
     level = tmp_path / "short.yaml"
     level.write_text(edited("bac-line", {"time_limit": 2}))
-    options = dict(rounds=1, workers=1, db=tmp_path / "t.sqlite", out=tmp_path / "site", secret="s")
+    options = dict(rounds=1, workers=1, db=tmp_path / "t.sqlite", out=tmp_path / "site", secret=strong_secret("s"))
     with pytest.raises(SandboxError, match="no kernel sandbox"):
         api.tournament(level, ["ref:idle", "ref:bac"], **options)
     done = api.tournament(level, ["ref:idle", "ref:bac"], unsandboxed=True, **options)

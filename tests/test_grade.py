@@ -10,7 +10,7 @@ import sys
 import time
 
 import pytest
-from helpers import alive, descendants, run_cli, secret_file
+from helpers import alive, run_cli, secret_file, stop_point
 
 from referee.contest.grade import interval
 
@@ -168,17 +168,7 @@ def test_a_stopped_grade_leaves_nothing_running_and_resumes(shared_dir, tmp_path
         stderr=subprocess.PIPE,
         text=True,
     )
-    below: dict[int, str] = {}
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        below.update(descendants(proc.pid))
-        try:
-            if db.exists() and journal(db):
-                break
-        except sqlite3.OperationalError:
-            pass
-        time.sleep(0.05)
-    below.update(descendants(proc.pid))
+    below = stop_point(proc, db)
     assert proc.poll() is None, "the kill came mid-way"
     assert len(below) >= 3  # two workers and the resource tracker at least, controllers too
     os.kill(proc.pid, sig)  # the grader alone: what it started must follow by itself

@@ -45,15 +45,23 @@ def _at_least_one(text: str) -> int:
     return value
 
 
-def _contest_flags(s: argparse.ArgumentParser) -> None:
-    """The options `grade` and `tournament` share: the noise secret, and playing unsandboxed."""
+def _secret_file(s: argparse._ActionsContainer, what: str) -> None:
+    """`--secret-file FILE` (`what` it does with the secret), and `--secret S` refused."""
     s.add_argument(
         "--secret-file",
         metavar="FILE",
-        help="read the noise secret from FILE (default: the journal's own, made on first use); "
-        "every match's noise derives from it (docs/integrity.md)",
+        help=f"{what}; at least 128 bits (`laserarena secret new FILE` makes one; docs/integrity.md)",
     )
     s.add_argument("--secret", nargs="?", action=_NoSecretOnTheCommandLine, help=argparse.SUPPRESS)
+
+
+def _contest_flags(s: argparse.ArgumentParser) -> None:
+    """The options `grade` and `tournament` share: the noise secret, and playing unsandboxed."""
+    _secret_file(
+        s,
+        "read the noise secret from FILE (default: the journal's own, made on first use); "
+        "every match's noise derives from it",
+    )
     s.add_argument(
         "--unsandboxed",
         action="store_true",
@@ -196,7 +204,32 @@ def _verify(sub: Commands) -> None:
     s = sub.add_parser("verify", help="re-simulate a replay from its header and compare bit for bit")
     s.add_argument("replay")
     s.add_argument("--team", action="append", metavar="T", help="where a team's controller is here (in slot order)")
+    key = s.add_mutually_exclusive_group()
+    _secret_file(key, "check the replay's noise key against the run's secret in FILE")
+    key.add_argument("--db", metavar="JOURNAL", help="check the noise key against the secret this journal made")
     s.set_defaults(func=commands.cmd_verify)
+
+
+def _secret(sub: Commands) -> None:
+    """`laserarena secret new`: a noise secret file."""
+    s = sub.add_parser("secret", help="make a noise secret file for grade and tournament (--secret-file)")
+    actions = s.add_subparsers(dest="action", required=True)
+    n = actions.add_parser("new", help="write 256 random bits to a new file, 0600")
+    n.add_argument("file")
+    n.add_argument("--force", action="store_true", help="replace the file if it exists")
+    n.set_defaults(func=commands.cmd_secret_new)
+
+
+def _journal(sub: Commands) -> None:
+    """`laserarena journal backup`: a journal copied whole."""
+    s = sub.add_parser("journal", help="copy a grading or tournament journal safely")
+    actions = s.add_subparsers(dest="action", required=True)
+    b = actions.add_parser(
+        "backup", help="copy the journal into a new file (0600) with SQLite's online backup, even while a run writes"
+    )
+    b.add_argument("db", help="the journal (grade's or tournament's --db)")
+    b.add_argument("out", help="the copy: a new file")
+    b.set_defaults(func=commands.cmd_journal_backup)
 
 
 def _new(sub: Commands) -> None:
@@ -219,7 +252,7 @@ def _levels(sub: Commands) -> None:
 
 
 # every command's sub-parser, in the order `laserarena --help` lists them
-COMMANDS = (_run, _check, _grade, _tournament, _render, _watch, _map, _plot, _verify, _new, _levels)
+COMMANDS = (_run, _check, _grade, _tournament, _render, _watch, _map, _plot, _verify, _secret, _journal, _new, _levels)
 
 
 def parser() -> argparse.ArgumentParser:

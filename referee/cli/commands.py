@@ -7,6 +7,7 @@ Bad input (a level file, a team spec, a path) prints one line to stderr and exit
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import time
 import warnings
@@ -94,16 +95,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def _secret(args: argparse.Namespace) -> str | None:
-    """The noise secret read from --secret-file, or None (the journal's own)."""
-    if not args.secret_file:
-        return None
-    try:
-        given = Path(args.secret_file).read_text(encoding="utf-8").strip()
-    except (OSError, UnicodeDecodeError) as e:
-        raise UserError(f"{args.secret_file}: cannot read the secret: {getattr(e, 'strerror', None) or e}") from None
-    if not given:
-        raise UserError(f"{args.secret_file}: the secret file is empty")
-    return given
+    """The noise secret read (and judged) from --secret-file, or None (the journal's own)."""
+    from referee.contest import noise_secret
+
+    return noise_secret.read(args.secret_file) if args.secret_file else None
 
 
 def _contest_options(args: argparse.Namespace) -> dict:
@@ -176,12 +171,36 @@ def cmd_tournament(args: argparse.Namespace) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
+    from referee.contest import noise_secret
+    from referee.contest.journal import stored_secret
+
     with lasting():  # numba's objects live as long as the process (arena.heap)
         from referee.match.verify import verify
 
-    ok, message = verify(Path(args.replay), args.team)
+    secret = _secret(args)
+    if args.db:
+        secret = noise_secret.checked(stored_secret(Path(args.db)), args.db)
+    key_for = functools.partial(noise_secret.noise_key, secret) if secret else None
+    ok, message = verify(Path(args.replay), args.team, key_for)
     print(safe(f"{args.replay}: {message}", 1000))
     return 0 if ok else 1
+
+
+def cmd_secret_new(args: argparse.Namespace) -> int:
+    from referee.contest import noise_secret
+
+    noise_secret.create(Path(args.file), replace=args.force)
+    print(f"wrote {safe(args.file)} (0600): 256 random bits; grade with --secret-file {safe(args.file)}")
+    return 0
+
+
+def cmd_journal_backup(args: argparse.Namespace) -> int:
+    from referee.contest.journal import backup
+
+    matches, heats = backup(Path(args.db), Path(args.out))
+    counts = f"{matches} match{'es' * (matches != 1)}, {heats} heat{'s' * (heats != 1)}"
+    print(f"wrote {safe(args.out)} (0600): {counts}; it holds the noise secret too")
+    return 0
 
 
 def cmd_render(args: argparse.Namespace) -> int:

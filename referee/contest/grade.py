@@ -13,7 +13,6 @@ kept in the journal (or read from --secret-file), never from anything a controll
 from __future__ import annotations
 
 import hashlib
-import hmac
 import json
 import math
 from collections.abc import Sequence
@@ -22,10 +21,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.journal import Journal
+from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
-from referee.terminal import Progress, csv_text, safe
+from referee.terminal import Progress, csv_text, markdown_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
@@ -57,16 +57,6 @@ class Job:
         """A readable, unique file name: two teams whose names clean up alike still differ."""
         tag = hashlib.sha256(json.dumps(self.key()).encode()).hexdigest()[:12]
         return f"{file_part(self.level[:60])}__{file_part(self.team[-60:])}__seed{self.seed}__{tag}.replay"
-
-
-def secret_id(secret: str) -> str:
-    """A public name for a secret (sha256-based): it tells runs apart, reveals nothing."""
-    return hashlib.sha256(b"laserarena-secret-id:" + secret.encode()).hexdigest()[:16]
-
-
-def noise_key(secret: str, level_hash: str, seed: int) -> str:
-    """The per-match noise key: HMAC-SHA256 of the level and seed under the run's secret."""
-    return hmac.new(secret.encode(), f"laserarena-noise:{level_hash}:{seed}".encode(), hashlib.sha256).hexdigest()
 
 
 def make_jobs(levels: list, teams: list[tuple[str, str]], seeds: int, secret: str, software: str) -> list[Job]:
@@ -241,10 +231,10 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
     ]
     for r in rows:
         rms = "-" if r["position_rms"] is None else f"{1000 * r['position_rms']:.1f}"
-        team = safe(r["team"]).replace("|", "\\|")
         md.append(
-            f"| {r['level']} | {team} | {r['matches']} | {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
+            f"| {markdown_text(r['level'])} | {markdown_text(r['team'])} | {r['matches']} "
+            f"| {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
             f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
         )
-    md += [f"\nNote: {safe(note, 500)}" for note in notes]
+    md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
     return "\n".join(md) + "\n"

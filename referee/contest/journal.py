@@ -3,6 +3,11 @@ one run at a time, every finished match committed at once so a killed run resume
 stopped. `matches` holds grading's one-team matches, `heats` a tournament's heats; a row is
 keyed by everything its result depends on, so an edited team or level is run again and an old
 row never mixes in. The run's noise secret lives in `meta` (docs/integrity.md).
+
+The journal keeps SQLite's rollback journal (`journal_mode=DELETE`), never a write-ahead log:
+once a commit returns, the `.sqlite` file alone holds it, so a copy of that one file, even
+of a run killed with SIGKILL, holds every finished match. A journal left in WAL mode by an
+older version is turned back when it is opened.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import sqlite3
 import time
 import warnings
 from collections.abc import Iterable
+from contextlib import closing
 from pathlib import Path
 from typing import Protocol, TypeVar
 
@@ -36,6 +42,7 @@ CREATE TABLE IF NOT EXISTS heats (
     PRIMARY KEY (level_hash, lineup, seed, software, ideal, secret_id)
 );
 """
+BUSY_SECONDS = 60  # how long a commit waits for a reader of the file (a backup, a query) to finish
 KEY = "level_hash, team, code_hash, seed, software, ideal, secret_id"
 
 
@@ -83,7 +90,7 @@ class Journal:
         except BlockingIOError:
             raise UserError(f"{path}: another grading run is using this journal") from None
         try:
-            self.db = sqlite3.connect(path)
+            self.db = sqlite3.connect(path, timeout=BUSY_SECONDS)
             version = self.db.execute("PRAGMA user_version").fetchone()[0]
             tables = {r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             if version != SCHEMA_VERSION and tables:
@@ -91,12 +98,23 @@ class Journal:
                     f"{path}: a journal of another LaserArena version (schema {version}, "
                     f"this is {SCHEMA_VERSION}); grade into a new --db"
                 )
-            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.execute("PRAGMA journal_mode=DELETE")  # the file alone holds every commit (module doc)
             self.db.executescript(SCHEMA)
             self.db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
             self.db.commit()
         except sqlite3.DatabaseError as e:
             raise UserError(f"{path}: not a readable LaserArena journal ({e})") from None
+
+    def close(self) -> None:
+        """Close the database and let go of the run's lock."""
+        self.db.close()
+        self.lock.close()
+
+    def __enter__(self) -> Journal:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def _query(self, sql: str, args: tuple = ()) -> list:
         try:
@@ -174,3 +192,47 @@ class Journal:
             return json.loads(row[0][0]), row[0][1], row[0][2]
         except ValueError:
             raise UserError(f"{self.path}: a damaged heat result ({safe(key[0])} seed {key[2]})") from None
+
+
+def _read_only(path: Path) -> sqlite3.Connection:
+    """The journal at `path` opened for reading only (a run may be writing it meanwhile)."""
+    if not path.is_file():
+        raise UserError(f"{path}: no such journal")
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_SECONDS)
+
+
+def stored_secret(path: Path) -> str:
+    """The noise secret the journal at `path` made for itself (what its runs without
+    --secret-file drew their noise from); UserError if it holds none."""
+    with closing(_read_only(path)) as db:
+        try:
+            row = db.execute("SELECT value FROM meta WHERE key='secret'").fetchone()
+        except sqlite3.DatabaseError as e:
+            raise UserError(f"{path}: not a readable LaserArena journal ({e})") from None
+    if row is None:
+        raise UserError(f"{path}: the journal holds no secret of its own (its runs were given --secret-file)")
+    return row[0]
+
+
+def backup(path: Path, out: Path) -> tuple[int, int]:
+    """Copy the journal at `path` into the new file `out` with SQLite's online backup, which
+    copies a consistent state even while a run commits to it; return the copy's finished
+    matches and heats. `out` is made 0600 (it holds the secret) and never replaces a file."""
+    with closing(_read_only(path)) as db:
+        try:
+            fd = os.open(out, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+        except FileExistsError:
+            raise UserError(f"{out}: exists; give a new file for the backup") from None
+        os.close(fd)
+        try:
+            with closing(sqlite3.connect(out)) as copy:
+                db.backup(copy)
+                copy.execute("PRAGMA journal_mode=DELETE")  # a copy of a WAL journal is one file too
+                matches, heats = (copy.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0] for t in ("matches", "heats"))
+                return matches, heats
+        except sqlite3.DatabaseError as e:
+            out.unlink()
+            raise UserError(f"{path}: not a readable LaserArena journal ({e})") from None
+        except BaseException:
+            out.unlink()
+            raise

@@ -1,4 +1,4 @@
-"""A tournament's published files: standings.csv and .json, heats.csv, the replays, and
+"""A tournament's published files: standings.csv, .json and .md, heats.csv, the replays, and
 index.html, a page that needs no network (inline CSS and SVG) with the standings, each team's
 rating over the heats, the per-level tables and every heat linked to its replay and its viewer
 page (heats/heat-NNNN.html, written by the command line with referee.media.viewer).
@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from referee.contest.tournament import HeatResult, Outcome
-from referee.terminal import csv_text
+from referee.terminal import csv_text, markdown_text
 
 PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#7f7f7f"]
 
@@ -71,6 +71,24 @@ def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
     }
 
 
+def standings_markdown(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
+    """standings.md: the title, the standings as a Markdown table and each of `notes` on a
+    line of its own (team names and notes escaped: they render as themselves)."""
+    md = [
+        f"# {markdown_text(title)}",
+        "",
+        "| rank | team | rating | mu | sigma | heats | mean score |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    md += [
+        f"| {s.rank} | {markdown_text(s.team)} | {s.rating.ordinal:.2f} | {s.rating.mu:.2f} | {s.rating.sigma:.2f} "
+        f"| {s.heats} | {s.mean_score:.1f} |"
+        for s in outcome.standings
+    ]
+    md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
+    return "\n".join(md) + "\n"
+
+
 def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) -> None:
     """Write every file but the viewer pages into `out` (made if missing); `notes` (a team
     refused, heats played without a sandbox) go into index.html and standings.json."""
@@ -95,6 +113,7 @@ def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) ->
     (out / "standings.json").write_text(
         json.dumps(standings_data(outcome, notes), indent=2, sort_keys=True) + "\n", encoding="utf-8"
     )
+    (out / "standings.md").write_text(standings_markdown(outcome, title, notes), encoding="utf-8")
     (out / "heats.csv").write_text(csv_text(HEAT_COLUMNS, heat_rows(outcome)), encoding="utf-8")
     wanted = {replay_file(h) for h in outcome.heats} | {viewer_file(h) for h in outcome.heats}
     for old in [*out.glob("replays/heat-*.replay"), *out.glob("heats/heat-*.html")]:

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from arena.level import Level
-from referee.contest.grade import noise_key, secret_id
 from referee.contest.journal import Journal
+from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
 from referee.contest.schedule import schedule

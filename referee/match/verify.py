@@ -1,9 +1,16 @@
-"""`laserarena verify REPLAY`: re-simulate a match from its replay's header, compare bit for bit."""
+"""`laserarena verify REPLAY`: re-simulate a match from its replay's header, compare bit for bit.
+
+A replay made with any noise key re-simulates identically with that key, so a re-simulation
+alone says nothing of where the key came from: only the key's check against the run's secret
+does (`key_for`, given by the caller that holds the secret; docs/integrity.md).
+"""
 
 from __future__ import annotations
 
+import hmac
 import itertools
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from arena.loader import parse_level
@@ -12,10 +19,28 @@ from referee.match.loop import run_match
 from referee.records.replay_reader import lines, load
 from referee.sandbox.teams import code_hash, resolve
 
+UNCHECKED = "noise key not checked (--secret-file FILE or --db JOURNAL checks it against the run's secret)"
 
-def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, str]:
+
+def _key_problem(header: dict, key_for: Callable[[str, int], str] | None) -> tuple[str | None, str]:
+    """(why the replay's noise key is not the run's, None if it is; what verify says of it)."""
+    recorded = header.get("noise_key")
+    if key_for is None:
+        return None, UNCHECKED if recorded else "no noise key (a local run: its noise comes from its seed)"
+    if recorded is None:
+        return "no noise key: not a match graded with this secret (a local run's noise comes from its seed)", ""
+    if not hmac.compare_digest(recorded, key_for(header["level"]["hash"], header["seed"])):
+        return "forged noise key: not HMAC(secret, level hash, seed) of the secret given (or graded with another)", ""
+    return None, "noise key genuine (HMAC of the secret given)"
+
+
+def verify(
+    path: Path, team_overrides: list[str] | None = None, key_for: Callable[[str, int], str] | None = None
+) -> tuple[bool, str]:
     """(identical?, a one-line account). Teams come from the header unless overridden (a team's
-    file may live elsewhere on this machine); each must hash as the replay says."""
+    file may live elsewhere on this machine); each must hash as the replay says. `key_for`
+    gives the noise key of a level hash and seed under the run's secret: a replay whose key is
+    not that one is refused before anything is re-simulated."""
     try:
         rep = load(path, keep=False)  # checked through, one record at a time
     except (OSError, ValueError) as e:
@@ -24,6 +49,9 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
     level = parse_level(h["level"]["text"].encode(), f"{path}:level")
     if level.hash != h["level"]["hash"]:
         return False, "the embedded level does not match its hash"
+    problem, key = _key_problem(h, key_for)
+    if problem:
+        return False, problem
     specs = team_overrides or [t["spec"] for t in h["teams"]]
     if len(specs) != len(h["teams"]):
         raise UserError(f"{path} has {len(h['teams'])} teams; got {len(specs)} --team")
@@ -45,5 +73,5 @@ def verify(path: Path, team_overrides: list[str] | None = None) -> tuple[bool, s
         except (OSError, ValueError) as e:
             raise UserError.of(e) from None
     if first is None:
-        return True, f"identical: {counts[0]} records, {rep.duration:.1f} s, result and every frame reproduced"
+        return True, f"identical: {counts[0]} records, {rep.duration:.1f} s, result and every frame reproduced; {key}"
     return False, f"differs from record {first} on ({counts[0]} recorded, {counts[1]} re-simulated)"
