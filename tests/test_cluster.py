@@ -284,6 +284,9 @@ def rogue_worker(cluster: Cluster, port: int, folder: Path, mode: str):
         yield name
     finally:
         stop(worker)
+        deadline = time.monotonic() + WAIT  # gone from the scheduler too, before the next rogue joins
+        while workers(f"tls://127.0.0.1:{port}", cluster.folder / "keys") and time.monotonic() < deadline:
+            time.sleep(0.2)
 
 
 @pytest.mark.parametrize(
@@ -323,6 +326,6 @@ def test_an_honest_worker_holding_a_key_is_trusted_after_its_audit(cluster, rogu
             "--cluster-keys", "keys", "--audit", "1", "--db", str(folder / "honest.sqlite"),
             "--out", str(folder / "honest.csv"), cwd=cluster.folder,
         )  # fmt: skip
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 0, out.stderr + (folder / "honest-worker.log").read_text()[-3000:]
     assert rows(folder / "honest.sqlite") == 2
     assert json.loads((folder / "honest.json").read_text())[0]["matches"] == 2
