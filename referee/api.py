@@ -26,6 +26,7 @@ from referee.sandbox.teams import Team, controller_problem, resolve
 from referee.terminal import safe
 
 if TYPE_CHECKING:
+    from referee.contest.cluster import Cluster
     from referee.contest.journal import Journal
 
 
@@ -212,10 +213,29 @@ def _contest_teams(teams: Teams, db: Path) -> tuple[list[Team], list[str]]:
 
 
 def _notes(journal: Journal, refused: list[str]) -> tuple[str, ...]:
-    """What a published result must say beside its table: the teams refused, and whether any
-    match in the journal ran without a kernel sandbox."""
+    """What a published result must say beside its table: the teams refused, whether any
+    match in the journal ran without a kernel sandbox, and whether any was played on a Dask
+    cluster that any machine could join."""
     reason = journal.unsandboxed()
-    return (*refused, *([f"played without a kernel sandbox (--unsandboxed): {reason}"] if reason else []))
+    address = journal.insecure_cluster()
+    return (
+        *refused,
+        *([f"played without a kernel sandbox (--unsandboxed): {reason}"] if reason else []),
+        *([f"played on a Dask cluster any machine could join (--insecure-cluster): {address}"] if address else []),
+    )
+
+
+def _cluster(
+    scheduler: str | None, cluster_keys: str | Path | None, insecure_cluster: bool, audit: float
+) -> Cluster | None:
+    """The contest's Dask cluster, checked before any match (None: no `scheduler`)."""
+    from referee.contest.cluster import cluster
+
+    if scheduler is None:
+        if cluster_keys is not None or insecure_cluster:
+            raise UserError("--cluster-keys and --insecure-cluster go with --scheduler")
+        return None
+    return cluster(scheduler, cluster_keys, insecure_cluster, audit)
 
 
 def warn(notes: tuple[str, ...]) -> None:
@@ -270,6 +290,9 @@ def grade(
     scheduler: str | None = None,
     quiet: bool = True,
     unsandboxed: bool = False,
+    cluster_keys: str | Path | None = None,
+    insecure_cluster: bool = False,
+    audit: float = 0.05,
 ) -> list[LeaderboardRow]:
     """Grade every team alone (slot 0) on every level for seeds 1..`seeds`, as `laserarena
     grade` does, and return the leaderboard (per level, best mean score first).
@@ -277,11 +300,27 @@ def grade(
     Every finished match is committed to the journal `db` at once; a second call with the same
     arguments resumes and runs only what is missing. `out` also writes leaderboard CSV, .json
     and .md; `secret` overrides the journal's noise secret (at least 128 bits: a weak one is
-    refused, docs/integrity.md); `scheduler` grades on a Dask cluster; `quiet=False` shows the
-    progress bar on a terminal. A team that cannot be read
-    is left out with a warning. Without a kernel sandbox grading is refused (SandboxError)
-    unless `unsandboxed=True`, which the journal and the leaderboard then record."""
-    board = leaderboard(levels, teams, seeds, workers, db, out, secret, scheduler, quiet, unsandboxed)
+    refused, docs/integrity.md); `scheduler` grades on a Dask cluster (`tls://HOST:PORT` with
+    the `cluster_keys` folder, or `tcp://` with `insecure_cluster=True`, which the results then
+    note), re-simulating an `audit` share of its matches here (docs/cluster.md); `quiet=False`
+    shows the progress bar on a terminal. A team that cannot be read is left out with a
+    warning. Without a kernel sandbox grading is refused (SandboxError) unless
+    `unsandboxed=True`, which the journal and the leaderboard then record."""
+    board = leaderboard(
+        levels,
+        teams,
+        seeds,
+        workers,
+        db,
+        out,
+        secret,
+        scheduler,
+        quiet,
+        unsandboxed,
+        cluster_keys,
+        insecure_cluster,
+        audit,
+    )
     warn(board.notes)
     return list(board.rows)
 
@@ -297,6 +336,9 @@ def leaderboard(
     scheduler: str | None = None,
     quiet: bool = True,
     unsandboxed: bool = False,
+    cluster_keys: str | Path | None = None,
+    insecure_cluster: bool = False,
+    audit: float = 0.05,
 ) -> Leaderboard:
     """`grade`, returning its notes beside the rows instead of printing them."""
     from referee.contest import grade as g
@@ -308,16 +350,14 @@ def leaderboard(
     db, board = Path(db), Path(out) if out is not None else None
     _whole("seeds", seeds)
     given = _secret(secret)  # before anything is written: a class team's source beside the journal
-    if scheduler is None:  # fail closed before any match (a Dask worker asks for itself)
-        sandbox_missing(unsandboxed)
+    where = _cluster(scheduler, cluster_keys, insecure_cluster, audit)
+    sandbox_missing(unsandboxed)  # fail closed before any match (a cluster's are audited here)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any match
     _outputs(db, board)
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     with g.Journal(db) as journal:
         jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(given), __version__)
-        g.grade(
-            jobs, journal, workers=workers, scheduler=scheduler, quiet=quiet, teams=resolved, unsandboxed=unsandboxed
-        )
+        g.grade(jobs, journal, workers=workers, cluster=where, quiet=quiet, teams=resolved, unsandboxed=unsandboxed)
         rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
         notes = _notes(journal, refused)
     if board is not None:
@@ -336,13 +376,17 @@ def tournament(
     scheduler: str | None = None,
     quiet: bool = True,
     unsandboxed: bool = False,
+    cluster_keys: str | Path | None = None,
+    insecure_cluster: bool = False,
+    audit: float = 0.05,
 ) -> TournamentResult:
     """Rated heats of the teams racing each other on every level, as `laserarena tournament`
     does; return the standings and every heat.
 
     Every finished heat is committed to the journal `db` at once (a second call resumes).
     `out` also writes the report folder (index.html, standings, heats.csv, replays, viewer
-    pages); `secret`, `scheduler`, `quiet` and `unsandboxed` as in `grade`; the result's
+    pages); `secret`, `scheduler`, `quiet`, `unsandboxed`, `cluster_keys`, `insecure_cluster`
+    and `audit` as in `grade`; the result's
     `notes` (also in the report) name the teams refused and any heat played unsandboxed."""
     from referee.contest import report
     from referee.contest import tournament as t
@@ -355,8 +399,8 @@ def tournament(
     db, folder = Path(db), Path(out) if out is not None else None
     _whole("rounds", rounds)
     given = _secret(secret)  # before anything is written: a class team's source beside the journal
-    if scheduler is None:  # fail closed before any heat (a Dask worker asks for itself)
-        sandbox_missing(unsandboxed)
+    where = _cluster(scheduler, cluster_keys, insecure_cluster, audit)
+    sandbox_missing(unsandboxed)  # fail closed before any heat (a cluster's are audited here)
     resolved, refused = _contest_teams(teams, db)  # a bad spec is refused here, in one line, before any heat
     entrants = t.entrants(resolved)
     _outputs(db, folder)
@@ -368,14 +412,7 @@ def tournament(
         planned = time.perf_counter()
         read = [e.team for e in entrants]  # their files read once, when resolved
         ran = t.play_heats(
-            heats,
-            found,
-            journal,
-            workers=workers,
-            scheduler=scheduler,
-            quiet=quiet,
-            teams=read,
-            unsandboxed=unsandboxed,
+            heats, found, journal, workers=workers, cluster=where, quiet=quiet, teams=read, unsandboxed=unsandboxed
         )
         played = time.perf_counter()
         outcome = t.outcome(heats, entrants, journal)

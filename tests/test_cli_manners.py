@@ -58,6 +58,7 @@ def test_json_to_stdout_table_to_stderr(shared_dir):
                 "1",
                 "--scheduler",
                 "tcp://127.0.0.1:1",
+                "--insecure-cluster",
                 "--db",
                 "g.sqlite",
             ],

@@ -57,8 +57,9 @@ def test_dask_cluster_gives_the_same_leaderboard(tmp_path):
     local.mkdir(), remote.mkdir()
     expected = grade(local, "--workers", "2")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        got = grade(remote, "--scheduler", cluster.scheduler_address)
+        got = grade(remote, "--scheduler", cluster.scheduler_address, "--insecure-cluster")
     assert got == expected
+    assert "any machine could join (--insecure-cluster): tcp://" in (remote / "lb.md").read_text()
 
 
 def test_interval_is_the_student_t_95_percent_interval():

@@ -348,7 +348,16 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
             assert seen and not any(seen.values())  # the workers cannot see the team's file
         # a worker killed in the middle of the tournament: its heat is run again elsewhere, once
         db = contest / "dask" / "t.sqlite"
-        cmd = [sys.executable, "-m", "referee", *args(contest, "dask"), "--quiet", "--scheduler", address]
+        cmd = [
+            sys.executable,
+            "-m",
+            "referee",
+            *args(contest, "dask"),
+            "--quiet",
+            "--scheduler",
+            address,
+            "--insecure-cluster",
+        ]
         proc = subprocess.Popen(cmd, cwd=contest, stderr=subprocess.PIPE, text=True)
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None and not heats_in(db):
@@ -375,7 +384,10 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
             secret_file(SECRET),
             "--quiet",
         ]
-        for name, where in (("grade-dask", ["--scheduler", address]), ("grade-local", ["--workers", "1"])):
+        for name, where in (
+            ("grade-dask", ["--scheduler", address, "--insecure-cluster"]),
+            ("grade-local", ["--workers", "1"]),
+        ):
             (contest / name).mkdir()
             out = ["--db", f"{name}/r.sqlite", "--out", f"{name}/lb.csv"]
             assert run_cli(*grade, *out, *where, cwd=contest).returncode == 0
@@ -386,8 +398,12 @@ def test_a_dask_cluster_without_a_shared_folder_gives_the_same_standings(contest
     graded = (contest / "grade-dask" / "lb.csv").read_text()
     assert graded == (contest / "grade-local" / "lb.csv").read_text() and "starter.py,race25,1," in graded
     full, remote = contest / "full" / "out", contest / "dask" / "out"
-    for name in ("standings.csv", "standings.json", "heats.csv"):
+    for name in ("standings.csv", "heats.csv"):
         assert (remote / name).read_bytes() == (full / name).read_bytes(), name
+    published, local = (json.loads((where / "standings.json").read_text()) for where in (remote, full))
+    assert any("--insecure-cluster" in note for note in published.pop("notes"))  # the organizer's choice, noted
+    local.pop("notes", None)
+    assert published == local
 
 
 def test_a_worker_of_another_version_is_refused_in_one_line(contest):
@@ -401,7 +417,7 @@ def test_a_worker_of_another_version_is_refused_in_one_line(contest):
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         with distributed.Client(cluster) as client:
             client.run(other_version)
-        proc = tournament(contest, "versions", "--scheduler", cluster.scheduler_address)
+        proc = tournament(contest, "versions", "--scheduler", cluster.scheduler_address, "--insecure-cluster")
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
     assert "0.0.0-other" in proc.stderr and "Traceback" not in proc.stderr
     with sqlite3.connect(contest / "versions" / "t.sqlite") as c:

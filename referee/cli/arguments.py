@@ -114,10 +114,43 @@ def _check(sub: Commands) -> None:
     s.set_defaults(func=commands.cmd_check)
 
 
+def _share(text: str) -> float:
+    """A share of the matches given on the command line: a number from 0 to 1 (argparse's type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"a share from 0 to 1 (0.05 is 5 %), got {text}")
+    return value
+
+
 def _where(s: argparse.ArgumentParser, action: str) -> None:
     """Where a contest's matches run: local worker processes, or a Dask cluster."""
     s.add_argument("--workers", type=_at_least_one, default=2, help="local worker processes (default 2)")
-    s.add_argument("--scheduler", metavar="tcp://HOST:PORT", help=f"{action} on this Dask cluster instead")
+    s.add_argument(
+        "--scheduler",
+        metavar="tls://HOST:PORT",
+        help=f"{action} on this Dask cluster instead (docs/cluster.md)",
+    )
+    s.add_argument(
+        "--cluster-keys",
+        metavar="DIR",
+        help="the organizer's keys folder (`laserarena cluster-keys DIR`): the client's certificate and the CA",
+    )
+    s.add_argument(
+        "--insecure-cluster",
+        action="store_true",
+        help="accept a plain tcp:// scheduler, which any machine that reaches it may join; the results say so",
+    )
+    s.add_argument(
+        "--audit",
+        type=_share,
+        default=0.05,
+        metavar="SHARE",
+        help="the share of a cluster's matches played again here and compared byte for byte "
+        "(default 0.05; at least one per worker)",
+    )
 
 
 def _grade(sub: Commands) -> None:
@@ -152,6 +185,14 @@ def _tournament(sub: Commands) -> None:
     )
     s.add_argument("--quiet", action="store_true")
     s.set_defaults(func=commands.cmd_tournament)
+
+
+def _cluster_keys(sub: Commands) -> None:
+    """`laserarena cluster-keys`: the organizer's CA and keys for a Dask cluster."""
+    what = "make the organizer's CA, certificates and keys for a TLS Dask cluster"
+    s = sub.add_parser("cluster-keys", help=what, description=f"{what[0].upper()}{what[1:]} (docs/cluster.md).")
+    s.add_argument("dir", help="a new folder to make (0700): ca.pem and each role's ROLE.pem and ROLE-key.pem")
+    s.set_defaults(func=commands.cmd_cluster_keys)
 
 
 def _render(sub: Commands) -> None:
@@ -252,7 +293,22 @@ def _levels(sub: Commands) -> None:
 
 
 # every command's sub-parser, in the order `laserarena --help` lists them
-COMMANDS = (_run, _check, _grade, _tournament, _render, _watch, _map, _plot, _verify, _secret, _journal, _new, _levels)
+COMMANDS = (
+    _run,
+    _check,
+    _grade,
+    _tournament,
+    _cluster_keys,
+    _render,
+    _watch,
+    _map,
+    _plot,
+    _verify,
+    _secret,
+    _journal,
+    _new,
+    _levels,
+)
 
 
 def parser() -> argparse.ArgumentParser:

@@ -111,6 +111,9 @@ def _contest_options(args: argparse.Namespace) -> dict:
         "scheduler": args.scheduler,
         "quiet": args.quiet,
         "unsandboxed": args.unsandboxed,
+        "cluster_keys": args.cluster_keys,
+        "insecure_cluster": args.insecure_cluster,
+        "audit": args.audit,
     }
 
 
@@ -167,6 +170,18 @@ def cmd_tournament(args: argparse.Namespace) -> int:
             f"report and viewer pages {done.report_seconds:.1f} s",
             file=sys.stderr,
         )
+    return 0
+
+
+def cmd_cluster_keys(args: argparse.Namespace) -> int:
+    from referee.contest.cluster_keys import make_keys
+
+    written = make_keys(Path(args.dir))
+    print(f"wrote {', '.join(p.name for p in written)} in {args.dir} (keys 0600, the folder 0700)")
+    print(
+        "copy to the scheduler: ca.pem scheduler.pem scheduler-key.pem; to each worker: ca.pem worker.pem worker-key.pem"
+    )
+    print(f"the client keeps the folder: --cluster-keys {args.dir}")
     return 0
 
 

@@ -4,7 +4,13 @@ teams racing in heats with their ratings and report (`tournament`, `schedule`, `
 process, a local pool or a Dask cluster (`runner`, `shipping`), their noise drawn from a
 run's secret (`noise_secret`, judged by `secret_strength`).
 
+A Dask cluster is named and checked by `cluster` (TLS with the organizer's keys from
+`cluster_keys`, or an insecure `tcp://` the organizer accepted); its client lives in a process
+of its own (`courier`, spoken to over `courier_link`), so the organizer's process never loads
+what a worker sends; `remote` checks each result against its job (`received`) and audits each
+worker by playing a share of its matches again here (`audit`).
+
 It may import the match core, the sandbox, the records and `arena`; never media, gym, cli or
-`robots` (team code travels as bytes). `dask` is imported here only (pyproject.toml's contracts
-hold this).
+`robots` (team code travels as bytes). `dask` (and the `cryptography` its TLS keys need) is
+imported here only (pyproject.toml's contracts hold this).
 """

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from referee.contest.audit import AuditFailed
 from referee.contest.journal import Journal
 from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
@@ -29,6 +30,7 @@ from referee.terminal import Progress, csv_text, markdown_text, safe
 
 if TYPE_CHECKING:
     from arena.level import Level
+    from referee.contest.cluster import Cluster
 
 
 @dataclass(frozen=True)
@@ -107,15 +109,17 @@ def grade(
     jobs: list[Job],
     journal: Journal,
     workers: int = 1,
-    scheduler: str | None = None,
+    cluster: Cluster | None = None,
     quiet: bool = False,
     teams: Sequence[Team] = (),
     unsandboxed: bool = False,
 ) -> Journal:
-    """Run every job not yet in `journal`; replays go to the journal's folder/replays. Workers
-    return each match's result and replay; only this process writes them. `teams`: the jobs'
-    teams as resolved when they were made (any other is resolved here); `unsandboxed`: the
-    organizer allows matches without a kernel sandbox (the journal then records it)."""
+    """Run every job not yet in `journal`, on `workers` local processes or on `cluster`;
+    replays go to the journal's folder/replays. Workers return each match's result and replay;
+    only this process writes them. `teams`: the jobs' teams as resolved when they were made
+    (any other is resolved here); `unsandboxed`: the organizer allows matches without a kernel
+    sandbox (the journal then records it, as it records an insecure cluster). A worker that
+    fails its audit: its results of this run are removed again, and AuditFailed goes on up."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
@@ -124,7 +128,9 @@ def grade(
     by_key = {j.key(): j for j in todo}
     playable = _match_jobs(todo, teams, unsandboxed)
     progress = Progress(len(jobs), "match", quiet, already=len(jobs) - len(todo))
-    results = run_jobs([(k, playable[k]) for k in by_key], workers, scheduler)
+    if cluster is not None and cluster.insecure:
+        journal.note_insecure_cluster(cluster.address)
+    results = run_jobs([(k, playable[k]) for k in by_key], workers, cluster)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:
             job = by_key[key]
@@ -133,6 +139,11 @@ def grade(
                 journal.note_unsandboxed(played.unsandboxed)
             journal.record(job, played.result, str(replay), played.wall)
             progress.tick(f"{job.level} {job.team} seed {job.seed}")
+    except AuditFailed as failed:
+        journal.forget(failed.discard)
+        for key in failed.discard:
+            (replay_dir / by_key[key].replay_name()).unlink(missing_ok=True)
+        raise
     finally:
         progress.close()
         results.close()  # a pool's workers end here, even on an interrupt

@@ -146,6 +146,25 @@ class Journal:
         row = self._query("SELECT value FROM meta WHERE key='unsandboxed'")
         return row[0][0] if row else None
 
+    def note_insecure_cluster(self, address: str) -> None:
+        """Record that matches of this journal were played on a Dask cluster any machine could
+        join (`--insecure-cluster`), and where (for good, as `note_unsandboxed`)."""
+        self.db.execute("INSERT OR REPLACE INTO meta VALUES ('insecure_cluster', ?)", (address,))
+        self.db.commit()
+
+    def insecure_cluster(self) -> str | None:
+        """The insecure cluster's address some match of this journal was played on, or None."""
+        row = self._query("SELECT value FROM meta WHERE key='insecure_cluster'")
+        return row[0][0] if row else None
+
+    def forget(self, keys: Iterable[tuple], heats: bool = False) -> None:
+        """Delete the rows of these keys (of `heats`, else of graded matches): results found
+        untrustworthy after they were recorded (a worker that failed its audit)."""
+        table, columns = ("heats", HEAT_KEY) if heats else ("matches", KEY)
+        where = " AND ".join(f"{k.strip()}=?" for k in columns.split(","))
+        self.db.executemany(f"DELETE FROM {table} WHERE {where}", list(keys))
+        self.db.commit()
+
     def done(self) -> set[tuple]:
         return {tuple(r) for r in self._query(f"SELECT {KEY} FROM matches")}
 

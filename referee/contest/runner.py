@@ -1,8 +1,9 @@
 """Playing many matches: in this process, on a local pool whose workers die with it, or on a
-Dask cluster. A job carries everything a match needs as data (the level's text, each team's
-code as bytes, the seed and noise key); a worker returns the result and the replay's bytes, and
-only the client writes files and the journal -- so Dask workers need no shared folder, and a
-worker that dies mid-match is retried without its match ever being counted twice.
+Dask cluster (`referee.contest.remote`). A job carries everything a match needs as data (the
+level's text, each team's code as bytes, the seed and noise key); a worker returns the result
+and the replay's bytes, and only the client writes files and the journal -- so Dask workers
+need no shared folder, and a worker that dies mid-match is retried without its match ever
+being counted twice.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
 from types import FrameType
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from arena.heap import lasting
 from referee.contest.shipping import arrived
@@ -32,6 +33,7 @@ from referee.version import __version__
 
 if TYPE_CHECKING:
     from arena.level import Level
+    from referee.contest.cluster import Cluster
 
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 LEVELS_KEPT = 8  # levels a worker keeps parsed: a grading run plays each level's matches in turn
@@ -58,7 +60,9 @@ class MatchJob:
 @dataclass(frozen=True)
 class Played:
     """A finished match: its canonical result JSON, the replay's bytes, the wall time it took,
-    and why its controllers ran without a kernel sandbox ("" when they ran in one)."""
+    and why its controllers may have run without a kernel sandbox ("" when they ran in one):
+    this machine's own reason, or on a cluster the organizer's `--unsandboxed`, never a
+    worker's word."""
 
     result: str
     replay: bytes
@@ -123,6 +127,17 @@ def play(job: MatchJob) -> Played:
     return Played(dumps(result), data, time.perf_counter() - start, unsandboxed)
 
 
+def serve(job: MatchJob) -> dict[str, Any]:
+    """`play` as a Dask worker runs it: only plain data goes back (msgpack's strings, bytes and
+    floats; the client unpickles nothing a worker sends), and an error is a one-line reason
+    rather than an exception, whose pickle the client would load."""
+    try:
+        played = play(job)
+    except Exception as e:
+        return {"error": " ".join(str(e).split())[:1000] or type(e).__name__}
+    return {"result": played.result, "replay": played.replay, "wall": played.wall}
+
+
 def file_part(text: str) -> str:
     """`text` (a level's or team's name) as part of a file name: letters, digits, `-`, `_` and
     `.` kept, anything else (`/`, a control character, a space) as `_`, no leading dot."""
@@ -154,12 +169,14 @@ def replay_folder(db: Path) -> Path:
 
 
 def run_jobs(
-    todo: list[tuple[K, MatchJob]], workers: int = 1, scheduler: str | None = None
+    todo: list[tuple[K, MatchJob]], workers: int = 1, cluster: Cluster | None = None
 ) -> Generator[tuple[K, Played]]:
     """Play every (key, job), yielding (key, played) as each finishes. Close the generator to
-    stop: a local pool's workers end at once, and so do their matches."""
-    if scheduler:
-        return _on_dask(todo, scheduler)
+    stop: a local pool's workers end at once, and so do their matches; a cluster's courier too."""
+    if cluster is not None:
+        from referee.contest.remote import on_cluster
+
+        return on_cluster(todo, cluster)
     if workers <= 1:
         return ((key, play(job)) for key, job in todo)
     return _on_pool(todo, workers)
@@ -185,6 +202,17 @@ def _worker_stop(signum: int, frame: FrameType | None) -> None:
     os._exit(143)
 
 
+def die_with_parent(parent: int) -> None:
+    """Have the kernel send this process SIGTERM when its parent (pid `parent`) dies, however
+    it dies (SIGKILL too); leave at once if it has died already. Linux only (elsewhere nothing)."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+        if os.getppid() != parent:  # the parent died before the line above: follow it now
+            os._exit(143)
+
+
 def _worker_init(parent: int) -> None:
     """In each pool worker: die with the grading process, however it ends (even SIGKILL).
     The kernel sends SIGTERM when the parent goes; SIGTERM ends the match cleanly (its
@@ -193,12 +221,7 @@ def _worker_init(parent: int) -> None:
     Then import what its matches need, once, out of the collector's way (arena.heap)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_stop)
-    if sys.platform.startswith("linux"):
-        libc = ctypes.CDLL(None, use_errno=True)
-        if libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0) != 0:
-            raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
-        if os.getppid() != parent:  # the parent died before the line above: follow it now
-            os._exit(143)
+    die_with_parent(parent)
     with lasting():
         import referee.match.loop  # noqa: F401
 
@@ -221,36 +244,6 @@ def _on_pool(todo: list[tuple[K, MatchJob]], workers: int) -> Generator[tuple[K,
     pool.shutdown(wait=True)
 
 
-SCHEDULER_TIMEOUT = "10s"  # a scheduler that does not answer by then is a bad --scheduler
-RETRIES = 2  # a match whose worker died is run again on another, this many times at most
-
-
 def worker_version() -> str:
     """The LaserArena version installed where this runs (asked of every Dask worker)."""
     return __version__
-
-
-def _on_dask(todo: list[tuple[K, MatchJob]], scheduler: str) -> Generator[tuple[K, Played]]:
-    try:
-        from dask.distributed import Client
-        from dask.distributed import as_completed as dask_completed
-    except ImportError:
-        raise UserError("--scheduler needs Dask: pip install 'laserarena[dask]'") from None
-    try:
-        client = Client(scheduler, timeout=SCHEDULER_TIMEOUT)
-    except (OSError, TimeoutError, ValueError) as e:
-        raise UserError(
-            f"--scheduler {scheduler}: cannot reach the Dask scheduler ({' '.join(str(e).split()) or type(e).__name__})"
-        ) from None
-    with client:
-        versions = client.run(worker_version)
-        other = {addr: v for addr, v in versions.items() if v != __version__}
-        if other:
-            addr, v = sorted(other.items())[0]
-            raise VersionMismatch(
-                f"--scheduler {scheduler}: worker {addr} runs laserarena {v}, this client {__version__}; "
-                f"install the same version on every worker"
-            )
-        futures = {client.submit(play, job, pure=False, retries=RETRIES): key for key, job in todo}
-        for f in dask_completed(futures):
-            yield futures[f], f.result()

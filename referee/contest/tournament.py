@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from arena.level import Level
+from referee.contest.audit import AuditFailed
+from referee.contest.cluster import Cluster
 from referee.contest.journal import Journal
 from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
@@ -118,16 +120,18 @@ def play_heats(
     levels: list[tuple[Level, Path]],
     journal: Journal,
     workers: int = 1,
-    scheduler: str | None = None,
+    cluster: Cluster | None = None,
     quiet: bool = False,
     teams: Sequence[Team] = (),
     unsandboxed: bool = False,
 ) -> int:
-    """Run every heat not yet in `journal` (replays in the journal's folder/replays); return
-    how many ran now. Workers return each heat's result and replay; only this process writes.
-    `teams`: the heats' teams as resolved when they were planned (any other is resolved here,
-    once, and checked against the hash its heats were planned with); `unsandboxed`: the
-    organizer allows heats without a kernel sandbox (the journal then records it)."""
+    """Run every heat not yet in `journal` (replays in the journal's folder/replays), on
+    `workers` local processes or on `cluster`; return how many ran now. Workers return each
+    heat's result and replay; only this process writes. `teams`: the heats' teams as resolved
+    when they were planned (any other is resolved here, once, and checked against the hash its
+    heats were planned with); `unsandboxed`: the organizer allows heats without a kernel
+    sandbox (the journal then records it, as it records an insecure cluster). A worker that
+    fails its audit: its heats of this run are removed again, and AuditFailed goes on up."""
     replay_dir = replay_folder(journal.path)
     done = journal.heats_done()
     todo = [h for h in heats if h.key() not in done]
@@ -164,7 +168,9 @@ def play_heats(
         for k, h in by_key.items()
     ]
     progress = Progress(len(heats), "heat", quiet, already=len(heats) - len(todo))
-    results = run_jobs(jobs, workers, scheduler)
+    if cluster is not None and cluster.insecure:
+        journal.note_insecure_cluster(cluster.address)
+    results = run_jobs(jobs, workers, cluster)
     try:  # the command line turns SIGTERM into KeyboardInterrupt, as Ctrl-C
         for key, played in results:
             heat = by_key[key]
@@ -173,6 +179,11 @@ def play_heats(
                 journal.note_unsandboxed(played.unsandboxed)
             journal.record_heat(heat.level, key, played.result, str(replay), played.wall)
             progress.tick(f"heat {heat.number} {heat.level} seed {heat.seed}")
+    except AuditFailed as failed:
+        journal.forget(failed.discard, heats=True)
+        for key in failed.discard:
+            (replay_dir / by_key[key].replay_name()).unlink(missing_ok=True)
+        raise
     finally:
         progress.close()
         results.close()  # a pool's workers end here, even on an interrupt

@@ -11,6 +11,7 @@ of this software's result version (of another version, `Replay.result` is None).
 from __future__ import annotations
 
 import gzip
+import io
 import os
 import zlib
 from collections.abc import Iterator
@@ -66,13 +67,14 @@ class _Trial(msgspec.Struct):
     n: Annotated[int, msgspec.Meta(ge=1)]
 
 
-def lines(path: str | Path) -> Iterator[bytes]:
+def lines(path: str | Path, data: bytes | None = None) -> Iterator[bytes]:
     """Stream a replay's decompressed lines; ReplayError (a ValueError, one line) on a file or
     a decompressed whole over MAX_REPLAY bytes, a line over MAX_RECORD, or damaged gzip. No more
-    than a line is held at a time, whatever the file holds."""
-    if os.stat(path).st_size > MAX_REPLAY:
+    than a line is held at a time, whatever the file holds. With `data` (a replay's bytes held
+    in memory, as a worker sent them), those are read, and `path` only names them."""
+    if (os.stat(path).st_size if data is None else len(data)) > MAX_REPLAY:
         raise ReplayError(f"{path}: a file over {MAX_REPLAY} bytes, more than a replay may be")
-    with gzip.open(path, "rb") as f:
+    with gzip.open(path if data is None else io.BytesIO(data), "rb") as f:
         n = total = 0
         while True:
             try:
@@ -90,10 +92,10 @@ def lines(path: str | Path) -> Iterator[bytes]:
             yield line
 
 
-def records(path: str | Path) -> Iterator[dict[str, Any]]:
+def records(path: str | Path, data: bytes | None = None) -> Iterator[dict[str, Any]]:
     """Stream a replay's records (dicts), header first; ReplayError (a ValueError, one line) as
     `lines` gives it, or on a record that is not JSON, nested too deeply or not an object."""
-    for n, line in enumerate(lines(path), 1):
+    for n, line in enumerate(lines(path, data), 1):
         try:
             rec = msgspec.json.decode(line)
         except msgspec.DecodeError as e:
@@ -105,12 +107,12 @@ def records(path: str | Path) -> Iterator[dict[str, Any]]:
         yield rec
 
 
-def _measure(path: str | Path) -> None:
+def _measure(path: str | Path, data: bytes | None = None) -> None:
     """Read `path` through once, a line at a time: ReplayError as `lines` gives it (the first
     line's as 'not a LaserArena replay')."""
     read = 0
     try:
-        for _line in lines(path):
+        for _line in lines(path, data):
             read += 1
     except ReplayError as e:
         if read:
@@ -142,14 +144,15 @@ def _result(rec: dict[str, Any], path: str | Path) -> MatchResult | None:
         raise ReplayError(f"{path}: a damaged result record ({e})") from None
 
 
-def load(path: str | Path, keep: bool = True) -> Replay:
+def load(path: str | Path, keep: bool = True, data: bytes | None = None) -> Replay:
     """Read a whole replay (ReplayError, one line, if it is not one or is damaged). Its size is
     checked first, a line at a time, so a replay over MAX_REPLAY is refused before anything is
     kept. `keep=False` checks every record but keeps only the header, the last frame and the
-    result: what `verify` and the web page need, in the memory of one record."""
+    result: what `verify` and the web page need, in the memory of one record. `data`: read
+    these bytes, named `path` (as `lines`)."""
     if keep:
-        _measure(path)
-    it = records(path)
+        _measure(path, data)
+    it = records(path, data)
     try:
         header = next(it)
     except StopIteration:
