@@ -1,7 +1,8 @@
 """Many matches: grading teams x levels x seeds and its leaderboard (`grade`), tournaments of
 teams racing in heats with their ratings and report (`tournament`, `schedule`, `ratings`,
-`report`), all into one resumable journal (`journal`), played as self-contained jobs on this
-process, a local pool or a Dask cluster (`runner`, `shipping`), their noise drawn from a
+`report`), all into one resumable journal (`journal`), played as self-contained jobs
+(`runner`, `shipping`) on this process, a local pool or a Dask cluster (`dispatch` says
+which), their noise drawn from a
 run's secret (`noise_secret`, judged by `secret_strength`).
 
 A Dask cluster is named and checked by `cluster` (TLS with the organizer's keys from

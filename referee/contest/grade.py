@@ -21,9 +21,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from referee.contest.audit import AuditFailed
+from referee.contest.dispatch import run_jobs
 from referee.contest.journal import Journal
 from referee.contest.noise_secret import noise_key, secret_id
-from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
+from referee.contest.runner import MatchJob, file_part, replay_folder, write_replay
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
 from referee.terminal import Progress, csv_text, markdown_text, safe

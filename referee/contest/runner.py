@@ -33,7 +33,6 @@ from referee.version import __version__
 
 if TYPE_CHECKING:
     from arena.level import Level
-    from referee.contest.cluster import Cluster
 
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 LEVELS_KEPT = 8  # levels a worker keeps parsed: a grading run plays each level's matches in turn
@@ -168,20 +167,6 @@ def replay_folder(db: Path) -> Path:
     return folder
 
 
-def run_jobs(
-    todo: list[tuple[K, MatchJob]], workers: int = 1, cluster: Cluster | None = None
-) -> Generator[tuple[K, Played]]:
-    """Play every (key, job), yielding (key, played) as each finishes. Close the generator to
-    stop: a local pool's workers end at once, and so do their matches; a cluster's courier too."""
-    if cluster is not None:
-        from referee.contest.remote import on_cluster
-
-        return on_cluster(todo, cluster)
-    if workers <= 1:
-        return ((key, play(job)) for key, job in todo)
-    return _on_pool(todo, workers)
-
-
 PR_SET_PDEATHSIG = 1
 _playing = False  # a pool worker is inside a match
 _stopping = False  # told to stop: whatever the match's clean-up raises, the worker leaves
@@ -226,7 +211,7 @@ def _worker_init(parent: int) -> None:
         import referee.match.loop  # noqa: F401
 
 
-def _on_pool(todo: list[tuple[K, MatchJob]], workers: int) -> Generator[tuple[K, Played]]:
+def on_pool(todo: list[tuple[K, MatchJob]], workers: int) -> Generator[tuple[K, Played]]:
     # spawn, never fork: a forked worker would inherit the parent's state
     pool = ProcessPoolExecutor(
         max_workers=workers, mp_context=get_context("spawn"), initializer=_worker_init, initargs=(os.getpid(),)

@@ -19,10 +19,11 @@ from pathlib import Path
 from arena.level import Level
 from referee.contest.audit import AuditFailed
 from referee.contest.cluster import Cluster
+from referee.contest.dispatch import run_jobs
 from referee.contest.journal import Journal
 from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
-from referee.contest.runner import MatchJob, file_part, replay_folder, run_jobs, write_replay
+from referee.contest.runner import MatchJob, file_part, replay_folder, write_replay
 from referee.contest.schedule import schedule
 from referee.errors import UserError
 from referee.sandbox.teams import Team, resolve
