@@ -15,7 +15,6 @@ processor, docs/cluster.md).
 from __future__ import annotations
 
 import secrets
-import time
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
@@ -54,8 +53,6 @@ class Audit(Generic[K]):
         self.share = share
         self.here = here
         self.workers: dict[str, _Worker[K]] = {}
-        self.audited = 0
-        self.seconds = 0.0  # the organizer's machine's time spent re-simulating (wall)
 
     def take(self, worker: str, key: K, job: MatchJob, played: Played) -> list[tuple[K, Played]]:
         """A checked result from `worker`: the results that may be kept now (this one, and
@@ -89,10 +86,7 @@ class Audit(Generic[K]):
         return out
 
     def _audit(self, worker: str, w: _Worker[K], key: K, job: MatchJob, played: Played) -> None:
-        start = time.perf_counter()
         ours = self.here(job)
-        self.audited += 1
-        self.seconds += time.perf_counter() - start
         differs = [
             name
             for name, a, b in (("result", ours.result, played.result), ("replay", ours.replay, played.replay))

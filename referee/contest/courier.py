@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -23,6 +24,8 @@ from referee.contest.runner import die_with_parent, serve, worker_version
 from referee.version import __version__
 
 SCHEDULER_TIMEOUT = "10s"  # a scheduler that does not answer by then is a bad --scheduler
+POLL = 2.0  # seconds between looks at the scheduler's records while no match comes back
+NO_WORKERS = 120.0  # seconds a cluster may go without a worker before the run gives up on it
 
 
 def _one_line(e: BaseException) -> str:
@@ -32,7 +35,7 @@ def _one_line(e: BaseException) -> str:
 def reports(order: Order) -> Iterator[Report]:
     """Play the order's jobs on its cluster, a report for each as it comes back; a `Failed`
     report (and nothing more) when the cluster cannot be used."""
-    from dask.distributed import Client, as_completed
+    from dask.distributed import Client, wait
     from distributed.security import Security
 
     keys = order.keys
@@ -61,21 +64,49 @@ def reports(order: Order) -> Iterator[Report]:
             )
             return
         futures = {client.submit(serve, job, pure=False): i for i, job in enumerate(order.jobs)}
-        for future in as_completed(futures):
-            index = futures.pop(future)
-            if future.status != "finished":  # its exception stays unread: the client loaded it here, if at all
-                worker = client.run_on_scheduler(erred_on, future.key)
-                yield Refused(index, worker if isinstance(worker, str) else "", "the match's task failed on its worker")
-                continue
-            worker = ",".join(sorted(client.who_has([future]).get(future.key, ())))  # the scheduler's word
+        alone = time.monotonic()  # since when the cluster has had no worker (or now)
+        while futures:
             try:
-                reply = future.result()
-            except Exception as e:  # a reply in pickle: refused by the msgpack-only client
-                yield Refused(index, worker, f"its reply was not plain data ({_one_line(e)[:200]})")
+                done = wait(list(futures), timeout=POLL, return_when="FIRST_COMPLETED").done
+            except TimeoutError:
+                done = set()
+            for future in done:
+                yield _came_back(client, future, futures.pop(future))
+            if done:
                 continue
-            finally:
+            # the scheduler's word on the rest: a task that erred ends here, though this client
+            # never completes its future (it does not load the worker's exception)
+            states = client.run_on_scheduler(task_states, [f.key for f in futures])
+            for future in [f for f in futures if isinstance(states, dict) and states.get(f.key) == "erred"]:
+                worker = client.run_on_scheduler(erred_on, future.key)
+                yield Refused(futures.pop(future), str(worker), "the match's task failed on its worker")
                 future.release()
-            yield _report(index, worker, reply)
+            if client.scheduler_info().get("workers"):
+                alone = time.monotonic()
+            elif time.monotonic() - alone > NO_WORKERS:
+                yield Failed(f"--scheduler {order.address}: no worker in the cluster for {NO_WORKERS:g} s")
+                return
+
+
+def _came_back(client: Any, future: Any, index: int) -> Report:
+    """The report of a match whose future has completed."""
+    if future.status != "finished":  # its exception stays unread: the client loaded it here, if at all
+        worker = client.run_on_scheduler(erred_on, future.key)
+        return Refused(index, worker if isinstance(worker, str) else "", "the match's task failed on its worker")
+    worker = ",".join(sorted(client.who_has([future]).get(future.key, ())))  # the scheduler's word
+    try:
+        reply = future.result()
+    except Exception as e:  # a reply in pickle: refused by the msgpack-only client
+        return Refused(index, worker, f"its reply was not plain data ({_one_line(e)[:200]})")
+    finally:
+        future.release()
+    return _report(index, worker, reply)
+
+
+def task_states(keys: list[str], dask_scheduler: Any = None) -> dict[str, str]:
+    """Run on the scheduler: the state of each task of `keys` it knows, by its records."""
+    tasks = dask_scheduler.tasks if dask_scheduler is not None else {}
+    return {key: tasks[key].state for key in keys if key in tasks}
 
 
 def erred_on(key: str, dask_scheduler: Any = None) -> str:
