@@ -6,8 +6,8 @@ can neither run code in the organizer's process nor get a bad or forged result j
 
 import contextlib
 import json
-import pwd
 import os
+import pwd
 import re
 import shutil
 import signal
