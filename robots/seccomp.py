@@ -17,8 +17,12 @@ and that reach past its slot's bounds are denied.
 - setsid and setpgid (EPERM): a slot's processes stay in its one session, so where the kernel
   shares CPU between sessions (autogroups) rather than control groups, no number of children
   weighs more than one slot;
-- sockets of any family but AF_UNIX (EAFNOSUPPORT): a slot has no network, and socket buffers
-  over its loopback are memory a control group may not count.
+- sockets and socket pairs of any family but AF_UNIX (EAFNOSUPPORT): a slot has no network,
+  and socket buffers over its loopback are memory a control group may not count;
+- sched_setaffinity (EPERM): a lone controller shares its referee's CPU, and its children may
+  not move to the other referees' CPUs;
+- fcntl F_SETPIPE_SZ (EPERM): its input pipe keeps its size, so an observation always fits
+  when the controller has read the last.
 
 Every call made through another architecture's numbering (a 32-bit entry into the kernel,
 x32), which the filter cannot read, fails with ENOSYS. The template installs the filter in each
@@ -36,8 +40,6 @@ import os
 import platform
 import struct
 from collections.abc import Callable
-
-CLONE_NEW = 0x7E020000  # CLONE_NEWNS | NEWCGROUP | NEWUTS | NEWIPC | NEWUSER | NEWPID | NEWNET
 
 # the calls' numbers per architecture (x86-64, then arm64's generic table)
 CALLS = {
@@ -67,11 +69,27 @@ CALLS = {
     "userfaultfd": (323, 282),
     "setsid": (112, 157),
     "setpgid": (109, 154),
-    "clone": (56, 220),  # the last two are judged by their first argument
+    "sched_setaffinity": (203, 122),
+    "clone": (56, 220),  # the rest are judged by an argument (ARGUMENT_CHECKED)
     "socket": (41, 198),
+    "socketpair": (53, 199),
+    "fcntl": (72, 25),
 }
-ARGUMENT_CHECKED = ("clone", "socket")
-AF_UNIX = 1
+AF_UNIX, F_SETPIPE_SZ = 1, 1031
+ARG_LOW = (16, 24)  # offsets of the low 32 bits of seccomp_data.args[0] and args[1] (little-endian)
+# call: (its argument, how it is judged, the value, the error when denied); `set`: denied when
+# any of the value's bits is set; `equal`: denied when equal; `other`: denied unless equal
+ARGUMENT_CHECKED = {
+    "clone": (
+        0,
+        "set",
+        0x7E020000,
+        errno.EPERM,
+    ),  # CLONE_NEWNS | NEWCGROUP | NEWUTS | NEWIPC | NEWUSER | NEWPID | NEWNET
+    "socket": (0, "other", AF_UNIX, errno.EAFNOSUPPORT),
+    "socketpair": (0, "other", AF_UNIX, errno.EAFNOSUPPORT),
+    "fcntl": (1, "equal", F_SETPIPE_SZ, errno.EPERM),
+}
 ERRORS = {
     **dict.fromkeys(("add_key", "request_key", "keyctl", "io_uring_setup", "io_uring_enter"), errno.ENOSYS),
     **dict.fromkeys(("io_uring_register", "clone3"), errno.ENOSYS),
@@ -81,7 +99,6 @@ ARCHES = {"x86_64": (0xC000003E, 0), "aarch64": (0xC00000B7, 1)}  # AUDIT_ARCH_*
 PR_SET_SECCOMP, SECCOMP_MODE_FILTER, SECCOMP_RET_ALLOW, SECCOMP_RET_ERRNO = 22, 2, 0x7FFF0000, 0x00050000
 BPF_LD_ABS_W, BPF_JEQ, BPF_JGE, BPF_JSET, BPF_RET = 0x20, 0x15, 0x35, 0x45, 0x06
 X32_SYSCALL_BIT = 0x40000000
-ARG0_LOW = 16  # offset of the low 32 bits of seccomp_data.args[0] (little-endian: both arches)
 INSTRUCTION = struct.Struct("=HBBI")  # struct sock_filter: code, jt, jf, k
 
 
@@ -99,11 +116,10 @@ def program() -> bytes | None:
         return None
     arch, column = known
     denied = {name: numbers[column] for name, numbers in CALLS.items() if name not in ARGUMENT_CHECKED}
-    clone, socket = (CALLS[name][column] for name in ARGUMENT_CHECKED)
-    # layout: arch check, x32 check, one (JEQ, RET) pair per denied call, the clone check (JEQ,
-    # load flags, JSET, RET EPERM), the socket check (JEQ, load family, JEQ, RET EAFNOSUPPORT),
-    # allow, and the foreign-numbering RET at the end
-    foreign = 4 + 2 * len(denied) + 4 + 4 + 1  # the index of the last RET
+    # layout: arch check, x32 check, one (JEQ, RET) pair per denied call, five instructions per
+    # call judged by an argument (JEQ, load it, judge, RET error, RET allow), allow, and the
+    # foreign-numbering RET at the end
+    foreign = 4 + 2 * len(denied) + 5 * len(ARGUMENT_CHECKED) + 1  # the index of the last RET
     ops = [
         (BPF_LD_ABS_W, 0, 0, 4),  # seccomp_data.arch
         (BPF_JEQ, 0, foreign - 2, arch),
@@ -112,18 +128,16 @@ def program() -> bytes | None:
     ]
     for name, nr in denied.items():  # this call: its error; else skip that RET
         ops += [(BPF_JEQ, 0, 1, nr), _ret(ERRORS.get(name, errno.EPERM))]
-    ops += [
-        (BPF_JEQ, 0, 3, clone),  # not clone: on to the socket check
-        (BPF_LD_ABS_W, 0, 0, ARG0_LOW),  # clone's flags
-        (BPF_JSET, 0, 5, CLONE_NEW),  # no namespace asked: allow
-        _ret(errno.EPERM),
-        (BPF_JEQ, 0, 3, socket),  # not socket: allow
-        (BPF_LD_ABS_W, 0, 0, ARG0_LOW),  # its family
-        (BPF_JEQ, 1, 0, AF_UNIX),
-        _ret(errno.EAFNOSUPPORT),
-        _ret(None),
-        _ret(errno.ENOSYS),
-    ]
+    for name, (arg, how, value, error) in ARGUMENT_CHECKED.items():
+        judge = {"set": (BPF_JSET, 0, 1), "equal": (BPF_JEQ, 0, 1), "other": (BPF_JEQ, 1, 0)}[how]
+        ops += [
+            (BPF_JEQ, 0, 4, CALLS[name][column]),  # another call: on to the next check
+            (BPF_LD_ABS_W, 0, 0, ARG_LOW[arg]),
+            (judge[0], judge[1], judge[2], value),  # true: to the error (jt 0), false: allowed
+            _ret(error),
+            _ret(None),
+        ]
+    ops += [_ret(None), _ret(errno.ENOSYS)]
     assert len(ops) == foreign + 1
     return b"".join(INSTRUCTION.pack(*op) for op in ops)
 

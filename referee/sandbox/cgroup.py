@@ -45,6 +45,7 @@ V2_PARENT = "laserarena"  # at the root of the unified hierarchy
 NEEDED, OPTIONAL = ("memory", "pids"), ("cpu",)
 KIND = "cgroups"  # the runs' leases
 REMOVE_TIME = 2.0  # seconds a slot's group may take to empty once its processes are killed
+GRACE = 60.0  # seconds a new group is left alone by other referees' sweeps (it may be being made)
 SLOT_WEIGHT = {1: 1024, 2: 100}  # cpu.shares (v1), cpu.weight (v2): the kernel's defaults
 REFEREE_WEIGHT = 8  # the referee's group weighs this many slots
 # the kernel's weight of each nice value -20..19 (sched_prio_to_weight), for cpu.shares (v1)
@@ -59,13 +60,14 @@ NICE_WEIGHTS = (
 @dataclass(frozen=True)
 class Place:
     """Where groups are made: a folder per hierarchy (one for v2), the cgroup version, and
-    whether the cpu controller is among them."""
+    whether the cpu controller is among them; each folder's hierarchy (its mount point, and
+    its controller for v1, None for the unified one)."""
 
     folders: tuple[Path, ...]
     version: int
     cpu: bool
     cpu_folder: Path | None = None  # where runs are made in the hierarchy that has cpu
-    cpu_mount: Path | None = None  # that hierarchy's mount point
+    mounts: tuple[tuple[Path, str | None], ...] = ()
 
 
 def _mounts() -> list[tuple[str, str, set[str]]]:
@@ -123,12 +125,12 @@ def _v2(mounts: list[tuple[str, str, set[str]]]) -> Place | None:
             except OSError:
                 wanted = NEEDED
             cpu = "cpu" in wanted
-            return Place((parent,), 2, cpu, parent if cpu else None, root if cpu else None)
+            return Place((parent,), 2, cpu, parent if cpu else None, ((root, None),))
     return None
 
 
 def _v1(mounts: list[tuple[str, str, set[str]]]) -> Place | str:
-    folders, cpu, cpu_mount = [], None, None
+    folders, cpu, hierarchies = [], None, []
     for controller in NEEDED + OPTIONAL:
         point = next((p for p, t, options in mounts if t == "cgroup" and controller in options), None)
         own = _own(controller)
@@ -138,9 +140,9 @@ def _v1(mounts: list[tuple[str, str, set[str]]]) -> Place | str:
             return f"no cgroup hierarchy with the {controller} controller is mounted"
         folder = Path(point + _base(own).rstrip("/"))
         folders.append(folder)
-        if controller == "cpu":
-            cpu, cpu_mount = folder, Path(point)
-    return Place(tuple(folders), 1, cpu is not None, cpu, cpu_mount)
+        hierarchies.append((Path(point), controller))
+        cpu = folder if controller == "cpu" else cpu
+    return Place(tuple(folders), 1, cpu is not None, cpu, tuple(hierarchies))
 
 
 def _place() -> Place | str:
@@ -162,9 +164,20 @@ def _remove_tree(group: Path) -> None:
         pass
 
 
+def _alive(group: Path) -> bool:
+    """Whether a process is in `group` or below it."""
+    return any(procs.read_text().strip() for procs in group.rglob("cgroup.procs"))
+
+
 def _sweep(place: Place) -> None:
-    """Remove the groups of runs that no live referee holds (a killed one's), and empty groups
-    of older referees. Nothing here may fail a run."""
+    """Remove the groups of runs that no live referee holds (a killed one's) and empty groups
+    of older referees (named by their pid). A group with a process in it is left (a live
+    referee is in its own), and
+    so is a run held by a lease this referee can see. Where it cannot tell (no lease: a
+    referee with a /run of its own, a container's, holds it where this one cannot see), a run
+    made or changed in the last GRACE seconds is left too: it may be being set up. Nothing here
+    may fail a run."""
+    holders: dict[str, bool | None] = {}  # each run's lease, asked once (asking a free one gives it up)
     for folder in place.folders:
         try:
             groups = [p for p in folder.glob(f"{PREFIX}*") if p.is_dir()]
@@ -172,8 +185,17 @@ def _sweep(place: Place) -> None:
             continue
         for group in groups:
             try:
-                if not RUN_NAME.fullmatch(group.name) or not leases.held(KIND, group.name):
-                    _remove_tree(group)
+                if RUN_NAME.fullmatch(group.name):
+                    if group.name not in holders:
+                        holders[group.name] = leases.held(KIND, group.name)
+                    holder = holders[group.name]
+                else:  # an older referee's, named by its pid
+                    holder = False
+                if holder or _alive(group):
+                    continue
+                if holder is None and time.time() - group.stat().st_mtime < GRACE:
+                    continue
+                _remove_tree(group)
             except OSError:
                 continue
 
@@ -209,8 +231,10 @@ def _settle(settings: dict[str, object], folders: list[str]) -> None:
 
 
 class Run:
-    """This referee process's group in each hierarchy: its slots' groups go below it, and, where
-    there is a cpu controller, this process itself into its `referee` group."""
+    """This referee process's group in each hierarchy: its slots' groups go below it, and this
+    process itself into its `referee` group, in every hierarchy (a run with a live referee in
+    it is never taken for a killed one's, `_sweep`); in the cpu hierarchy that group weighs
+    REFEREE_WEIGHT slots."""
 
     def __init__(self, place: Place):
         self.place, self.pid = place, os.getpid()
@@ -220,7 +244,7 @@ class Run:
         if lease is None:
             raise OSError(f"the control group name {self.name} is held")
         self.lease, self.folders = lease, list[str]()
-        self.home: str | None = None  # the group this process left for the run's `referee` group
+        self.homes = list[str]()  # the groups this process left for the run's `referee` groups
         try:
             for folder in place.folders:
                 os.mkdir(f"{folder}/{self.name}")
@@ -229,30 +253,35 @@ class Run:
                 _enable(Path(self.folders[0]), NEEDED + (OPTIONAL if place.cpu else ()))
             if place.cpu:
                 self._weigh()
+            self._enter()
         except OSError:
             self.close()
             raise
 
     def _weigh(self) -> None:
-        """The run weighs as the organizer's nice says; the referee moves into a group of its
-        own that weighs REFEREE_WEIGHT slots (where it cannot move, it stays where it was)."""
+        """The run weighs as the organizer's nice says, its `referee` group REFEREE_WEIGHT slots."""
         nice = max(-20, min(19, os.getpriority(os.PRIO_PROCESS, 0)))
         cpu = f"{self.place.cpu_folder}/{self.name}"
-        if self.place.version == 2:
-            _settle({"cpu.weight.nice": nice}, [cpu])
-        else:
-            _settle({"cpu.shares": NICE_WEIGHTS[nice + 20]}, [cpu])
-        referee = f"{cpu}/referee"
-        os.mkdir(referee)
-        key = "cpu.weight" if self.place.version == 2 else "cpu.shares"
-        _settle({key: SLOT_WEIGHT[self.place.version] * REFEREE_WEIGHT}, [referee])
-        own = _own(None if self.place.version == 2 else "cpu")
-        home = f"{self.place.cpu_mount}{(own or '/').rstrip('/')}"
-        try:
-            _write(f"{referee}/cgroup.procs", str(os.getpid()))
-            self.home = home
-        except OSError:
-            pass  # the referee weighs as before; its slots still weigh one each
+        v2 = self.place.version == 2
+        _settle({"cpu.weight.nice": nice} if v2 else {"cpu.shares": NICE_WEIGHTS[nice + 20]}, [cpu])
+        os.mkdir(f"{cpu}/referee")
+        _settle(
+            {"cpu.weight" if v2 else "cpu.shares": SLOT_WEIGHT[self.place.version] * REFEREE_WEIGHT}, [f"{cpu}/referee"]
+        )
+
+    def _enter(self) -> None:
+        """Move this process into the run's `referee` group in each hierarchy (where the kernel
+        refuses, it stays where it was: its slots still weigh one each)."""
+        for folder, (mount, controller) in zip(self.folders, self.place.mounts):
+            referee = f"{folder}/referee"
+            if not os.path.isdir(referee):
+                os.mkdir(referee)
+            home = f"{mount}{(_own(controller) or '/').rstrip('/')}"
+            try:
+                _write(f"{referee}/cgroup.procs", str(os.getpid()))
+            except OSError:
+                continue
+            self.homes.append(home)
 
     def group(self) -> list[str]:
         """A new slot group's folder in each hierarchy (made)."""
@@ -273,9 +302,9 @@ class Run:
         for the next referee's sweep) and give the name up."""
         if os.getpid() != self.pid or self.lease.fd < 0:
             return
-        if self.home is not None:
+        for home in self.homes:
             try:
-                _write(f"{self.home}/cgroup.procs", str(os.getpid()))
+                _write(f"{home}/cgroup.procs", str(os.getpid()))
             except OSError:
                 pass
         for folder in self.folders:

@@ -78,6 +78,19 @@ class Channel:
             return Trouble.CRASH
         return None
 
+    def write_now(self, data: bytes | bytearray | memoryview) -> memoryview | Trouble:
+        """Write what the controller's input takes now of `data`, without waiting: the rest
+        (empty once all is written), or `crash` (its input is closed: it ended)."""
+        view = memoryview(data)
+        try:
+            while view:
+                view = view[os.write(self.stdin.fileno(), view) :]
+        except BlockingIOError:
+            pass
+        except OSError:
+            return Trouble.CRASH
+        return view if view else memoryview(b"")  # done: nothing holds the caller's buffer
+
     def whole(self) -> bool:
         """Whether the next frame can be judged now: it has been read whole, or its header
         alone says it is over the bound."""

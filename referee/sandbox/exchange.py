@@ -23,9 +23,11 @@ def exchange(
 ) -> list[Command | Fault | None]:
     """Every bot's answer to its observation (None where it has none), as `step` gives it. All
     observations go out before any answer is awaited, so controller processes compute at the
-    same time, while this process does `meanwhile` (work of its own that needs no answer).
-    Each answer is timed from its own sending to its own arrival; one that arrived while the
-    referee was busy with `meanwhile`, to when that work began."""
+    same time, while this process does `meanwhile` (work of its own that needs no answer); an
+    observation a controller's input does not take at once is written as it does, while the
+    others' answers are gathered. Each answer is timed from its own sending to its own
+    arrival; one that arrived while the referee was busy with `meanwhile`, to when that work
+    began."""
     out: list[Command | Fault | None] = [None] * len(bots)
     waiting: dict[int, ProcessBot] = {}
     for slot, (bot, obs) in enumerate(zip(bots, observations)):
@@ -95,12 +97,17 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
     while waiting:
         busy = None  # when the referee began decoding answers in this round
         for slot, bot in list(waiting.items()):
-            if bot.channel.whole():
+            if bot.channel.whole() and bot.unsent:  # an answer to an observation it has not read
+                bot.channel.problem = "it answers without reading its observations"
+                replies[slot] = (Trouble.PROTOCOL, time.monotonic() - bot.sent)
+                del waiting[slot], readers[bot.channel.fileno()]
+            elif bot.channel.whole():
                 busy = time.monotonic() if busy is None else busy
                 replies[slot] = _judged(bot)
                 del waiting[slot], readers[bot.channel.fileno()]
         if not waiting:
             break
+        writers = {bot.channel.stdin.fileno(): slot for slot, bot in waiting.items() if bot.unsent}
         ready: list[int] = select.select(list(readers), [], [], 0)[0] if busy is not None else []
         if ready and busy is not None:
             stamp = busy  # it came while the referee was decoding
@@ -108,14 +115,28 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
             now = time.monotonic()
             for slot, bot in list(waiting.items()):
                 if now - bot.sent >= bot.limits.step_deadline:
-                    replies[slot] = (Trouble.TIMEOUT, now - bot.sent)
+                    if bot.unsent:  # its input still full of observations: it answers without reading them
+                        bot.channel.problem = "it does not read its observations"
+                    replies[slot] = (Trouble.PROTOCOL if bot.unsent else Trouble.TIMEOUT, now - bot.sent)
                     del waiting[slot], readers[bot.channel.fileno()]
             if not waiting:
                 break
             left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - now
-            ready = select.select(list(readers), [], [], None if left == float("inf") else max(left, 0.0))[0]
+            wait = None if left == float("inf") else max(left, 0.0)
+            writable = [fd for fd in writers if waiting.get(writers[fd]) is not None]
+            ready, can_write, _ = select.select(list(readers), writable, [], wait)
             stamp = time.monotonic()
+            for fd in can_write:
+                slot = writers[fd]
+                rest = waiting[slot].channel.write_now(waiting[slot].unsent)
+                if isinstance(rest, Trouble):  # its input closed: it ended
+                    replies[slot] = (rest, stamp - waiting[slot].sent)
+                    del readers[waiting[slot].channel.fileno()], waiting[slot]
+                else:
+                    waiting[slot].unsent = rest
         for fd in ready:
+            if readers.get(fd) is None:
+                continue
             slot = readers[fd]
             bot = waiting[slot]
             if not bot.channel.read(max(stamp, bot.sent)):

@@ -82,8 +82,13 @@ def take(kind: str, name: str) -> Lease | None:
         os.close(fd)
 
 
-def held(kind: str, name: str) -> bool:
-    """Whether a live process holds the name `name` of `kind` (taken and given up at once if not)."""
+def held(kind: str, name: str) -> bool | None:
+    """Whether a live process holds the name `name` of `kind`: True; False if its holder has
+    ended without giving it up (a killed one: its file is left; taken and given up here); None
+    if this process cannot tell (no file: given up, or held where this one cannot see, by a
+    referee with a /run of its own)."""
+    if not (folder(kind) / name).exists():
+        return None
     lease = take(kind, name)
     if lease is None:
         return True

@@ -18,6 +18,7 @@ from pathlib import Path
 from referee.sandbox.fault import TRACEBACK_BYTES
 
 JOIN_TIME = 1.0  # seconds `close` waits for the reading thread
+PAUSE = 0.02  # seconds between two reads of the pipe by the reading thread
 
 
 class TeamLog:
@@ -43,11 +44,15 @@ class TeamLog:
             self.writer = -1
 
     def _drain(self) -> None:
+        """Read the pipe as it fills, at most once every PAUSE seconds: a controller that writes a
+        byte at a time wakes this thread (and takes the referee's CPU) no more often than that;
+        the pipe holds what comes meanwhile, and `flooded` reads to its end when it judges."""
         while True:
             select.select([self._read, self._wake], [], [])
             with self._lock:
                 if self._ended or not self._take():
                     return
+            select.select([self._wake], [], [], PAUSE)
 
     def _take(self) -> bool:
         """Read everything the pipe holds now (the caller holds the lock); False at its end."""

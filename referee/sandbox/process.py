@@ -89,6 +89,7 @@ class ProcessBot:
         self.started: Launched | None = None  # the process, once launched
         self._pipes: Channel | None = None  # its stdin and stdout, once launched
         self.sent = 0.0  # when the last observation was sent (time.monotonic)
+        self.unsent = memoryview(b"")  # what its input has not taken yet of the last observation
         self.frame = bytearray()  # the step frame's buffer, reused every tick
         self.loaded = False  # the controller process has loaded the team's code
         self.team_log: TeamLog | None = None  # the team's output, read from its pipe
@@ -155,25 +156,43 @@ class ProcessBot:
         fault = self.send(obs)
         if fault:
             return fault
-        reply = self.channel.receive(self.limits.step_deadline)
+        if self.unsent:  # the rest of the observation, within the step's deadline
+            unsent = self.channel.write(self.unsent, self.sent + self.limits.step_deadline - time.monotonic())
+            self.unsent = memoryview(b"")
+            if unsent:
+                return self._unread(obs, unsent)
+        reply = self.channel.receive(self.sent + self.limits.step_deadline - time.monotonic())
         return self.judge(obs, reply, time.monotonic() - self.sent)
 
     def send(self, obs: Observation) -> Fault | None:
-        """The first half of a step: wait out a skipped tick's late answer, send `obs` and start
-        its clock (`sent`). A Fault if the controller is gone."""
+        """The first half of a step: wait out a skipped tick's late answer, start its clock
+        (`sent`) and write `obs`, as much of it as its input takes at once (the rest is
+        `unsent`, for `push`): a controller that leaves its input full waits for its own
+        observation, on its own clock, and no other controller waits for it. A Fault if the
+        controller is gone."""
         if self.allowance.pending is not None:
             fault = self._drain(obs)
             if fault:
                 return fault
-        channel = self.channel
-        unsent = channel.write(protocol.step_frame(obs, self.frame), self.limits.step_deadline)
-        if unsent is Trouble.TIMEOUT:  # its input still full of observations: it answers without reading them
-            channel.problem = "it does not read its observations"
-            return self._fault(obs.tick, obs.time, Trouble.PROTOCOL, "step")
-        if unsent:
-            return self._fault(obs.tick, obs.time, unsent, "step")
+        self.unsent = memoryview(b"")  # (a view into the frame's buffer, which is written anew)
         self.sent = time.monotonic()
+        return self.push(obs, protocol.step_frame(obs, self.frame))
+
+    def push(self, obs: Observation, data: memoryview | bytearray | None = None) -> Fault | None:
+        """Write what its input takes now of `data` (default: what is `unsent`)."""
+        rest = self.channel.write_now(self.unsent if data is None else data)
+        if isinstance(rest, Trouble):
+            self.unsent = memoryview(b"")
+            return self._fault(obs.tick, obs.time, rest, "step")
+        self.unsent = rest
         return None
+
+    def _unread(self, obs: Observation, trouble: Trouble) -> Fault:
+        """The fault of an observation its input did not take by the step's deadline."""
+        if trouble is Trouble.TIMEOUT:  # its input still full of observations: it answers without reading them
+            self.channel.problem = "it does not read its observations"
+            trouble = Trouble.PROTOCOL
+        return self._fault(obs.tick, obs.time, trouble, "step")
 
     def _drain(self, obs: Observation) -> Fault | None:
         """Wait for the late answer to a skipped tick, charging the wait to the allowance."""

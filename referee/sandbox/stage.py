@@ -10,9 +10,14 @@ holds both (nothing copied), else as copies. The sandbox binds the stage: what i
 and name is the stage's, at neutral paths (LIB_DIR, PYTHON_DIR). An interpreter under /usr
 is used where it is, since the system's /usr is bound whole.
 
+Compiled modules are not taken from the host: a `.pyc` holds the path it was compiled at.
+Each staged folder's sources are compiled afresh under the names the sandbox reads them by
+(`compileall`'s `ddir`), once, when the stage is made. A staged standard library's build
+configuration (`_sysconfigdata_*`, which names the prefix it was built for) names PYTHON_DIR.
+
 A stage is named by what it holds (each source's path and identity; every file of `robots`,
 which may be a checkout being edited): a package reinstalled or a file of `robots` changed
-makes a new one. Stages no referee holds and none has used for `KEEP_DAYS` are removed.
+makes a new one. Stages no referee holds and none has used for `KEEP_HOURS` are removed.
 """
 
 from __future__ import annotations
@@ -38,7 +43,8 @@ PYTHON_DIR = "/python"  # an interpreter that lies outside /usr, with its standa
 ALLOWED = STANDARD_VIEW  # besides `robots` (each with its wheel's `.libs` folder, where it has one)
 LIB = "lib"  # the stage's folder of what goes to LIB_DIR
 SKIPPED = ("site-packages", "dist-packages", "test")  # of a staged standard library (and its config-* folders)
-KEEP_DAYS = 7
+KEEP_HOURS = 24
+FORMAT = 2  # what a stage holds and how, in its name: 2, compiled modules of its own
 _held: dict[str, int] = {}  # each stage this process uses, and the descriptor of its shared lock
 
 
@@ -137,11 +143,21 @@ def _copy(host: str, target: Path) -> None:
     for folder, folders, files in os.walk(host):
         if stdlib and folder == host:
             folders[:] = [f for f in folders if f not in SKIPPED and not f.startswith("config-")]
+        folders[:] = [f for f in folders if f != "__pycache__"]  # compiled at the host's paths
         inside = target / os.path.relpath(folder, host)
         inside.mkdir(mode=0o755, parents=True, exist_ok=True)
         os.chmod(inside, 0o755)
         for name in files + [f for f in folders if os.path.islink(os.path.join(folder, f))]:
-            _file(os.path.join(folder, name), inside / name)
+            if stdlib and name.startswith("_sysconfigdata_"):
+                _renamed(os.path.join(folder, name), inside / name)
+            else:
+                _file(os.path.join(folder, name), inside / name)
+
+
+def _renamed(host: str, target: Path) -> None:
+    """A copy of the build configuration `host` in which the interpreter's prefix reads PYTHON_DIR."""
+    prefix = str(_interpreter()[1])
+    target.write_text(Path(host).read_text().replace(prefix, PYTHON_DIR))
 
 
 def _file(host: str, target: Path) -> None:
@@ -155,10 +171,26 @@ def _file(host: str, target: Path) -> None:
         shutil.copy2(host, target)
 
 
+def _compile(part: Path) -> None:
+    """Compile every module of the stage `part` as the sandbox names it (LIB_DIR/..., PYTHON_DIR/...):
+    no compiled module holds a folder name of the host's."""
+    import compileall
+    import warnings
+
+    places = [(part / LIB, LIB_DIR), (part / "python", PYTHON_DIR)]
+    for folder, inside in places:
+        if folder.is_dir():
+            for entry in sorted(folder.iterdir()):
+                if entry.is_dir() and not entry.is_symlink():
+                    with warnings.catch_warnings():  # a library's test data may warn as it compiles
+                        warnings.simplefilter("ignore")
+                        compileall.compile_dir(entry, ddir=f"{inside}/{entry.name}", quiet=2)
+
+
 def _sweep(folder: Path, keep: str) -> None:
-    """Remove the stages no referee holds and none has used for KEEP_DAYS (never `keep`), and
+    """Remove the stages no referee holds and none has used for KEEP_HOURS (never `keep`), and
     what a referee killed while staging left."""
-    old = time.time() - KEEP_DAYS * 86400
+    old = time.time() - KEEP_HOURS * 3600
     for entry in folder.iterdir():
         try:
             if entry.name == keep or not entry.is_dir() or entry.stat().st_mtime >= old:
@@ -195,7 +227,7 @@ def stage() -> Stage:
     """This installation's stage, made on first use and held (a shared lock) while this process
     lives. OSError if it cannot be made."""
     sources, python, env = _sources()
-    digest = hashlib.sha256(repr(sys.version).encode())
+    digest = hashlib.sha256(repr((FORMAT, sys.version)).encode())
     for host, inside in sources:
         digest.update("\0".join([inside, *_identity(host, inside == f"{LIB}/robots")]).encode())
     name, folder = digest.hexdigest()[:24], home()
@@ -213,6 +245,7 @@ def stage() -> Stage:
         try:
             for host, inside in sources:
                 _copy(host, part / inside)
+            _compile(part)
             os.chmod(part, 0o755)
             os.rename(part, target)
         except OSError:

@@ -108,3 +108,73 @@ def test_bytes_taken_back_from_the_pipe_stall_only_their_own_answer():
     for fd in (thief, theirs_r, its_output):
         os.close(fd)
     channel.close()
+
+
+STALLER = """
+import array, fcntl, struct, termios
+from robots import protocol
+
+def pipes():
+    found = {}
+    for fd in range(3, 64):
+        try:
+            mode = fcntl.fcntl(fd, fcntl.F_GETFL) & os.O_ACCMODE
+        except OSError:
+            continue
+        if os.readlink(f"/proc/self/fd/{fd}").startswith("pipe:"):
+            found.setdefault(mode, fd)
+    return found[os.O_RDONLY], found[os.O_WRONLY]
+
+def waiting(fd):
+    buf = array.array("i", [0])
+    fcntl.ioctl(fd, termios.FIONREAD, buf)
+    return buf[0]
+
+def frame(msg):
+    data = protocol._ENCODER.encode(msg)
+    return struct.pack(">I", len(data)) + data
+
+class Staller(Controller):
+    # it leaves its input unread, answering each observation the moment it lands; once the
+    # pipe is full the referee cannot write the next, and the staller empties it only just
+    # before the step's deadline: the referee waited, on the staller's clock
+    def setup(self, brief):
+        pin, pout = pipes()
+        os.write(pout, frame(protocol.Ready(v=1)))
+        try:
+            fcntl.fcntl(pin, 1031, 4096)  # F_SETPIPE_SZ: one page (refused in a sandbox)
+        except OSError:
+            pass
+        os.set_blocking(pin, False)
+        tick, seen = 0, 0
+        while True:
+            begun = time.monotonic()
+            while waiting(pin) <= seen:
+                time.sleep(0.0002)
+                if time.monotonic() - begun > 0.2:  # stuck: the referee cannot write; empty the pipe late
+                    while True:
+                        try:
+                            if not os.read(pin, 65536):
+                                os._exit(0)
+                        except BlockingIOError:
+                            break
+                    seen, begun = -1, time.monotonic() + 30
+            seen = waiting(pin)
+            os.write(pout, frame(protocol.CommandMsg(v=1, tick=tick, command=Command(0.0, 0.0))))
+            tick += 1
+
+    def step(self, obs):
+        return Command(0.0, 0.0)
+"""
+
+
+def test_an_observation_written_late_is_its_readers_time(tmp_path):
+    """The clock of an answer starts before its observation is written: a controller that lets
+    its input fill and empties it late pays the referee's wait from its own allowance (it is
+    stopped for time; or, answering an observation the referee had not finished writing, for
+    the protocol), and no other controller waits for its observation meanwhile."""
+    result = hostile_match(tmp_path, STALLER, seconds=120.0)
+    assert_others_unharmed(result)
+    (fault,) = result["robots"][0]["faults"]
+    assert fault["tick"] < 600 and result["robots"][0]["stopped"]
+    assert fault["kind"] == "timeout" or fault["message"] == "in step: it answers without reading its observations"

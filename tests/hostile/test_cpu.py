@@ -22,16 +22,20 @@ from referee.sandbox import cgroup
 from referee.sandbox.teams import resolve
 
 
-def hog(children: int) -> str:
-    """A controller whose setup starts `children` busy processes, each on every CPU (where a
-    lone controller shares one with its referee) and in a session of its own where it may (a
-    sandbox refuses setsid: they spin on in the slot's session)."""
+def hog(children: int, cpus: str = "range(os.cpu_count())") -> str:
+    """A controller whose setup starts `children` busy processes, each moved to `cpus` (every
+    CPU, by default: a lone controller shares one with its referee) and into a session of its
+    own where it may (a sandbox refuses both: they spin on where they were, in the slot's
+    session)."""
     return f"""
 class Hog(Controller):
     def setup(self, brief):
         for _ in range({children}):
             if os.fork() == 0:
-                os.sched_setaffinity(0, range(os.cpu_count()))
+                try:
+                    os.sched_setaffinity(0, {cpus})
+                except OSError:
+                    pass
                 try:
                     os.setsid()
                 except OSError:
@@ -130,11 +134,39 @@ def test_without_a_cpu_controller_a_slot_is_still_one_session(tmp_path):
     assert hogged["robots"][1:] == played(STILL)["robots"][1:]
 
 
+TRICKLE = """
+class Trickle(Controller):
+    def setup(self, brief):
+        if os.fork() == 0:  # a byte at a time to its log, over the whole match, within the log's cap
+            for _ in range(1_040_000):
+                os.write(2, b".")
+                end = time.perf_counter() + 8e-6
+                while time.perf_counter() < end:
+                    pass
+            while True:
+                time.sleep(1)
+
+    def step(self, obs):
+        return Command(0.0, 0.0)
+"""
+
+
+def test_a_log_written_a_byte_at_a_time_costs_thinking_neighbours_nothing(tmp_path):
+    # each byte would wake the referee's log reader, at the referee's weight: it reads at most
+    # every 20 ms, the pipe holding what comes meanwhile
+    honest = team_file(tmp_path, thinker("robots.controllers.dead_reckoning:DeadReckoning", 0.02), "thinker.py")
+    trickled, logs = race(tmp_path, TRICKLE, "trickle.py", honest)
+    assert (logs / "slot0.log").read_text().count(".") > 1000  # it did write
+    assert_others_unharmed(trickled)
+    calm, _ = race(tmp_path, STILL, "still.py", honest)
+    assert trickled["robots"][1:] == calm["robots"][1:]
+
+
 def graded(tmp_path: Path, neighbour: str, honest: str) -> dict:
     """`grade --workers 2` of the neighbour and the honest team on bac-line, one seed each (so
     the two matches run side by side); the honest team's result from the journal."""
     folder = tmp_path / Path(neighbour).stem
-    folder.mkdir()
+    folder.mkdir(exist_ok=True)
     proc = run_cli(
         "grade", "bac-line", "--team", neighbour, "--team", honest, "--seeds", "1", "--workers", "2",
         "--quiet", "--db", str(folder / "j.sqlite"), "--out", str(folder / "lb.csv"),
@@ -146,10 +178,16 @@ def graded(tmp_path: Path, neighbour: str, honest: str) -> dict:
     return __import__("json").loads(rows[honest])
 
 
-def test_a_hog_graded_beside_an_honest_team_costs_it_nothing(tmp_path):
-    # the honest team thinks 25 ms a tick for all of bac-line's 150 ticks: its match spans the hog's
-    honest = team_file(tmp_path, thinker("robots.controllers.idle:Idle", 0.025), "honest.py")
-    beside_hog = graded(tmp_path, team_file(tmp_path, hog(60), "hog.py"), honest)
+# the CPUs a lone controller does not share with its referee: the other worker's, in a grade
+OTHERS = "set(range(os.cpu_count())) - os.sched_getaffinity(0) or os.sched_getaffinity(0)"
+
+
+@pytest.mark.parametrize("cpus, think", [("range(os.cpu_count())", 0.025), (OTHERS, 0.035)])
+def test_a_hog_graded_beside_an_honest_team_costs_it_nothing(tmp_path, cpus, think):
+    # the honest team thinks 25 or 35 ms a tick (of its budget's 50) for all of bac-line's 150
+    # ticks, so its match spans the hog's; the hog's children go to every CPU, or to the others
+    honest = team_file(tmp_path, thinker("robots.controllers.idle:Idle", think), "honest.py")
+    beside_hog = graded(tmp_path, team_file(tmp_path, hog(60, cpus), "hog.py"), honest)
     beside_still = graded(tmp_path, team_file(tmp_path, STILL, "still.py"), honest)
     assert beside_hog["robots"][0]["faults"] == [] and beside_hog["end_reason"] == "time_limit"
     assert beside_hog == beside_still

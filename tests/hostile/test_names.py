@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from hostile.hostile_kit import slot_uids, team_file, wait_until_gone
-from referee.sandbox import cgroup, leases
+from referee.sandbox import cgroup
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="slot uids and control groups are a root referee's")
 
@@ -78,10 +78,13 @@ def test_groups_a_killed_referee_left_never_fail_the_next_run(tmp_path):
     assert wait_until_gone(uids) == []
     left = {p for f in place.folders for p in f.glob("laserarena-*") if p.name in runs}
     assert left, "a killed referee leaves its groups"
+    deadline = time.monotonic() + 30  # its last processes (its template) gone too
+    while any(procs.read_text().strip() for p in left for procs in p.rglob("cgroup.procs")):
+        assert time.monotonic() < deadline, "a killed referee's processes live on"
+        time.sleep(0.05)
     old_style = [f / f"laserarena-1-{n}" for f in place.folders for n in range(2)]  # pid-named, as older referees made
     for group in old_style:
         group.mkdir(exist_ok=True)
-    assert not any(leases.held(cgroup.KIND, name) for name in runs)
     after = subprocess.run(
         [sys.executable, "-c", NEXT], capture_output=True, text=True, timeout=300, cwd=Path(__file__).parent.parent
     )
@@ -97,3 +100,45 @@ from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 print(json.dumps(run_match(short_race(), [resolve(HONEST)] * 4, seed=2).to_dict()))
 """
+
+
+HIDDEN = """
+import json, sys
+from hostile.hostile_kit import HONEST, short_race
+from referee.match.loop import run_match
+from referee.sandbox.teams import resolve
+print(json.dumps(run_match(short_race(float(sys.argv[1])), [resolve(HONEST)] * 4, seed=2).to_dict()))
+"""
+
+
+def test_a_referee_whose_leases_are_out_of_sight_keeps_its_groups(tmp_path):
+    """A referee with a /run of its own (a container's, sharing the machine's control groups)
+    holds leases no other referee sees: referees starting meanwhile never take its live groups
+    for a killed one's (it is in its own run's groups), and its match plays to the end."""
+    place = cgroup.available()
+    assert not isinstance(place, str), place
+    before = {p.name for f in place.folders for p in f.glob("laserarena-*")}
+    hidden = f"mount -t tmpfs tmpfs /run && exec {sys.executable} -c '{HIDDEN}' 20"
+    referee = subprocess.Popen(
+        ["unshare", "--mount", "--propagation", "private", "sh", "-c", hidden],
+        cwd=Path(__file__).parent.parent, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        deadline, theirs = time.monotonic() + 60, set()
+        while not theirs and time.monotonic() < deadline and referee.poll() is None:
+            theirs = {p.name for f in place.folders for p in f.glob("laserarena-*") if (p / "slot-3").is_dir()} - before
+            time.sleep(0.05)
+        assert theirs, "the hidden referee's match never got going"
+        for _ in range(3):  # referees that start meanwhile, each sweeping what it takes for stale
+            after = subprocess.run(
+                [sys.executable, "-c", HIDDEN, "2"], capture_output=True, text=True, timeout=300,
+                cwd=Path(__file__).parent.parent,
+            )  # fmt: skip
+            assert after.returncode == 0, after.stderr
+        out, err = referee.communicate(timeout=300)
+    finally:
+        if referee.poll() is None:
+            referee.kill()
+            referee.wait(30)
+    assert referee.returncode == 0, err
+    assert all(not r["faults"] for r in json.loads(out)["robots"])

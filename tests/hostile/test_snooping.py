@@ -142,9 +142,10 @@ class Caller(Controller):
 @pytest.mark.parametrize("forked", [True, False])  # from the template, or a sandbox spawned for it
 def test_no_folder_of_the_installation_can_be_named(tmp_path, forked):
     """Whatever a controller reads of its own process (mounts, mappings, paths, environment,
-    control group), it finds no folder name of the host's installation: the interpreter's, the
-    virtual environment's, the product's or the checkout's; what it runs is staged at neutral
-    paths (docs/security.md)."""
+    control group, the build configuration) or of the modules it may import (sources and
+    compiled ones), it finds no folder name of the host's installation: the interpreter's,
+    the virtual environment's, the product's or the checkout's; what it runs is staged at
+    neutral paths (docs/security.md)."""
     import robots
 
     host = {os.path.realpath(p) for p in (sys.prefix, sys.base_prefix, sys.executable, os.getcwd())}
@@ -163,6 +164,13 @@ class Looker(Controller):
         for what in ("mountinfo", "mounts", "mountstats", "maps", "cgroup", "environ", "cmdline"):
             seen.append(open("/proc/self/" + what, "rb").read().decode(errors="replace"))
         seen += [sys.executable, sys.prefix, sys.base_prefix, json.dumps(sys.path), numpy.__file__, repr(os.environ)]
+        import sysconfig
+        seen.append(repr(sysconfig.get_config_vars()))
+        for top in ("/laserarena", "/python"):  # every module and compiled module it may read
+            for folder, _, files in os.walk(top):
+                for name in files:
+                    if name.endswith((".py", ".pyc")):
+                        seen.append(open(os.path.join(folder, name), "rb").read().decode("latin-1"))
         found = sorted({{n for n in NAMES for text in seen if n in text}})
         raise RuntimeError(("contained: " if not found else "LEAK: ") + repr(found))
 """
