@@ -11,9 +11,9 @@
   slots) weighs what the organizer's `nice` says against the rest of the machine.
 
 Layout, in each hierarchy: a group per referee process, `laserarena-<run>` (its name random,
-held by a lease while the process lives, `leases`), holding `referee` (this process, cpu) and
-one `slot-<n>` per controller. Groups whose run's lease no process holds (a killed referee's)
-are removed by the next referee, and a group that cannot be removed is left: neither fails a run.
+held by a lease while the process lives, `leases`), holding `referee` (this process) and one
+`slot-<n>` per controller. The next referee removes the groups of killed referees (`_sweep`),
+never one with a process in it; a group that cannot be removed is left: neither fails a run.
 
 Made where the referee is root and finds the controllers mounted: cgroup v2 (below a `laserarena`
 group at the root of the unified hierarchy) or cgroup v1 (below the referee's own group in the
