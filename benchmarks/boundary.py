@@ -42,9 +42,9 @@ def _median(work: Callable[[], object], runs: int) -> float:
 
 def _cpu_group() -> None:
     current = cgroup.run()
-    folder = f"{current.place.cpu_folder}/{current.name}/bench-{os.getpid()}"
+    folder = f"{current.place.cpu_folder}/{current.name}-bench"
     os.mkdir(folder)
-    cgroup._settle({"cpu.weight" if current.place.version == 2 else "cpu.shares": 100}, [folder])
+    cgroup._settle({current.cpu_key(): cgroup.weight(0, current.place.version)}, [folder])
     os.rmdir(folder)
 
 

@@ -5,19 +5,20 @@
   by no mapping: the slot's group counts them all against its `memory_mb`, and its
   out-of-memory killer then chooses within the slot, never another slot or the referee.
 - **pids**: at most so many processes and threads.
-- **cpu**: every slot weighs the same, whatever sessions, threads or children it has (a process
-  in a group of its own is in no session's autogroup); the referee's own group weighs
-  `REFEREE_WEIGHT` slots, so it keeps time; and the group of the whole run (the referee and its
-  slots) weighs what the organizer's `nice` says against the rest of the machine.
+- **cpu**: every slot weighs what one process at the organizer's `nice` weighs, whatever
+  sessions, threads or children it has (a process in a group of its own is in no session's
+  autogroup); the referee's own group weighs `REFEREE_WEIGHT` slots, so it keeps time.
 
-Layout, in each hierarchy: a group per referee process, `laserarena-<run>` (its name random,
-held by a lease while the process lives, `leases`), holding `referee` (this process) and one
-`slot-<n>` per controller. The next referee removes the groups of killed referees (`_sweep`),
-never one with a process in it; a group that cannot be removed is left: neither fails a run.
+Layout, in each hierarchy, flat (a group within a group costs the scheduler at every switch
+between the referee and a controller: about 5 % of a whole run's CPU, measured):
+`laserarena-<run>-referee`, this process, and `laserarena-<run>-slot-<n>`, one per controller.
+`<run>` is random, held by a lease while the process lives (`leases`). The next referee removes
+the groups of killed referees (`_sweep`), never those of a run with a process in its groups; a
+group that cannot be removed is left: neither fails a run.
 
-Made where the referee is root and finds the controllers mounted: cgroup v2 (below a `laserarena`
-group at the root of the unified hierarchy) or cgroup v1 (below the referee's own group in the
-`memory`, `pids` and `cpu` hierarchies); cpu is used where it is there. Elsewhere `available()`
+Made where the referee is root and finds the controllers mounted: cgroup v2 (at the root of the
+unified hierarchy) or cgroup v1 (beside the referee's own group in the `memory`, `pids` and
+`cpu` hierarchies); cpu is used where it is there. Elsewhere `available()`
 says why not, and a slot keeps the limits its runner sets (docs/security.md). A controller
 joins its groups itself, before it drops root, by writing to descriptors of the groups'
 `cgroup.procs` that the referee opened (`SlotGroup.procs`).
@@ -40,13 +41,11 @@ from referee.sandbox import leases
 from referee.sandbox.privacy import is_root
 
 PREFIX = "laserarena-"
-RUN_NAME = re.compile(r"laserarena-[0-9a-f]{12}")  # a run's group (older referees named theirs by pid)
-V2_PARENT = "laserarena"  # at the root of the unified hierarchy
+GROUP_NAME = re.compile(r"laserarena-([0-9a-f]{12})-(referee|slot-\d+)")  # older referees' named no run
 NEEDED, OPTIONAL = ("memory", "pids"), ("cpu",)
 KIND = "cgroups"  # the runs' leases
 REMOVE_TIME = 2.0  # seconds a slot's group may take to empty once its processes are killed
 GRACE = 60.0  # seconds a new group is left alone by other referees' sweeps (it may be being made)
-SLOT_WEIGHT = {1: 1024, 2: 100}  # cpu.shares (v1), cpu.weight (v2): the kernel's defaults
 REFEREE_WEIGHT = 8  # the referee's group weighs this many slots
 # the kernel's weight of each nice value -20..19 (sched_prio_to_weight), for cpu.shares (v1)
 NICE_WEIGHTS = (
@@ -66,7 +65,7 @@ class Place:
     folders: tuple[Path, ...]
     version: int
     cpu: bool
-    cpu_folder: Path | None = None  # where runs are made in the hierarchy that has cpu
+    cpu_folder: Path | None = None  # where groups are made in the hierarchy that has cpu
     mounts: tuple[tuple[Path, str | None], ...] = ()
 
 
@@ -92,12 +91,19 @@ def _own(controller: str | None) -> str | None:
 
 
 def _base(own: str) -> str:
-    """Where a referee in group `own` makes its run: there, or, for a process started from
-    within another referee's run (its `referee` group), beside that run, where every referee's
-    runs are (and are swept)."""
+    """Where a referee in group `own` makes its groups: beside it, or, for a process started
+    from within another referee's group, beside that one, where every referee's are (and are
+    swept)."""
     parts = own.rstrip("/").split("/")
-    cut = next((i for i, part in enumerate(parts) if RUN_NAME.fullmatch(part)), len(parts))
+    cut = next((i for i, part in enumerate(parts) if GROUP_NAME.fullmatch(part)), len(parts))
     return "/".join(parts[:cut]) or "/"
+
+
+def weight(nice: int, version: int, slots: int = 1) -> int:
+    """The cpu weight of `slots` processes at `nice`: cpu.shares (v1, the kernel's table) or
+    cpu.weight (v2: 100 for a nice-0 process, 1 to 10000)."""
+    shares = NICE_WEIGHTS[max(-20, min(19, nice)) + 20] * slots
+    return shares if version == 1 else max(1, min(10000, round(shares * 100 / 1024)))
 
 
 def _enable(folder: Path, controllers: tuple[str, ...]) -> None:
@@ -114,18 +120,14 @@ def _v2(mounts: list[tuple[str, str, set[str]]]) -> Place | None:
         except OSError:
             continue
         if set(NEEDED) <= enabled:
-            parent = root / V2_PARENT
-            parent.mkdir(exist_ok=True)
-            wanted = NEEDED + tuple(c for c in OPTIONAL if c in enabled)
-            for folder in (root, parent):
-                _enable(folder, NEEDED)
+            _enable(root, NEEDED)
+            cpu = "cpu" in enabled
             try:  # the cpu controller (refused where a real-time process sits in a group)
-                for folder in (root, parent):
-                    _enable(folder, wanted)
+                if cpu:
+                    _enable(root, ("cpu",))
             except OSError:
-                wanted = NEEDED
-            cpu = "cpu" in wanted
-            return Place((parent,), 2, cpu, parent if cpu else None, ((root, None),))
+                cpu = False
+            return Place((root,), 2, cpu, root if cpu else None, ((root, None),))
     return None
 
 
@@ -165,37 +167,42 @@ def _remove_tree(group: Path) -> None:
 
 
 def _alive(group: Path) -> bool:
-    """Whether a process is in `group` or below it."""
-    return any(procs.read_text().strip() for procs in group.rglob("cgroup.procs"))
+    """Whether a process is in `group`."""
+    try:
+        return bool((group / "cgroup.procs").read_text().strip())
+    except OSError:
+        return False
 
 
 def _sweep(place: Place) -> None:
-    """Remove the groups of runs that no live referee holds (a killed one's) and empty groups
-    of older referees (named by their pid). A group with a process in it is left (a live
-    referee is in its own), and
-    so is a run held by a lease this referee can see. Where it cannot tell (no lease: a
-    referee with a /run of its own, a container's, holds it where this one cannot see), a run
-    made or changed in the last GRACE seconds is left too: it may be being set up. Nothing here
-    may fail a run."""
-    holders: dict[str, bool | None] = {}  # each run's lease, asked once (asking a free one gives it up)
+    """Remove the groups of runs that no live referee holds (a killed one's), and empty groups
+    of older referees (named by their pid). The groups of a run with a process in any of them
+    are left (a live referee is in its own), and so are those of a run held by a lease this
+    referee can see. Where it cannot tell (no lease: a referee with a /run of its own, a
+    container's, holds it where this one cannot see), a run with a group made or changed in
+    the last GRACE seconds is left too: it may be being set up. Nothing here may fail a run."""
+    holders: dict[str, bool | None] = {}  # each run's lease, asked once (asking of a free one gives it up)
     for folder in place.folders:
         try:
             groups = [p for p in folder.glob(f"{PREFIX}*") if p.is_dir()]
         except OSError:
             continue
+        runs: dict[str, list[Path]] = {}
         for group in groups:
+            named = GROUP_NAME.fullmatch(group.name)
+            runs.setdefault(named.group(1) if named else group.name, []).append(group)
+        for name, members in runs.items():
             try:
-                if RUN_NAME.fullmatch(group.name):
-                    if group.name not in holders:
-                        holders[group.name] = leases.held(KIND, group.name)
-                    holder = holders[group.name]
-                else:  # an older referee's, named by its pid
-                    holder = False
-                if holder or _alive(group):
+                if any(_alive(group) for group in members):
                     continue
-                if holder is None and time.time() - group.stat().st_mtime < GRACE:
+                ours = GROUP_NAME.fullmatch(members[0].name) is not None
+                if ours and name not in holders:
+                    holders[name] = leases.held(KIND, f"{PREFIX}{name}")
+                holder = holders[name] if ours else False
+                if holder or holder is None and any(time.time() - g.stat().st_mtime < GRACE for g in members):
                     continue
-                _remove_tree(group)
+                for group in members:
+                    _remove_tree(group)
             except OSError:
                 continue
 
@@ -231,10 +238,8 @@ def _settle(settings: dict[str, object], folders: list[str]) -> None:
 
 
 class Run:
-    """This referee process's group in each hierarchy: its slots' groups go below it, and this
-    process itself into its `referee` group, in every hierarchy (a run with a live referee in
-    it is never taken for a killed one's, `_sweep`); in the cpu hierarchy that group weighs
-    REFEREE_WEIGHT slots."""
+    """This referee process's groups: its own `referee` group in each hierarchy (it moves in),
+    weighing REFEREE_WEIGHT slots in the cpu hierarchy, and its slots' groups beside it."""
 
     def __init__(self, place: Place):
         self.place, self.pid = place, os.getpid()
@@ -244,51 +249,39 @@ class Run:
         if lease is None:
             raise OSError(f"the control group name {self.name} is held")
         self.lease, self.folders = lease, list[str]()
-        self.homes = list[str]()  # the groups this process left for the run's `referee` groups
+        self.homes = list[str]()  # the groups this process left for its `referee` groups
+        self.nice = os.getpriority(os.PRIO_PROCESS, 0)  # the organizer's, carried to every group
         try:
             for folder in place.folders:
-                os.mkdir(f"{folder}/{self.name}")
-                self.folders.append(f"{folder}/{self.name}")
-            if place.version == 2:
-                _enable(Path(self.folders[0]), NEEDED + (OPTIONAL if place.cpu else ()))
+                os.mkdir(f"{folder}/{self.name}-referee")
+                self.folders.append(f"{folder}/{self.name}-referee")
             if place.cpu:
-                self._weigh()
+                _settle({self.cpu_key(): weight(self.nice, place.version, REFEREE_WEIGHT)}, self.folders)
             self._enter()
         except OSError:
             self.close()
             raise
 
-    def _weigh(self) -> None:
-        """The run weighs as the organizer's nice says, its `referee` group REFEREE_WEIGHT slots."""
-        nice = max(-20, min(19, os.getpriority(os.PRIO_PROCESS, 0)))
-        cpu = f"{self.place.cpu_folder}/{self.name}"
-        v2 = self.place.version == 2
-        _settle({"cpu.weight.nice": nice} if v2 else {"cpu.shares": NICE_WEIGHTS[nice + 20]}, [cpu])
-        os.mkdir(f"{cpu}/referee")
-        _settle(
-            {"cpu.weight" if v2 else "cpu.shares": SLOT_WEIGHT[self.place.version] * REFEREE_WEIGHT}, [f"{cpu}/referee"]
-        )
+    def cpu_key(self) -> str:
+        return "cpu.weight" if self.place.version == 2 else "cpu.shares"
 
     def _enter(self) -> None:
-        """Move this process into the run's `referee` group in each hierarchy (where the kernel
+        """Move this process into its `referee` group in each hierarchy (where the kernel
         refuses, it stays where it was: its slots still weigh one each)."""
-        for folder, (mount, controller) in zip(self.folders, self.place.mounts):
-            referee = f"{folder}/referee"
-            if not os.path.isdir(referee):
-                os.mkdir(referee)
+        for group, (mount, controller) in zip(self.folders, self.place.mounts):
             home = f"{mount}{(_own(controller) or '/').rstrip('/')}"
             try:
-                _write(f"{referee}/cgroup.procs", str(os.getpid()))
+                _write(f"{group}/cgroup.procs", str(os.getpid()))
             except OSError:
                 continue
             self.homes.append(home)
 
     def group(self) -> list[str]:
         """A new slot group's folder in each hierarchy (made)."""
-        name = f"slot-{next(self.slots)}"
+        name = f"{self.name}-slot-{next(self.slots)}"
         made = []
         try:
-            for folder in self.folders:
+            for folder in self.place.folders:
                 os.mkdir(f"{folder}/{name}")
                 made.append(f"{folder}/{name}")
         except OSError:
@@ -298,7 +291,7 @@ class Run:
         return made
 
     def close(self) -> None:
-        """Back to where this process was; remove the groups (what cannot be removed is left
+        """Back to where this process was; remove its groups (what cannot be removed is left
         for the next referee's sweep) and give the name up."""
         if os.getpid() != self.pid or self.lease.fd < 0:
             return
@@ -316,7 +309,7 @@ _runs: dict[int, Run] = {}
 
 
 def run() -> Run:
-    """This process's run group (made on first use; a forked child makes its own)."""
+    """This process's groups (made on first use; a forked child makes its own)."""
     current = _runs.get(os.getpid())
     if current is None:
         place = available()
@@ -351,14 +344,14 @@ def available() -> Place | str:
 
 
 class SlotGroup:
-    """One slot's group in each hierarchy of this process's run: at most `memory` bytes (no
+    """One slot's group in each hierarchy, beside this process's: at most `memory` bytes (no
     swap; TCP buffers too where cgroup v1 counts them apart; 0: no bound), `pids` processes and
-    threads, and one slot's weight of CPU. Its folders are plain strings: made and removed for
+    threads, and the CPU weight of one process at the organizer's nice. Its folders are plain strings: made and removed for
     every controller, where pathlib's objects cost more than the system calls."""
 
     def __init__(self, memory: int, pids: int):
         current = run()
-        self.place = current.place
+        self.place, self.nice = current.place, current.nice
         self.folders = current.group()
         try:
             self._limit(memory, pids)
@@ -381,7 +374,7 @@ class SlotGroup:
             }
         )
         if self.place.cpu:
-            settings["cpu.weight" if v2 else "cpu.shares"] = SLOT_WEIGHT[self.place.version]
+            settings["cpu.weight" if v2 else "cpu.shares"] = weight(self.nice, self.place.version)
         _settle(settings, self.folders)
 
     def procs(self) -> list[int]:

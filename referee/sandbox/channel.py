@@ -45,6 +45,7 @@ class Channel:
         os.set_blocking(stdin.fileno(), False)  # once: `write` never blocks beyond its deadline
         os.set_blocking(stdout.fileno(), False)  # and `read` never blocks at all
         self.buf = bytearray()
+        self.bound = protocol.answer_bound()  # the most bytes an answer may have
         self.arrived: float | None = None  # when the whole of the next frame had been read (`read`'s stamp)
         self.problem = ""  # what was wrong with the last malformed frame (a ProtocolError's text)
 
@@ -94,10 +95,11 @@ class Channel:
     def whole(self) -> bool:
         """Whether the next frame can be judged now: it has been read whole, or its header
         alone says it is over the bound."""
-        if len(self.buf) < HEAD.size:
+        buf = self.buf
+        if len(buf) < HEAD.size:
             return False
-        (size,) = HEAD.unpack_from(self.buf)
-        return size > protocol.answer_bound() or len(self.buf) >= HEAD.size + size
+        (size,) = HEAD.unpack_from(buf)
+        return size > self.bound or len(buf) >= HEAD.size + size
 
     def message(self) -> protocol.Message | Trouble | None:
         """The next whole message already read, decoded (`protocol`/`bad_command` for a malformed
@@ -105,8 +107,10 @@ class Channel:
         if not self.whole():
             return None
         (size,) = HEAD.unpack_from(self.buf)
-        if size > protocol.answer_bound():
-            self.problem = f"a frame of {size} bytes is over the {protocol.answer_bound()}-byte bound of an answer (docs/protocol.md)"
+        if size > self.bound:
+            self.problem = (
+                f"a frame of {size} bytes is over the {self.bound}-byte bound of an answer (docs/protocol.md)"
+            )
             return Trouble.PROTOCOL
         frame = memoryview(self.buf)[HEAD.size : HEAD.size + size]
         try:

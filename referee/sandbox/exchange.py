@@ -94,20 +94,27 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
     (no deadline is judged before what came meanwhile is read)."""
     replies: dict[int, Reply] = {}
     readers = _channels(waiting)  # a bot's entry leaves with it
+    fresh = list(waiting)  # the bots that may have an answer whole: all at first, then those just read
     while waiting:
         busy = None  # when the referee began decoding answers in this round
-        for slot, bot in list(waiting.items()):
-            if bot.channel.whole() and bot.unsent:  # an answer to an observation it has not read
+        for slot in fresh:
+            bot = waiting.get(slot)
+            if bot is None or not bot.channel.whole():
+                continue
+            if bot.unsent:  # an answer to an observation it has not read
                 bot.channel.problem = "it answers without reading its observations"
                 replies[slot] = (Trouble.PROTOCOL, time.monotonic() - bot.sent)
-                del waiting[slot], readers[bot.channel.fileno()]
-            elif bot.channel.whole():
+            else:
                 busy = time.monotonic() if busy is None else busy
                 replies[slot] = _judged(bot)
-                del waiting[slot], readers[bot.channel.fileno()]
+            del waiting[slot], readers[bot.channel.fileno()]
         if not waiting:
             break
-        writers = {bot.channel.stdin.fileno(): slot for slot, bot in waiting.items() if bot.unsent}
+        writers = (
+            {bot.channel.stdin.fileno(): slot for slot, bot in waiting.items() if bot.unsent}
+            if any(bot.unsent for bot in waiting.values())
+            else {}
+        )
         ready: list[int] = select.select(list(readers), [], [], 0)[0] if busy is not None else []
         if ready and busy is not None:
             stamp = busy  # it came while the referee was decoding
@@ -134,6 +141,7 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
                     del readers[waiting[slot].channel.fileno()], waiting[slot]
                 else:
                     waiting[slot].unsent = rest
+        fresh = []
         for fd in ready:
             if readers.get(fd) is None:
                 continue
@@ -142,4 +150,6 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
             if not bot.channel.read(max(stamp, bot.sent)):
                 replies[slot] = (Trouble.CRASH, time.monotonic() - bot.sent)
                 del waiting[slot], readers[fd]
+            else:
+                fresh.append(slot)
     return replies

@@ -225,7 +225,7 @@ def start() -> None:
         return
     current = getattr(_local, "server", None)
     if current is None or _local.pid != os.getpid() or not current.alive():
-        cgroup.available()  # the referee in its run's group first: the template and its forks are its work
+        cgroup.available()  # the referee in its own group first: the template and its forks are its work
         with steady():  # started and recorded for `_close_all`, or a Ctrl-C would orphan it
             _local.server, _local.pid = ForkServer(), os.getpid()
             _all.append(_local.server)

@@ -200,16 +200,15 @@ def _cpu_group(pid: int) -> Path:
     for line in Path(f"/proc/{pid}/cgroup").read_text().splitlines():
         number, names, path = line.split(":", 2)
         if place.version == 1 and "cpu" in names.split(",") or place.version == 2 and number == "0":
-            mount = place.cpu_folder if place.version == 1 else place.folders[0].parent
-            assert mount is not None
+            mount = dict((controller, m) for m, controller in place.mounts)["cpu" if place.version == 1 else None]
             return Path(f"{mount}{path}")
     raise AssertionError(f"{pid} is in no cpu group")
 
 
-def test_the_organizers_nice_is_the_weight_of_the_whole_run(tmp_path):
-    """Under `nice -n 19`, the controllers weigh against the rest of the machine what a nice-19
+def test_the_organizers_nice_is_the_weight_of_every_slot(tmp_path):
+    """Under `nice -n 19`, each slot weighs against the rest of the machine what one nice-19
     process weighs (the kernel's weight table: 15 against a nice-0 process's 1024), whatever
-    session they are in; inside the run, each slot weighs one slot, the referee eight."""
+    sessions it starts, and the referee's own group eight times that."""
     place = cgroup.available()
     if isinstance(place, str) or not place.cpu:
         pytest.fail(f"needs a cpu control group: {place}")
@@ -228,19 +227,17 @@ def test_the_organizers_nice_is_the_weight_of_the_whole_run(tmp_path):
             ]  # fmt: skip
             time.sleep(0.1)
         assert len(controllers) >= 3, "the match never got going"
-        weights = set()
-        for pid in controllers:
-            slot = _cpu_group(pid)
-            run = slot.parent
-            if place.version == 1:
-                weights.add((_read(slot / "cpu.shares"), _read(run / "cpu.shares"), _read(run / "referee/cpu.shares")))
-            else:
-                weights.add(
-                    (_read(slot / "cpu.weight"), _read(run / "cpu.weight.nice"), _read(run / "referee/cpu.weight"))
-                )
-            assert os.getpriority(os.PRIO_PROCESS, pid) == 19
-        assert weights == ({(1024, 15, 8192)} if place.version == 1 else {(100, 19, 800)})
-        assert _cpu_group(referee.pid) == run / "referee"
+        key = "cpu.shares" if place.version == 1 else "cpu.weight"
+        slots = {_cpu_group(pid) for pid in controllers}
+        own = _cpu_group(referee.pid)
+        assert own.name.endswith("-referee")
+        assert all(
+            s.parent == own.parent and s.name.startswith(own.name.removesuffix("referee") + "slot-") for s in slots
+        )
+        # v1: the kernel's weights themselves; v2: cpu.weight scaled from them (100 for nice 0)
+        assert {_read(s / key) for s in slots} == {15 if place.version == 1 else 1}
+        assert _read(own / key) == (120 if place.version == 1 else 12)
+        assert all(os.getpriority(os.PRIO_PROCESS, pid) == 19 for pid in controllers)
     finally:
         referee.kill()
         referee.wait(10)

@@ -69,14 +69,14 @@ def test_groups_a_killed_referee_left_never_fail_the_next_run(tmp_path):
         deadline, uids, runs = time.monotonic() + 60, set(), set()
         while len(runs) < 1 and time.monotonic() < deadline:
             uids |= slot_uids(referee.pid)
-            runs = {p.name for f in place.folders for p in f.glob("laserarena-*") if (p / "slot-3").is_dir()}
+            runs = {p.name.removesuffix("-slot-3") for f in place.folders for p in f.glob("laserarena-*-slot-3")}
             time.sleep(0.1)
         assert runs, "the match never got going"
     finally:
         referee.send_signal(signal.SIGKILL)
         referee.wait(30)
     assert wait_until_gone(uids) == []
-    left = {p for f in place.folders for p in f.glob("laserarena-*") if p.name in runs}
+    left = {p for f in place.folders for run in runs for p in f.glob(f"{run}-*")}
     assert left, "a killed referee leaves its groups"
     deadline = time.monotonic() + 30  # its last processes (its template) gone too
     while any(procs.read_text().strip() for p in left for procs in p.rglob("cgroup.procs")):
@@ -117,7 +117,7 @@ def test_a_referee_whose_leases_are_out_of_sight_keeps_its_groups(tmp_path):
     for a killed one's (it is in its own run's groups), and its match plays to the end."""
     place = cgroup.available()
     assert not isinstance(place, str), place
-    before = {p.name for f in place.folders for p in f.glob("laserarena-*")}
+    before = {p.name for f in place.folders for p in f.glob("laserarena-*-slot-3")}
     hidden = f"mount -t tmpfs tmpfs /run && exec {sys.executable} -c '{HIDDEN}' 20"
     referee = subprocess.Popen(
         ["unshare", "--mount", "--propagation", "private", "sh", "-c", hidden],
@@ -126,7 +126,7 @@ def test_a_referee_whose_leases_are_out_of_sight_keeps_its_groups(tmp_path):
     try:
         deadline, theirs = time.monotonic() + 60, set()
         while not theirs and time.monotonic() < deadline and referee.poll() is None:
-            theirs = {p.name for f in place.folders for p in f.glob("laserarena-*") if (p / "slot-3").is_dir()} - before
+            theirs = {p.name for f in place.folders for p in f.glob("laserarena-*-slot-3")} - before
             time.sleep(0.05)
         assert theirs, "the hidden referee's match never got going"
         for _ in range(3):  # referees that start meanwhile, each sweeping what it takes for stale
