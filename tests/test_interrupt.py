@@ -440,3 +440,46 @@ def test_an_interrupt_as_the_template_starts_leaves_nothing_running():
     while os.path.exists(f"/proc/{pid}") and time.monotonic() < deadline:
         time.sleep(0.05)
     assert not os.path.exists(f"/proc/{pid}")
+
+
+WORKER_STOP_LOST = """
+import os, signal, sys, time, weakref
+from referee.contest import runner
+
+runner.STOP_GRACE = 1.0
+runner._playing = True
+signal.signal(signal.SIGTERM, runner._worker_stop)
+sys.unraisablehook = runner._dropped
+
+
+class Held:
+    pass
+
+
+def playing(seconds):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        time.sleep(0.01)
+
+
+held = Held()
+weakref.finalize(held, os.kill, os.getpid(), signal.SIGTERM)  # the handler runs in the callback, whose
+try:  # exception Python prints and drops
+    del held
+    playing(0.5)  # the match plays on
+except runner._Stopped:
+    if sys.argv[1] == "dropped":
+        sys.exit(0)  # taken again once out of the callback
+    playing(30)  # a clean-up that hangs
+sys.exit(2)
+"""
+
+
+@pytest.mark.parametrize("case, code", [("dropped", 0), ("hanging", 143)])
+def test_a_grading_workers_stop_is_never_lost(case, code):
+    """A stop raised where Python drops it (a weakref callback) is taken again a moment later;
+    a worker whose clean-up hangs leaves STOP_GRACE after its stop. Else a worker whose parent
+    has gone would play on, then wait for work for ever."""
+    out = subprocess.run([sys.executable, "-c", WORKER_STOP_LOST, case], capture_output=True, text=True, timeout=60)
+    assert "_Stopped" not in out.stderr  # no traceback of the dropped stop
+    assert out.returncode == code, out.stderr

@@ -217,7 +217,8 @@ def test_a_killed_tournament_resumes_to_the_same_standings(contest):
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and any(alive(p, s) for p, s in below.items()):
         time.sleep(0.05)
-    assert not [p for p, s in below.items() if alive(p, s)]  # its workers and their controllers ended
+    left = {p: cmdline(p) for p, s in below.items() if alive(p, s)}
+    assert not left  # its workers and their controllers ended
     with sqlite3.connect(db) as c:
         before = dict(c.execute("SELECT seed, graded_at FROM heats"))
     assert 1 <= len(before) < 8

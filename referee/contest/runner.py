@@ -14,6 +14,7 @@ import os
 import signal
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Generator, Hashable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -116,12 +117,11 @@ def play(job: MatchJob) -> Played:
         try:
             _playing = True
             result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
-        except BaseException:
-            if _stopping:  # the match has stopped its controllers on the way out (a clean-up cut
-                os._exit(143)  # short may raise something else); leave now, not back into the
-            raise  # pool's loop, which would wait for work for ever
         finally:
             _playing = False
+            if _stopping:  # the match has stopped its controllers on the way out (a clean-up cut
+                os._exit(143)  # short may raise something else); leave now, not back into the
+                # pool's loop, which would wait for work for ever (so too if the stop was lost)
         data = replay.read_bytes()
     return Played(dumps(result), data, time.perf_counter() - start, unsandboxed)
 
@@ -168,6 +168,9 @@ def replay_folder(db: Path) -> Path:
 
 
 PR_SET_PDEATHSIG = 1
+STOP_GRACE = (
+    10.0  # seconds a stopped pool worker's match has to end its controllers before the worker leaves regardless
+)
 _playing = False  # a pool worker is inside a match
 _stopping = False  # told to stop: whatever the match's clean-up raises, the worker leaves
 
@@ -182,9 +185,22 @@ def _worker_stop(signum: int, frame: FrameType | None) -> None:
         if fragile(frame):  # raised here, the stop would be lost (numba loading a match's kernels)
             take_again(signum)
             return
-        _stopping = True
+        if not _stopping:  # a clean-up that hangs must not keep the worker: it leaves in STOP_GRACE
+            _stopping = True
+            leave = threading.Timer(STOP_GRACE, os._exit, (143,))
+            leave.daemon = True
+            leave.start()
         raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
     os._exit(143)
+
+
+def _dropped(hook: sys.UnraisableHookArgs) -> None:
+    """A stop that Python dropped (raised in a weakref callback or a finalizer, where it is
+    printed and forgotten) is taken again a moment later; any other goes to Python's hook."""
+    if hook.exc_type is _Stopped:
+        take_again(signal.SIGTERM)
+        return
+    sys.__unraisablehook__(hook)
 
 
 def die_with_parent(parent: int) -> None:
@@ -206,6 +222,7 @@ def _worker_init(parent: int) -> None:
     Then import what its matches need, once, out of the collector's way (arena.heap)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _worker_stop)
+    sys.unraisablehook = _dropped
     die_with_parent(parent)
     with lasting():
         import referee.match.loop  # noqa: F401
