@@ -213,17 +213,19 @@ class Journal:
             raise UserError(f"{self.path}: a damaged heat result ({safe(key[0])} seed {key[2]})") from None
 
 
-def _read_only(path: Path) -> sqlite3.Connection:
-    """The journal at `path` opened for reading only (a run may be writing it meanwhile)."""
+def _existing(path: Path) -> sqlite3.Connection:
+    """The journal at `path`, opened to be read (a run may be writing it meanwhile) but never
+    made: writable where the file is, so that SQLite can undo a commit a kill cut short (a hot
+    `-journal` beside it), which a read-only connection cannot read past."""
     if not path.is_file():
         raise UserError(f"{path}: no such journal")
-    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=BUSY_SECONDS)
+    return sqlite3.connect(f"{path.resolve().as_uri()}?mode=rw", uri=True, timeout=BUSY_SECONDS)
 
 
 def stored_secret(path: Path) -> str:
     """The noise secret the journal at `path` made for itself (what its runs without
     --secret-file drew their noise from); UserError if it holds none."""
-    with closing(_read_only(path)) as db:
+    with closing(_existing(path)) as db:
         try:
             row = db.execute("SELECT value FROM meta WHERE key='secret'").fetchone()
         except sqlite3.DatabaseError as e:
@@ -237,7 +239,7 @@ def backup(path: Path, out: Path) -> tuple[int, int]:
     """Copy the journal at `path` into the new file `out` with SQLite's online backup, which
     copies a consistent state even while a run commits to it; return the copy's finished
     matches and heats. `out` is made 0600 (it holds the secret) and never replaces a file."""
-    with closing(_read_only(path)) as db:
+    with closing(_existing(path)) as db:
         try:
             fd = os.open(out, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
         except FileExistsError:
