@@ -15,6 +15,7 @@ import sys
 from collections.abc import Generator, Hashable
 from typing import TypeVar
 
+from referee.contest import courier_box
 from referee.contest.audit import Audit, AuditFailed
 from referee.contest.cluster import Cluster
 from referee.contest.courier_link import Failed, Order, Refused, Report, receive_report, send
@@ -68,22 +69,22 @@ def on_cluster(todo: list[tuple[K, MatchJob]], cluster: Cluster) -> Generator[tu
 
 def _courier() -> subprocess.Popen[bytes]:
     """Start the courier: this interpreter, in a session of its own, from `/`, as `nobody`
-    when this process is root (it can then read no organizer file)."""
+    when this process is root (it can then read no organizer file; `courier_box` says how it
+    reaches the installation)."""
     user = drop_to()
     env = dict(os.environ)
-    switch: dict = {}
+    argv = [sys.executable, "-P", "-m", "referee.contest.courier"]
     if user is not None:
-        switch = {"user": user.pw_uid, "group": user.pw_gid, "extra_groups": []}
-        env["HOME"] = user.pw_dir
+        argv = courier_box.command(argv[1:], user.pw_uid, user.pw_gid)
+        env["HOME"] = "/"
     return subprocess.Popen(
-        [sys.executable, "-P", "-m", "referee.contest.courier"],
+        argv,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         cwd="/",
         env=env,
         start_new_session=True,  # a Ctrl-C is the organizer's to handle; it stops the courier
-        **switch,
     )
 
 
