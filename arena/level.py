@@ -243,6 +243,8 @@ class Task:
     radius: float = 0.0
     goal: Pose | None = None
     trials: Trials = Trials()
+    settle: float = 0.0  # goto: seconds a robot stands, wheels still, within `radius` to arrive
+    accuracy: float = 0.0  # goto: the arrival's scale, the seed's accuracy: points halve a stop this far off the goal
 
 
 @dataclass(frozen=True)
