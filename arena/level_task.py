@@ -12,7 +12,7 @@ from arena.level_geometry import inside, pose
 TASK_KINDS = ("waypoints", "goto", "localize", "race")
 TASK_KEYS = ("kind", "radius", "path", "goal", "trials", "settle", "accuracy")
 SETTLE = 1.0  # s a goto robot stands to arrive, where its level does not say
-TRIALS_KEYS = ("count", "positions", "region", "headings")
+TRIALS_KEYS = ("count", "positions", "region", "headings", "heading_spread")
 
 
 def task(m: yr.Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
@@ -79,4 +79,7 @@ def _trials(m: yr.Map, fld: Field) -> Trials:
                 node.line, m.key("headings"), f"expected a list of headings (deg), got {yr.kind(node.value)}"
             )
         headings = tuple(math.radians(yr.number(ctx, n, f"{m.key('headings')}[{i}]")) for i, n in enumerate(node.value))
-    return Trials(count=count, positions=positions, region=region, headings=headings)
+    if m.has("heading_spread") and m.has("headings"):
+        raise ctx.fail(m.raw("heading_spread").line, m.key("heading_spread"), "give headings or a heading_spread, not both")
+    spread = m.opt("heading_spread", yr.half_turn, None)
+    return Trials(count=count, positions=positions, region=region, headings=headings, heading_spread=spread)
