@@ -201,14 +201,16 @@ class Trials:
     """A localize task's trials: the match is cut into `count` equal spans, and at the start of
     each span after the first the referee moves the robot to a new secret pose, as the seeds'
     experimenters carried theirs (docs/rules.md). Each trial's nominal pose is a point of
-    `positions` (in a shuffled order) or of `region` (uniformly), with one of `headings` (rad;
-    empty: any heading); the robot's placement then sets it down around it. The first trial
-    is the robot's start."""
+    `positions` (in a shuffled order) or of `region` (uniformly), with one of `headings` (rad),
+    or a heading within `heading_spread` (rad) either way of the robot's nominal start heading
+    (uniformly), or any heading; the robot's placement then sets it down around it. The first
+    trial is the robot's start."""
 
     count: int = 1
     positions: tuple[tuple[float, float], ...] = ()
     region: tuple[float, float, float, float] | None = None
     headings: tuple[float, ...] = ()
+    heading_spread: float | None = None
 
 
 @dataclass(frozen=True)
@@ -243,6 +245,8 @@ class Task:
     radius: float = 0.0
     goal: Pose | None = None
     trials: Trials = Trials()
+    settle: float = 0.0  # goto: seconds a robot stands, wheels still, within `radius` to arrive
+    accuracy: float = 0.0  # goto: the arrival's scale, the seed's accuracy: points halve a stop this far off the goal
 
 
 @dataclass(frozen=True)

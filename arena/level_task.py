@@ -10,8 +10,9 @@ from arena.level import Field, Pose, Task, Trials
 from arena.level_geometry import inside, pose
 
 TASK_KINDS = ("waypoints", "goto", "localize", "race")
-TASK_KEYS = ("kind", "radius", "path", "goal", "trials")
-TRIALS_KEYS = ("count", "positions", "region", "headings")
+TASK_KEYS = ("kind", "radius", "path", "goal", "trials", "settle", "accuracy")
+SETTLE = 1.0  # s a goto robot stands to arrive, where its level does not say
+TRIALS_KEYS = ("count", "positions", "region", "headings", "heading_spread")
 
 
 def task(m: yr.Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
@@ -34,7 +35,11 @@ def task(m: yr.Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
             else Pose(*yr.point(ctx, g, m.key("goal")), math.nan)
         )
         inside(ctx, fld, (goal.x, goal.y), g.line, m.key("goal"), "goal")
-    for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",))):
+    settle, accuracy = 0.0, 0.0
+    if kind == "goto":
+        settle = m.opt("settle", yr.positive, SETTLE)
+        accuracy = m.opt("accuracy", yr.length, radius)
+    for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",)), ("settle", ("goto",)), ("accuracy", ("goto",))):
         if m.has(key) and kind not in allowed:
             raise ctx.fail(m.raw(key).line, m.key(key), f"not used by a {kind} task")
     if kind == "localize" and m.has("radius"):
@@ -46,7 +51,7 @@ def task(m: yr.Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
         if kind != "localize":
             raise ctx.fail(m.raw("trials").line, m.key("trials"), f"not used by a {kind} task (only by localize)")
         trials = _trials(m.sub("trials", TRIALS_KEYS), fld)
-    return Task(kind=kind, radius=radius, goal=goal, trials=trials), path
+    return Task(kind=kind, radius=radius, goal=goal, trials=trials, settle=settle, accuracy=accuracy), path
 
 
 def _trials(m: yr.Map, fld: Field) -> Trials:
@@ -74,4 +79,7 @@ def _trials(m: yr.Map, fld: Field) -> Trials:
                 node.line, m.key("headings"), f"expected a list of headings (deg), got {yr.kind(node.value)}"
             )
         headings = tuple(math.radians(yr.number(ctx, n, f"{m.key('headings')}[{i}]")) for i, n in enumerate(node.value))
-    return Trials(count=count, positions=positions, region=region, headings=headings)
+    if m.has("heading_spread") and m.has("headings"):
+        raise ctx.fail(m.raw("heading_spread").line, m.key("heading_spread"), "give headings or a heading_spread, not both")
+    spread = m.opt("heading_spread", yr.half_turn, None)
+    return Trials(count=count, positions=positions, region=region, headings=headings, heading_spread=spread)

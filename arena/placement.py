@@ -19,7 +19,7 @@ import numpy as np
 
 from arena.angles import wrap
 from arena.floor import Grid
-from arena.level import Level, Placement, Pose
+from arena.level import Level, Placement, Pose, Trials
 from arena.level_checks import body_problem, footprint
 from arena.rng import RandomTree
 
@@ -79,7 +79,8 @@ def trial_poses(
     """Every trial's true pose of every robot: `poses[trial][slot]`. The first trial is the
     start (`first`); each later trial's nominal pose is one of the task's trial positions, taken
     in a shuffled order (shuffled again each time all have been used), or a point of its
-    region, with one of its headings (any heading when it lists none), laid out on the `tiles`
+    region, with one of its headings, or one within its heading spread of the robot's nominal
+    start heading (any heading when it gives neither), laid out on the `tiles`
     grid from the robot's start if there is one, and the robot is set down around it by its
     placement."""
     trials = level.task.trials
@@ -94,7 +95,7 @@ def trial_poses(
             bodies = [footprint(level.robots[k].model, p) for k, p in enumerate(poses)]
             pose = first[r.slot]  # if no draw fits (a level whose trial positions leave no room)
             for _ in range(ATTEMPTS):
-                nominal = _trial_nominal(trials.positions, trials.region, trials.headings, rng, orders[r.slot])
+                nominal = _trial_nominal(trials, r.start.heading, rng, orders[r.slot])
                 if tiles is not None:
                     nominal = tiles.place(first[r.slot], nominal)
                 drawn = nominal if r.placement.exact else draw(nominal, r.placement, rng)
@@ -106,24 +107,21 @@ def trial_poses(
     return tuple(out)
 
 
-def _trial_nominal(
-    positions: tuple[tuple[float, float], ...],
-    region: tuple[float, float, float, float] | None,
-    headings: tuple[float, ...],
-    rng: np.random.Generator,
-    order: list[int],
-) -> Pose:
+def _trial_nominal(trials: Trials, start_heading: float, rng: np.random.Generator, order: list[int]) -> Pose:
     """A trial's nominal pose (three draws and, each time the positions run out, a shuffle)."""
     u = rng.random(3).tolist()
-    if region is not None:
-        x0, y0, x1, y1 = region
+    if trials.region is not None:
+        x0, y0, x1, y1 = trials.region
         x, y = x0 + u[0] * (x1 - x0), y0 + u[1] * (y1 - y0)
     else:
         if not order:
-            order.extend(rng.permutation(len(positions)).tolist())
-        x, y = positions[order.pop()]
+            order.extend(rng.permutation(len(trials.positions)).tolist())
+        x, y = trials.positions[order.pop()]
+    headings = trials.headings
     if headings:
         heading = headings[min(int(u[2] * len(headings)), len(headings) - 1)]  # not u[1]: a region's y
+    elif trials.heading_spread is not None:
+        heading = wrap(start_heading + trials.heading_spread * (2 * u[2] - 1))
     else:
         heading = math.pi * (2 * u[2] - 1)
     return Pose(x, y, heading)

@@ -16,6 +16,7 @@ benchmarks/quoted.py's markers (tests/test_docs_figures.py holds them to it). Ex
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import math
 import statistics
@@ -56,11 +57,29 @@ ROOT = Path(__file__).resolve().parent.parent
 Scale = tuple[tuple[str, float], ...]  # (dotted key in the level's data, factor): a parameter scaled
 
 
+# What a seed's experiment adds to its contest level: the floor tiles Simi's experimenter
+# carried the cart by (the contest draws its trials from a region, docs/levels.md)
+EXPERIMENT_FLOORS: dict[str, dict[str, Any]] = {
+    "simi": {
+        "tiles": {
+            # "the floor tiles are not perfectly 12 inches apart and they are not perfectly perpendicular
+            # to each other": Appendix F's differences fit a grid whose pitches are off by -0.13 and
+            # 0.00 % and whose lines are turned -0.20 and -0.07 deg
+            "origin": [57.46535, -58.11582],  # the start's tile value: "the initial optical solution position"
+            "spacing_error": 0.0015,  # each axis's pitch off by up to 0.15 % (0.018 in a tile), drawn per match
+            "angle_error": 0.2,  # deg: each set of lines turned by up to this, drawn per match
+        }
+    }
+}
+
+
 def level_data(name: str, scale: Scale = ()) -> dict[str, Any]:
-    """A built-in level's parsed data, each parameter of `scale` multiplied by its factor (a
-    robot's drive error the level leaves at its model's default, `robots.0.drive.gain_sd`, is
-    scaled from that default)."""
+    """A built-in level's parsed data with what its seed's experiment adds to its floor
+    (EXPERIMENT_FLOORS), each parameter of `scale` multiplied by its factor (a robot's drive error the
+    level leaves at its model's default, `robots.0.drive.gain_sd`, is scaled from that default)."""
     data = yaml.safe_load(levels.path(name).read_text())
+    if name in EXPERIMENT_FLOORS:
+        data.setdefault("floor", {}).update(copy.deepcopy(EXPERIMENT_FLOORS[name]))
     for key, factor in scale:
         *parents, last = key.split(".")
         node = data

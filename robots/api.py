@@ -58,13 +58,18 @@ class TaskInfo:
     """What this robot must do: `kind` is waypoints | goto | localize | race;
     `path` the waypoints in order, `goal` an (x, y) target, `radius` how close counts;
     `trials` how many trials a localize match holds (the referee moves the robot to a new
-    secret pose at the start of each after the first: `Observation.trial` says which)."""
+    secret pose at the start of each after the first: `Observation.trial` says which).
+    A goto robot arrives by standing, its wheels still, for `settle` seconds within `radius`
+    of the goal; the arrival is worth 1 / (1 + d / `accuracy`) of the task's points for a
+    stop d from the goal (docs/rules.md)."""
 
     kind: Name
     radius: Real
     path: Annotated[tuple[Point, ...], Meta(max_length=1 << 16)] = ()
     goal: Point | None = None
     trials: Annotated[int, Meta(ge=1, le=1 << 40)] = 1
+    settle: Real = 0.0
+    accuracy: Real = 0.0
 
 
 @dataclass(frozen=True)

@@ -269,3 +269,62 @@ def random_trajectory(g, steps=48, robots=4, dt=1 / 240):
 
 
 BEACONS = (np.array([0.0, 2.0, 2.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.5, 1.5, 1.6]))
+
+
+# The 40 tile positions (in) at which Simi's Appendix F reports an optical fix.
+SIMI_POSITIONS = [
+    (33.465, -46.116),
+    (33.465, -34.116),
+    (33.465, -22.116),
+    (45.465, -70.116),
+    (45.465, -58.116),
+    (45.465, -46.116),
+    (45.465, -34.116),
+    (45.465, -22.116),
+    (57.465, -82.116),
+    (57.465, -70.116),
+    (57.465, -46.116),
+    (57.465, -34.116),
+    (57.465, -22.116),
+    (57.46535, -58.11582),
+    (69.465, -94.116),
+    (69.465, -82.116),
+    (69.465, -70.116),
+    (69.465, -58.116),
+    (69.465, -46.116),
+    (69.465, -34.116),
+    (69.465, -22.116),
+    (81.465, -94.116),
+    (81.465, -82.116),
+    (81.465, -70.116),
+    (81.465, -58.116),
+    (81.465, -46.116),
+    (81.465, -34.116),
+    (81.465, -22.116),
+    (93.465, -82.116),
+    (93.465, -70.116),
+    (93.465, -58.116),
+    (93.465, -46.116),
+    (93.465, -34.116),
+    (93.465, -22.116),
+    (105.465, -58.116),
+    (105.465, -46.116),
+    (105.465, -34.116),
+    (105.465, -22.116),
+    (117.465, -34.116),
+    (117.465, -22.116),
+]
+SIMI_START_TILE = (57.46535, -58.11582)  # the start's tile value: "the initial optical solution position"
+
+
+def simi_on_tiles(**changes: Any) -> Level:
+    """simi as its experimenter ran it: the floor's tiles (their errors as the fidelity
+    experiment sets them), and trials at Appendix F's positions, each at the start's heading or
+    turned 45 or 90 degrees either way (the contest level draws them from a region instead)."""
+    tiles = {"origin": list(SIMI_START_TILE), "spacing_error": 0.0015, "angle_error": 0.2}
+    trials = {
+        "count": 10,
+        "positions": [list(p) for p in SIMI_POSITIONS if p != SIMI_START_TILE],
+        "headings": [0, 45, 90, -45, -90],
+    }
+    return variant("simi", floor__tiles=tiles, task__trials=trials, **changes)

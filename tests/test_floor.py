@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import ONE, TABLE, edited, hits, sense, variant
+from helpers import ONE, TABLE, edited, hits, sense, simi_on_tiles, variant
 
 import levels
 from arena import floor
@@ -117,7 +117,7 @@ def test_trials_stand_on_the_drawn_tile_grid_laid_out_from_the_true_start(seed):
     origin tile, laid out along the real grid (each pitch and each set of lines off by the drawn
     error), then set down by hand within the placement's spread; ideal, the grid is square and
     true, and each trial moves by exactly that error's share of its offset."""
-    level = load_level(levels.path("simi"))
+    level = simi_on_tiles()
     tiles, spread = level.floor.tiles, level.robots[0].placement.position
     ex, ey = grid_by_hand(seed, tiles.spacing_error, tiles.angle_error)
     assert ex != (1.0, 0.0) and ey != (0.0, 1.0)
@@ -141,7 +141,7 @@ def test_trials_stand_on_the_drawn_tile_grid_laid_out_from_the_true_start(seed):
 
 
 def test_the_grid_error_stays_within_its_bounds():
-    level = load_level(levels.path("simi"))
+    level = simi_on_tiles()
     tiles = level.floor.tiles
     origin = Pose(*tiles.origin)
     for seed in range(200):
@@ -156,7 +156,7 @@ def test_the_grid_error_stays_within_its_bounds():
 
 def test_trial_poses_without_tiles_are_unchanged():
     """A level without tiles lays its trials out at their listed positions, as before."""
-    level = variant("simi", floor=None)
+    level = simi_on_tiles(floor=None)
     tree = RandomTree(7)
     first = starts(level, tree)
     for (p,) in trial_poses(level, tree, first)[1:]:

@@ -63,7 +63,7 @@ def test_vannoy_field_and_worked_example_timings():
     )
     assert times == pytest.approx([1.0556, 2.3628, 2.8508], abs=2e-4)
     assert lv.beacons.params["range"] == pytest.approx(25 * FT)
-    assert (lv.task.goal.x, lv.task.goal.y) == pytest.approx((0, 10.5 * FT))
+    assert (lv.task.goal.x, lv.task.goal.y) == pytest.approx((1 * FT, 10.5 * FT))
 
 
 def test_ubersetzig_targets_on_one_wall():

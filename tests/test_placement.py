@@ -7,7 +7,7 @@ import statistics
 
 import numpy as np
 import pytest
-from helpers import MINI_LEVEL, edited, run_cli, variant
+from helpers import MINI_LEVEL, edited, run_cli, simi_on_tiles, variant
 
 import levels
 from arena.level import Placement, Pose
@@ -98,7 +98,7 @@ def test_draws_keep_clear_of_obstacles_and_each_other():
 
 
 def test_trial_poses_come_from_the_listed_positions_and_headings():
-    level = load_level(levels.path("simi"))
+    level = simi_on_tiles()
     spread = level.robots[0].placement
     listed = level.task.trials.positions
     poses = trial_poses(level, RandomTree(5), starts(level, RandomTree(5)))
@@ -203,3 +203,28 @@ def test_a_region_trials_heading_says_nothing_of_where_it_stands():
         for (p,) in trial_poses(level, RandomTree(seed), starts(level, RandomTree(seed)))[1:]:
             pairs.add((p.y > (y0 + y1) / 2, round(math.cos(p.heading))))
     assert pairs == {(False, 1), (False, -1), (True, 1), (True, -1)}
+
+
+def test_simis_trials_come_from_a_region_and_a_heading_spread_never_a_list():
+    """The thesis's robot did not know which tile it stood on: the level gives a region and a
+    spread of turns, and each trial is drawn uniformly from them (a pool to look poses up in
+    would pay a lookup, not a solver)."""
+    level = load_level(levels.path("simi"))
+    trials, placement = level.task.trials, level.robots[0].placement
+    assert trials.positions == () and trials.headings == () and trials.region is not None
+    x0, y0, x1, y1 = trials.region
+    start = level.robots[0].start
+    seen_x, seen_h = [], []
+    for seed in range(40):
+        tree = RandomTree(seed)
+        for (p,) in trial_poses(level, tree, starts(level, tree))[1:]:
+            assert x0 - placement.position <= p.x <= x1 + placement.position
+            assert y0 - placement.position <= p.y <= y1 + placement.position
+            turn = abs(math.remainder(p.heading - start.heading, math.tau))
+            assert turn <= trials.heading_spread + placement.heading + 1e-12
+            seen_x.append((p.x - x0) / (x1 - x0))
+            seen_h.append(math.remainder(p.heading - start.heading, math.tau) / trials.heading_spread)
+    # uniform: each fifth of the range holds about a fifth of the 360 draws (binomial sd 7.6)
+    for values in (seen_x, seen_h):
+        counts = np.histogram(np.clip(values, -1, 1) if values is seen_h else np.clip(values, 0, 1), bins=5)[0]
+        assert all(abs(c - 72) < 4 * 7.6 for c in counts), counts

@@ -40,6 +40,7 @@ from referee.sandbox.teams import Team
 from robots.api import Command, Observation, SensorEvent
 
 EVERY_STEP = Watch((), 0.0)  # no robot still driving: the match ends at the next step
+STILL = 0.01  # a wheel slower than this share of its top speed stands still (a goto arrival)
 
 
 class Match:
@@ -213,6 +214,8 @@ class Match:
         while left:
             watch = self._finish_line()  # again after a stop: a robot that finished is no longer watched
             left -= self._steps(1 if watch is EVERY_STEP else left, watch)
+            if not left:
+                self._stood()
             if self._over():
                 self.end_reason = (
                     "task_complete" if any(map(self.tracker.done, range(len(self.teams)))) else "all_stopped"
@@ -220,6 +223,16 @@ class Match:
                 self.ended = True
                 return
         self.ended = self.world.tick >= self.total_steps
+
+    def _stood(self) -> None:
+        """At a control tick: tell the task whether each robot's wheels are still (slower than
+        STILL of its top wheel speed), where a goto robot arrives by standing."""
+        tracker, state = self.tracker, self.world.state
+        if tracker.kind != "goto":
+            return
+        for slot, drive in enumerate(self.world.drives):
+            still = max(abs(w) for w in drive.wheels) <= STILL * drive.model.max_wheel_speed
+            tracker.stand(slot, still, state[3 * slot], state[3 * slot + 1], self.world.time)
 
     def _finish_line(self) -> Watch | None:
         """Where, in a world state, the match may have ended at that step (None: it cannot
@@ -233,7 +246,7 @@ class Match:
             return EVERY_STEP
         state = self.world.state
         watched = []
-        for slot in going:
+        for slot in going if tracker.kind != "goto" else ():  # a goto robot arrives at a control tick
             targets = tracker.targets(slot)
             if targets and tracker.still_to_travel(slot, state[3 * slot], state[3 * slot + 1]) <= self.reach:
                 watched.append((slot, *targets[-1]))

@@ -1,6 +1,11 @@
-"""Task progress: which waypoints each robot has reached, whether it reached its goal, when,
+"""Task progress: which waypoints each robot has reached, whether it arrived at its goal, when,
 and how far it strayed from the ideal path. Checked against the true pose; scoring of the
 progress is in referee/match/scoring.py and docs/rules.md.
+
+A waypoint is reached the moment the robot's centre comes within the task radius. A goto
+robot arrives only by stopping there: at a control tick after its wheels have stood still for
+the task's `settle` seconds with its centre within the radius (`stand`); passing through earns
+nothing, and the arrival is worth more the nearer the stop is to the goal's centre.
 """
 
 from __future__ import annotations
@@ -27,10 +32,6 @@ class TaskTracker:
         self.reached_at: list[list[float]] = [[] for _ in level.robots]
         self.finished: list[float | None] = [None] * len(level.robots)
         self.final_distance: list[float] = [math.nan] * len(level.robots)
-        self.start_distance = [
-            math.dist((s.x, s.y), self.targets(r.slot)[0]) if self.targets(r.slot) else math.nan
-            for r, s in zip(level.robots, starts)
-        ]
         # the ideal polyline: from the start through every waypoint
         self.polyline = [
             Polyline([(s.x, s.y), *self.targets(r.slot)]) if self.targets(r.slot) else None
@@ -38,6 +39,7 @@ class TaskTracker:
         ]
         self.paths = Paths(self.polyline)
         self.finished_count = 0
+        self.still_since: list[float | None] = [None] * len(level.robots)  # goto: wheels still since then
         # a target's radius, a hair wide: where a check may look (numpy's distances may differ
         # from math.dist by an ulp); what counts as reached is confirmed with math.dist
         self.near = level.task.radius * (1 + 1e-9) + 1e-12
@@ -66,7 +68,9 @@ class TaskTracker:
         """Advance robot `slot`'s progress with its position (x, y) at `time`."""
         targets = self.targets(slot)
         if self.kind == "goto":
-            self.final_distance[slot] = math.dist((x, y), targets[0])
+            if not self.done(slot):  # arrived: the stop's distance is kept
+                self.final_distance[slot] = math.dist((x, y), targets[0])
+            return  # arriving is a stop (`stand`), not a passage
         radius = self.level.task.radius
         while self.next[slot] < len(targets) and math.dist((x, y), targets[self.next[slot]]) <= radius:
             self.next[slot] += 1
@@ -86,6 +90,10 @@ class TaskTracker:
         for slot in range(len(self.next)):
             xs, ys = states[:, 3 * slot], states[:, 3 * slot + 1]
             targets = self.targets(slot)
+            if self.kind == "goto":  # as every step's update leaves it: from the last step
+                if not self.done(slot):
+                    self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
+                continue
             end = n  # the step after which the robot has finished (no more samples)
             i = 0
             while self.next[slot] < len(targets) and i < n:
@@ -99,8 +107,6 @@ class TaskTracker:
                 self.update(slot, float(xs[i]), float(ys[i]), (first_tick + i) / rate)
                 if self.done(slot):
                     end = i
-            if self.kind == "goto":  # as every step's update leaves it: from the last step
-                self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
             line = self.polyline[slot]
             if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == n):
                 continue  # no path to stray from, or finished before these steps
@@ -109,6 +115,27 @@ class TaskTracker:
         if runs:
             for (slot, _), distances in zip(runs, self.paths.distances(states, start, every, runs)):
                 self.deviation[slot].extend(distances)
+
+    def stand(self, slot: int, still: bool, x: float, y: float, time: float) -> None:
+        """At a control tick: whether robot `slot`'s wheels are still, and where it is. A goto
+        robot whose wheels have been still at every tick for the task's `settle` seconds, its
+        centre within the radius, has arrived now."""
+        if self.kind != "goto" or self.done(slot):
+            return
+        if not still:
+            self.still_since[slot] = None
+            return
+        since = self.still_since[slot]
+        if since is None:
+            self.still_since[slot] = since = time
+        goal = self.targets(slot)[0]
+        distance = math.dist((x, y), goal)
+        if distance <= self.level.task.radius and time - since >= self.level.task.settle - 1e-9:
+            self.final_distance[slot] = distance
+            self.next[slot] = 1
+            self.reached_at[slot].append(time)
+            self.finished[slot] = time
+            self.finished_count += 1
 
     def done(self, slot: int) -> bool:
         return self.finished[slot] is not None
@@ -123,16 +150,13 @@ class TaskTracker:
         return max(0.0, math.dist((x, y), targets[k]) - self.near) + self._rest[slot][k]
 
     def progress(self, slot: int) -> float:
-        """Task completion, 0..1: waypoints reached; or how much of the way to the goal."""
+        """Task completion, 0..1: waypoints reached; or for goto the arrival, worth
+        1 / (1 + d / accuracy) for a stop d from the goal's centre, 0 without one."""
         targets = self.targets(slot)
         if self.kind == "goto":
-            if self.done(slot):
-                return 1.0
-            return (
-                max(0.0, 1.0 - self.final_distance[slot] / self.start_distance[slot])
-                if self.start_distance[slot]
-                else 0.0
-            )
+            if not self.done(slot):
+                return 0.0
+            return 1.0 / (1.0 + self.final_distance[slot] / self.level.task.accuracy)
         return self.next[slot] / len(targets) if targets else 0.0
 
     def summary(self, slot: int) -> TaskProgress:

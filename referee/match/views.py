@@ -42,7 +42,7 @@ def brief_for(level: Level, slot: int) -> Brief:
         beacons=tuple(BeaconInfo(b.id, b.x, b.y) for b in level.beacons.items),
         laser=LaserInfo(r.laser.angular_velocity, r.laser.index),
         robot=RobotInfo(m.name, m.length, m.width, m.track, m.max_wheel_speed, m.max_wheel_accel),
-        task=TaskInfo(task.kind, task.radius, r.path, goal, task.trials.count),
+        task=TaskInfo(task.kind, task.radius, r.path, goal, task.trials.count, task.settle, task.accuracy),
         control_period=level.control_period,
         time_limit=level.time_limit,
         start=announced_start(level, slot),

@@ -30,6 +30,7 @@ from robots.toolkit.motion import Pose, between, compose
 from robots.toolkit.tracker import HitTracker
 
 LEG = 0.6  # m driven between scans at most
+APPROACH = 0.1  # m outside a goto goal's radius where the robot stops before its last leg (ours)
 SETTLE = 0.3  # s standing still before a scan counts
 AGREE = (0.25, 0.15)  # m, rad: a candidate this close to one of an earlier turn is that one
 CONSISTENT = 16.3  # chi^2 of 3 degrees of freedom at 99.9 %: the filter agrees with a standing turn
@@ -212,15 +213,25 @@ class StopAndScan(Controller):
         return Command(left, right, estimate=self.tracker.pose)
 
     def _plan(self, now: float) -> None:
-        """Turn towards the goal, then drive a leg towards it."""
+        """Turn towards the goal, then drive a leg towards it. A goto robot arrives wherever it
+        stands within the radius, so it stops last just outside it (APPROACH beyond), then drives
+        the short rest of the way at once, already facing the goal: the stop that ends that leg
+        is the arrival."""
         if self.goal is None or self.tracker.pose is None:
             return
         x, y, h = self.tracker.pose
         gx, gy = self.goal
         distance = math.dist((x, y), (gx, gy))
-        if distance < self.brief.task.radius / 2:
+        task = self.brief.task
+        if task.kind != "goto":
+            if distance >= task.radius / 2:
+                self._drive(now, wrap(math.atan2(gy - y, gx - x) - h), min(LEG, distance))
             return
-        self._drive(now, wrap(math.atan2(gy - y, gx - x) - h), min(LEG, distance))
+        if distance < task.accuracy:
+            return
+        outside = distance - task.radius - APPROACH
+        leg = min(LEG, outside) if outside > APPROACH / 2 else distance
+        self._drive(now, wrap(math.atan2(gy - y, gx - x) - h), leg)
 
     def _plan_apart(self, now: float) -> None:
         """A short move (a turn, then a straight leg) that ends at least CLEARANCE inside the
