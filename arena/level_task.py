@@ -80,6 +80,8 @@ def _trials(m: yr.Map, fld: Field) -> Trials:
             )
         headings = tuple(math.radians(yr.number(ctx, n, f"{m.key('headings')}[{i}]")) for i, n in enumerate(node.value))
     if m.has("heading_spread") and m.has("headings"):
-        raise ctx.fail(m.raw("heading_spread").line, m.key("heading_spread"), "give headings or a heading_spread, not both")
+        raise ctx.fail(
+            m.raw("heading_spread").line, m.key("heading_spread"), "give headings or a heading_spread, not both"
+        )
     spread = m.opt("heading_spread", yr.half_turn, None)
     return Trials(count=count, positions=positions, region=region, headings=headings, heading_spread=spread)

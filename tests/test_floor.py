@@ -5,12 +5,11 @@ import math
 
 import numpy as np
 import pytest
-from helpers import ONE, TABLE, edited, hits, sense, simi_on_tiles, variant
+from helpers import ONE, TABLE, edited, hits, sense, simi_on_tiles
 
-import levels
 from arena import floor
 from arena.level import Pose
-from arena.loader import load_level, parse_level
+from arena.loader import parse_level
 from arena.placement import starts, trial_poses
 from arena.rng import RandomTree
 from arena.world import World

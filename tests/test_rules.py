@@ -70,22 +70,54 @@ def test_waypoints_score_time_and_cross_track(tmp_path):
     assert 0.005 < ct["mean"] < 0.012 and ct["std"] > 0
 
 
-def test_goto_partial_credit_and_localize_scored_on_error(tmp_path):
+def test_a_goto_robot_arrives_by_stopping_and_passing_through_earns_nothing(tmp_path):
     goto = MINI_LEVEL.replace(
         "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
         "kind: goto\n  radius: 0.05\n  goal: [1.5, 0.5]",
-    )
-    half = team(
+    ).replace("time_limit: 4", "time_limit: 16")
+    # at 0.1 m/s from x = 0.5 (the wheels ramp at 0.5 m/s^2: 0.2 s, 1 cm each way), told to stop
+    # at t = 9.7 s: x = 0.5 + 0.97 - 0.01 + 0.01 = 1.47, 3 cm short of the goal's centre; the
+    # wheels are still (under 1 % of 0.17 m/s) from t = 9.9 s, so it arrives a second later
+    stopper = team(
         tmp_path,
         """
-        class Half(Controller):
+        class Stopper(Controller):
             def step(self, obs):
-                return Command(0.125, 0.125) if obs.time < 4.0 else Command(0.0, 0.0)
+                return Command(0.1, 0.1) if obs.time < 9.7 - 1e-9 else Command(0.0, 0.0)
     """,
     )
-    r = play(goto.replace("time_limit: 4", "time_limit: 8"), half)["robots"][0]
-    d = r["task"]["final_distance"]
-    assert 0.4 < d < 0.6 and r["score"]["task"] == pytest.approx(100 * (1 - d / 1.0), abs=1e-6)
+    r = play(goto, stopper)
+    task = r["robots"][0]["task"]
+    assert task["final_distance"] == pytest.approx(0.03, abs=1e-4)
+    assert task["finished"] == pytest.approx(10.9, abs=1e-6) and r["end_reason"] == "task_complete"
+    assert r["robots"][0]["score"]["task"] == pytest.approx(100 / (1 + task["final_distance"] / 0.05))
+    passer = team(tmp_path, STRAIGHT, "passer.py")  # through the goal at t = 10.1 s, never standing
+    r = play(goto.replace("time_limit: 16", "time_limit: 13"), passer)["robots"][0]
+    assert r["task"]["finished"] is None and r["score"]["task"] == 0
+    assert r["task"]["final_distance"] == pytest.approx(0.5 + 0.1 * 13 - 0.01 - 1.5, abs=1e-3)
+
+
+def test_pushing_against_a_wall_within_the_radius_is_not_standing(tmp_path):
+    wall = MINI_LEVEL.replace(
+        "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
+        "kind: goto\n  radius: 0.05\n  goal: [1.96, 0.5]",
+    ).replace("time_limit: 4", "time_limit: 20")
+    # it meets the east wall at x = 2 - 0.105 / 2 by t = 15 s and goes on pushing, wheels
+    # turning, 1.25 cm from the goal; told to stop at t = 17 s, its wheels are still at 17.2 s
+    pusher = team(
+        tmp_path,
+        """
+        class Pusher(Controller):
+            def step(self, obs):
+                return Command(0.1, 0.1) if obs.time < 17.0 - 1e-9 else Command(0.0, 0.0)
+    """,
+    )
+    task = play(wall, pusher)["robots"][0]["task"]
+    assert task["finished"] == pytest.approx(18.2, abs=1e-6)
+    assert task["final_distance"] == pytest.approx(1.96 - (2 - 0.105 / 2), abs=1e-3)
+
+
+def test_localize_scored_on_error(tmp_path):
     localize = MINI_LEVEL.replace("kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]", "kind: localize")
     off = team(
         tmp_path,

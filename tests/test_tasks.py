@@ -7,7 +7,6 @@ import pytest
 from helpers import variant
 
 from arena.yaml_reader import ReadError
-
 from referee.match.tasks import TaskTracker
 
 
