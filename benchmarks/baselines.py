@@ -1,19 +1,26 @@
 """`make baselines`: does the score measure the laser? Each built-in level's default reference
-beside two controllers that never use it, over many seeds.
+beside the strongest controllers we know that never use it, over many seeds with a secret.
 
 - the reference: the level's default controller (each seed's method, fused with odometry);
-- blind: `ref:dead-reckoning` started from the nominal start written in the public level file (what a
-  team can copy into its code when the brief announces nothing better), driving its task open-loop;
-- sensorless: `ref:sensorless`, which reports that nominal start and stands still.
+- blind: `ref:dead-reckoning` started from the nominal start written in the public level file
+  (what a team can copy into its code when the brief announces nothing better), driving its
+  task open-loop;
+- sensorless: `ref:sensorless`, which reports that nominal start and stands still (where a
+  level announces a pool of poses, bac-static's one point, this is also the lookup in it);
+- spiral, bounce: searches without the laser (benchmarks/no_laser.py): a square spiral of
+  stops around the announced start, and straight runs, stops and random spins off the walls;
+- fraction: the reference fed one event in four (benchmarks/no_laser.py).
 
-Each plays robot slot 0 (the level's default controller fills the others) on seeds 1..N with the
-level's default hardware error, in parallel worker processes (in-process controllers: the
-references give the same bytes isolated). The table gives each one's median score with its
-range, the reference's median position RMS beside blind driving's, and on how many seeds the
-reference beat blind driving (score and RMS both) and scored at least twice the sensorless one.
-It is printed and written as Markdown to docs/baselines.md (`--out`); `--json` keeps every match.
+Each plays robot slot 0 (the level's default controller fills the others) on seeds 1..N with
+the level's default hardware error, its noise drawn from a secret as in grading (a new random
+one per run unless `--secret-file` gives one), in parallel worker processes (in-process
+controllers: the references give the same bytes isolated). The table gives each one's median
+score, the best no-laser median as a share of the reference's (at most 0.5 on every level),
+and on how many seeds the reference beat blind driving and scored at least twice the
+sensorless one. It is printed and written as Markdown to docs/baselines.md (`--out`); `--json`
+keeps every match.
 
-    python benchmarks/baselines.py [--seeds 20] [--workers 2] [--out docs/baselines.md] [--json FILE]
+    python benchmarks/baselines.py [--seeds 20] [--workers 2] [--secret-file F] [--out docs/baselines.md] [--json FILE]
 """
 
 from __future__ import annotations
@@ -21,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import secrets
 import statistics
 import sys
 import time
@@ -31,7 +39,8 @@ from pathlib import Path
 import levels
 from referee.terminal import markdown_text
 
-WHO = ("reference", "blind", "sensorless")
+WHO = ("reference", "blind", "sensorless", "spiral", "bounce", "fraction")
+NO_LASER = ("blind", "sensorless", "spiral", "bounce")  # what the reference must beat by twice
 
 
 @dataclass(frozen=True)
@@ -47,25 +56,36 @@ class Outcome:
     reached: bool  # the task done (a localize task has none: False)
 
 
-def play(level_name: str, who: str, seed: int) -> Outcome:
-    """One match of `who` in slot 0 of a built-in level."""
+def play(level_name: str, who: str, seed: int, secret: str) -> Outcome:
+    """One match of `who` in slot 0 of a built-in level, its noise drawn from `secret`."""
+    import no_laser
+
     from arena.loader import load_level
+    from referee.contest.noise_secret import noise_key
     from referee.match.loop import run_match
     from referee.sandbox.teams import Team, resolve
     from robots.controllers.dead_reckoning import DeadReckoning
     from robots.controllers.sensorless import Sensorless
+    from robots.loading import load_class
 
     level = load_level(levels.path(level_name))
     start = level.robots[0].start
     nominal = (start.x, start.y, start.heading)  # as the public level file writes it
+    reference = resolve(level.default_controller)
     if who == "reference":
-        team = resolve(level.default_controller)
+        team = reference
     elif who == "blind":
         team = Team("blind", "ref:dead-reckoning", "sha256:blind", factory=lambda: DeadReckoning(nominal))
-    else:
+    elif who == "sensorless":
         team = Team("sensorless", "ref:sensorless", "sha256:sensorless", factory=lambda: Sensorless(nominal))
+    elif who == "fraction":
+        inner = load_class(level.default_controller)
+        team = Team("fraction", "fraction", "sha256:fraction", factory=lambda: no_laser.Fraction(inner()))
+    else:
+        team = Team(who, who, f"sha256:{who}", factory=no_laser.STRATEGIES[who])
     others = [resolve(level.default_controller) for _ in level.robots[1:]]
-    r = run_match(level, [team, *others], seed=seed, isolate=False)["robots"][0]
+    key = noise_key(secret, level.hash, seed)
+    r = run_match(level, [team, *others], seed=seed, isolate=False, noise_key=key)["robots"][0]
     loc = r["localization"]
     return Outcome(
         level_name,
@@ -78,7 +98,7 @@ def play(level_name: str, who: str, seed: int) -> Outcome:
     )
 
 
-def _play(job: tuple[str, str, int]) -> Outcome:
+def _play(job: tuple[str, str, int, str]) -> Outcome:
     return play(*job)
 
 
@@ -100,6 +120,9 @@ def summary(outcomes: list[Outcome], level: str) -> dict:
         }
     out["beats_blind"] = sum(r.score > b.score and r.position_rms < b.position_rms for r, b in zip(ref, blind))
     out["twice_sensorless"] = sum(r.score >= 2 * s.score for r, s in zip(ref, still))
+    best = max(NO_LASER, key=lambda w: out[w]["score_median"])
+    out["best_no_laser"] = best
+    out["best_share"] = out[best]["score_median"] / out["reference"]["score_median"]
     return out
 
 
@@ -109,32 +132,42 @@ def _mm(v: float) -> str:
 
 def markdown(rows: list[dict], seeds: int, seconds: float, workers: int) -> str:
     lines = [
-        "# Baselines: the laser against blind driving and against not sensing at all",
+        "# Baselines: the laser against searching without it",
         "",
         "Made by `make baselines` (`python benchmarks/baselines.py`): every built-in level, seeds 1 to",
-        f"{seeds}, its default hardware error, in {seconds:.0f} s on {workers} worker processes. Do not edit by hand:",
-        "run it again. In slot 0: the level's default reference; `ref:dead-reckoning` started from the",
-        "nominal start written in the level file (blind); `ref:sensorless`, which reports that start and",
-        "stands still. Scores are medians with their range; RMS is the position RMS of the estimates",
-        "(median, worst seed). *beats blind*: seeds on which the reference scored higher AND localized",
-        "better than blind driving; *>= 2x sensorless*: seeds on which it scored at least twice the",
-        "sensorless controller; *task*: seeds on which the reference did the level's task (a localize",
-        "level has none to do).",
+        f"{seeds}, its default hardware error, noise drawn from a secret as in grading, in {seconds:.0f} s on",
+        f"{workers} worker processes. Do not edit by hand: run it again. In slot 0: the level's default",
+        "reference, and the strongest controllers we know that never use the laser:",
         "",
-        "| level | reference | its score | its RMS mm | task | blind score | blind RMS mm | sensorless score "
-        "| beats blind | >= 2x sensorless |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "- *blind*: `ref:dead-reckoning` from the nominal start written in the level file, driving its task",
+        "  open-loop;",
+        "- *sensorless*: `ref:sensorless`, which reports that start and stands still (on `bac-static`, whose",
+        "  trials are set down around one listed point, this is also the lookup in that pool; no other",
+        "  built-in level lists trial poses);",
+        "- *spiral*: a square spiral of stops around the announced start, each stop long enough to arrive,",
+        "  stops and rings a radius and a half apart (benchmarks/no_laser.py);",
+        "- *bounce*: straight runs, stops and random spins, sliding along the walls;",
+        "- *1/4 events*: the reference fed one event in four it senses (how it degrades, not a",
+        "  no-laser strategy).",
+        "",
+        "Scores are medians with, for the reference, its range and the position RMS of its estimates",
+        "(median / worst seed). *best share*: the best no-laser median over the reference's median (at",
+        "most 0.5). *beats blind*: seeds on which the reference scored higher and localized better than",
+        "blind driving; *>= 2x sensorless*: seeds on which it scored at least twice the sensorless one;",
+        "*task*: seeds on which the reference did the level's task (a localize level has none).",
+        "",
+        "| level | reference | its score | its RMS mm | task | blind | sensorless | spiral | bounce | 1/4 events "
+        "| best share | beats blind | >= 2x sensorless |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        ref, blind, still, n = r["reference"], r["blind"], r["sensorless"], r["seeds"]
+        ref, n = r["reference"], r["seeds"]
         task = "-" if r["localize"] else f"{ref['reached']} of {n}"
+        others = " | ".join(f"{r[w]['score_median']:.1f}" for w in ("blind", "sensorless", "spiral", "bounce", "fraction"))
         lines.append(
             f"| {markdown_text(r['level'])} | {markdown_text(r['controller'])} | {ref['score_median']:.1f} ({ref['score_min']:.1f} to "
-            f"{ref['score_max']:.1f}) | {_mm(ref['rms_mm_median'])} / {_mm(ref['rms_mm_worst'])} | "
-            f"{task} | {blind['score_median']:.1f} "
-            f"({blind['score_min']:.1f} to {blind['score_max']:.1f}) | {_mm(blind['rms_mm_median'])} | "
-            f"{still['score_median']:.1f} ({still['score_min']:.1f} to {still['score_max']:.1f}) | "
-            f"{r['beats_blind']} of {n} | {r['twice_sensorless']} of {n} |"
+            f"{ref['score_max']:.1f}) | {_mm(ref['rms_mm_median'])} / {_mm(ref['rms_mm_worst'])} | {task} | {others} | "
+            f"{r['best_share']:.2f} ({r['best_no_laser']}) | {r['beats_blind']} of {n} | {r['twice_sensorless']} of {n} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -146,11 +179,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--levels", nargs="*", default=None, help="built-in levels (default: all)")
     ap.add_argument("--out", default=str(Path(__file__).resolve().parent.parent / "docs" / "baselines.md"))
     ap.add_argument("--json", metavar="FILE", help="write every match's outcome and the summary as JSON")
+    ap.add_argument("--secret-file", metavar="FILE", help="the noise secret (default: a new random one)")
     args = ap.parse_args(argv)
     if args.seeds < 1 or args.workers < 1:
         ap.error("--seeds and --workers must be at least 1")
+    from referee.contest import noise_secret
+
+    secret = noise_secret.read(args.secret_file) if args.secret_file else secrets.token_hex(32)
     names = args.levels or levels.names()
-    jobs = [(name, who, seed) for name in names for seed in range(1, args.seeds + 1) for who in WHO]
+    jobs = [(name, who, seed, secret) for name in names for seed in range(1, args.seeds + 1) for who in WHO]
     start = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
         outcomes = list(pool.map(_play, jobs, chunksize=1))
@@ -165,11 +202,10 @@ def main(argv: list[str] | None = None) -> int:
             "localize": level.task.kind == "localize",
         }
         rows.append(row)
-        ref, blind, still = row["reference"], row["blind"], row["sensorless"]
+        medians = "  ".join(f"{w} {row[w]['score_median']:6.1f}" for w in WHO)
         print(
-            f"{name:11} ref {ref['score_median']:6.1f} blind {blind['score_median']:6.1f} sensorless "
-            f"{still['score_median']:6.1f}  beats blind {row['beats_blind']}/{row['seeds']}  "
-            f">= 2x sensorless {row['twice_sensorless']}/{row['seeds']}  task {ref['reached']}/{row['seeds']}",
+            f"{name:17} {medians}  best share {row['best_share']:.2f}  beats blind {row['beats_blind']}/{row['seeds']}  "
+            f">= 2x sensorless {row['twice_sensorless']}/{row['seeds']}",
             flush=True,
         )
     Path(args.out).write_text(markdown(rows, args.seeds, seconds, args.workers), encoding="utf-8")
