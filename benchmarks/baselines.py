@@ -7,8 +7,9 @@ beside the strongest controllers we know that never use it, over many seeds with
   task open-loop;
 - sensorless: `ref:sensorless`, which reports that nominal start and stands still (where a
   level announces a pool of poses, bac-static's one point, this is also the lookup in it);
-- spiral, bounce: searches without the laser (benchmarks/no_laser.py): a square spiral of
-  stops around the announced start, and straight runs, stops and random spins off the walls;
+- spiral, walls, bounce: searches without the laser (benchmarks/no_laser.py): a square spiral
+  of stops around the announced start, a slide along the walls with stops, and straight runs,
+  stops and random spins;
 - fraction: the reference fed one event in four (benchmarks/no_laser.py).
 
 Each plays robot slot 0 (the level's default controller fills the others) on seeds 1..N with
@@ -39,8 +40,8 @@ from pathlib import Path
 import levels
 from referee.terminal import markdown_text
 
-WHO = ("reference", "blind", "sensorless", "spiral", "bounce", "fraction")
-NO_LASER = ("blind", "sensorless", "spiral", "bounce")  # what the reference must beat by twice
+WHO = ("reference", "blind", "sensorless", "spiral", "walls", "bounce", "fraction")
+NO_LASER = ("blind", "sensorless", "spiral", "walls", "bounce")  # what the reference must beat by twice
 
 
 @dataclass(frozen=True)
@@ -146,24 +147,28 @@ def markdown(rows: list[dict], seeds: int, seconds: float, workers: int) -> str:
         "  built-in level lists trial poses);",
         "- *spiral*: a square spiral of stops around the announced start, each stop long enough to arrive,",
         "  stops and rings a radius and a half apart (benchmarks/no_laser.py);",
-        "- *bounce*: straight runs, stops and random spins, sliding along the walls;",
+        "- *walls*: straight on until it must have met a wall, then along the walls, pressing on them,",
+        "  with a stop at every pitch;",
+        "- *bounce*: straight runs, stops and random spins;",
         "- *1/4 events*: the reference fed one event in four it senses (how it degrades, not a",
         "  no-laser strategy).",
         "",
         "Scores are medians with, for the reference, its range and the position RMS of its estimates",
-        "(median / worst seed). *best share*: the best no-laser median over the reference's median (at",
-        "most 0.5). *beats blind*: seeds on which the reference scored higher and localized better than",
+        "(median / worst seed). *best share*: the best no-laser median over the reference's median (the",
+        "aim is at most 0.5). *beats blind*: seeds on which the reference scored higher and localized better than",
         "blind driving; *>= 2x sensorless*: seeds on which it scored at least twice the sensorless one;",
         "*task*: seeds on which the reference did the level's task (a localize level has none).",
         "",
-        "| level | reference | its score | its RMS mm | task | blind | sensorless | spiral | bounce | 1/4 events "
-        "| best share | beats blind | >= 2x sensorless |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| level | reference | its score | its RMS mm | task | blind | sensorless | spiral | walls | bounce "
+        "| 1/4 events | best share | beats blind | >= 2x sensorless |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         ref, n = r["reference"], r["seeds"]
         task = "-" if r["localize"] else f"{ref['reached']} of {n}"
-        others = " | ".join(f"{r[w]['score_median']:.1f}" for w in ("blind", "sensorless", "spiral", "bounce", "fraction"))
+        others = " | ".join(
+            f"{r[w]['score_median']:.1f}" for w in ("blind", "sensorless", "spiral", "walls", "bounce", "fraction")
+        )
         lines.append(
             f"| {markdown_text(r['level'])} | {markdown_text(r['controller'])} | {ref['score_median']:.1f} ({ref['score_min']:.1f} to "
             f"{ref['score_max']:.1f}) | {_mm(ref['rms_mm_median'])} / {_mm(ref['rms_mm_worst'])} | {task} | {others} | "

@@ -6,8 +6,10 @@ start (the centre of the announced region, or of the field, facing the announced
 - `Spiral`: a square spiral around the start, standing still for the task's settle time at
   every stop, stops a radius and a half apart and rings one radius and a half apart, so that
   one of its stops falls within the goal's radius of wherever the goal is, if time allows;
+- `Walls`: drives until it must have met a wall, then slides along the walls, pressing on
+  them, standing still at every stop (a goal near a wall lies on its way);
 - `Bounce`: drives straight for a random time (walls stop or turn it), stands still for the
-  settle time, spins by a random angle, again and again: it slides along the walls;
+  settle time, spins by a random angle, again and again;
 - `Fraction`: the level's reference fed one event in FRACTION of those it senses.
 
 They run in-process in `benchmarks/baselines.py`; a team could write any of them.
@@ -43,7 +45,9 @@ class _Driver(Controller):
         self.plan: list[tuple[float, float, float]] = []
         self.until, self.wheels, self.last = 0.0, (0.0, 0.0), 0.0
         self.speed = 0.8 * brief.robot.max_wheel_speed
-        self.stand = (brief.task.settle or 1.0) + STAND_MARGIN + brief.robot.max_wheel_speed / brief.robot.max_wheel_accel
+        self.stand = (
+            (brief.task.settle or 1.0) + STAND_MARGIN + brief.robot.max_wheel_speed / brief.robot.max_wheel_accel
+        )
 
     def more(self) -> list[tuple[float, float, float]]:
         """The next steps of the plan."""
@@ -100,7 +104,33 @@ class Bounce(_Driver):
         self.rng = random.Random(0)  # its own, fixed: a team's controller has no other
 
     def more(self) -> list[tuple[float, float, float]]:
-        return [self.drive(self.speed * self.rng.uniform(1.0, 4.0)), self.halt(), self.turn(self.rng.uniform(-math.pi, math.pi))]
+        return [
+            self.drive(self.speed * self.rng.uniform(1.0, 4.0)),
+            self.halt(),
+            self.turn(self.rng.uniform(-math.pi, math.pi)),
+        ]
+
+
+class Walls(_Driver):
+    """Straight on until it must have met a wall, then along the walls: each leg turned a
+    little less than a right angle, so that it keeps pressing on the wall it slides along,
+    standing still at every pitch of the way (a corner stops it until the next leg turns it)."""
+
+    def setup(self, brief: Brief) -> None:
+        super().setup(brief)
+        x0, y0, x1, y1 = brief.field
+        self.side = max(x1 - x0, y1 - y0)
+        self.pitch = 1.4 * (brief.task.radius or 0.1)
+        self.met = False
+
+    def more(self) -> list[tuple[float, float, float]]:
+        if not self.met:
+            self.met = True
+            return [self.drive(math.hypot(self.side, self.side))]
+        steps = [self.turn(math.radians(80))]
+        for _ in range(max(1, round(self.side / self.pitch))):
+            steps += [self.drive(self.pitch), self.halt()]
+        return steps
 
 
 class Fraction(Controller):
@@ -121,4 +151,4 @@ class Fraction(Controller):
         return self.inner.step(replace(observation, events=tuple(kept)))
 
 
-STRATEGIES: dict[str, Callable[[], Controller]] = {"spiral": Spiral, "bounce": Bounce}
+STRATEGIES: dict[str, Callable[[], Controller]] = {"spiral": Spiral, "walls": Walls, "bounce": Bounce}
