@@ -33,6 +33,10 @@ class ReadError(LaserArenaError):
         where = f"{self.source}:{self.line}" if self.line else self.source
         return f"{where}: {self.key}: {self.message}" if self.key else f"{where}: {self.message}"
 
+    def __reduce__(self) -> tuple[type[ReadError], tuple[str, int | None, str, str]]:
+        """Pickled whole, so that one raised in a worker process reaches its caller as itself."""
+        return (ReadError, (self.source, self.line, self.key, self.message))
+
 
 @dataclass
 class Node:

@@ -73,12 +73,13 @@ EXPERIMENT_FLOORS: dict[str, dict[str, Any]] = {
 }
 
 
-def level_data(name: str, scale: Scale = ()) -> dict[str, Any]:
-    """A built-in level's parsed data with what its seed's experiment adds to its floor
-    (EXPERIMENT_FLOORS), each parameter of `scale` multiplied by its factor (a robot's drive error the
-    level leaves at its model's default, `robots.0.drive.gain_sd`, is scaled from that default)."""
+def level_data(name: str, scale: Scale = (), experiment: bool = False) -> dict[str, Any]:
+    """A built-in level's parsed data, with what its seed's experiment adds to its floor
+    (EXPERIMENT_FLOORS) if `experiment`, each parameter of `scale` multiplied by its factor (a
+    robot's drive error the level leaves at its model's default, `robots.0.drive.gain_sd`, is
+    scaled from that default)."""
     data = yaml.safe_load(levels.path(name).read_text())
-    if name in EXPERIMENT_FLOORS:
+    if experiment and name in EXPERIMENT_FLOORS:
         data.setdefault("floor", {}).update(copy.deepcopy(EXPERIMENT_FLOORS[name]))
     for key, factor in scale:
         *parents, last = key.split(".")
@@ -92,11 +93,14 @@ def level_data(name: str, scale: Scale = ()) -> dict[str, Any]:
     return data
 
 
-def variant(name: str, scale: Scale = (), robot: dict[str, Any] | None = None, **changes: Any) -> Level:
+def variant(
+    name: str, scale: Scale = (), robot: dict[str, Any] | None = None, experiment: bool = False, **changes: Any
+) -> Level:
     """A built-in level with top-level fields or the first robot's fields replaced (parsed data,
     dumped back: the loader validates the variant like any level); a robot field given as None
-    is removed (`placement=None`: set down exactly at the start)."""
-    data = level_data(name, scale)
+    is removed (`placement=None`: set down exactly at the start); `experiment`: with what its
+    seed's experiment adds (`level_data`)."""
+    data = level_data(name, scale, experiment)
     data.update(changes)
     for key, value in (robot or {}).items():
         if value is None:
@@ -413,6 +417,7 @@ def simi_tour(scale: Scale, positions: list[tuple[float, float]], headings: list
         "simi",
         scale,
         {"start_known": False},
+        experiment=True,
         time_limit=TRIAL_TIME * (len(positions) + 1),
         task={"kind": "localize", "trials": trials},
     )
@@ -772,7 +777,7 @@ def markdown(outcomes: list[Outcome], seeds: int, seconds: float, sensitivity: d
     by_row = {o.row.key: o for o in outcomes}
     for s in SENSITIVE:
         o = by_row[s.row]
-        value: Any = level_data(s.level, ((s.key, 1.0),))
+        value: Any = level_data(s.level, ((s.key, 1.0),), experiment=True)
         for part in s.key.split("."):
             value = value[int(part)] if isinstance(value, list) else value[part]
         d = o.row.digits

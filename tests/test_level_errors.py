@@ -268,3 +268,13 @@ def test_controller_limits_in_the_level(write_level):
     with pytest.raises(LevelError) as info:
         parse_level(bad.encode(), "x.yaml")
     assert info.value.key == "limits.step_deadline" and info.value.line == line_of(bad, "limits:")
+
+
+def test_a_read_error_survives_pickling():
+    """One raised in a worker process (a pool job's level) reaches its caller as itself."""
+    import pickle
+
+    from arena.yaml_reader import ReadError
+
+    e = pickle.loads(pickle.dumps(ReadError("lv.yaml", 7, "task.goal", "outside the field")))
+    assert isinstance(e, ReadError) and str(e) == "lv.yaml:7: task.goal: outside the field"
