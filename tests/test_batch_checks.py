@@ -39,7 +39,8 @@ OUT_AND_BACK = """
 class StepByStep(loop.Match):
     """After each physics step: sensing stores the poses, each robot's task progress is
     updated (and its distance from the path sampled at the record rate until it finishes),
-    the rules look at the world, a frame is recorded at the record rate; then the end test."""
+    the rules look at the world, a frame is recorded at the record rate; then the end test.
+    At the control tick, the task hears whether each robot's wheels are still; the end test again."""
 
     def advance(self):
         world, level, tracker = self.world, self.level, self.tracker
@@ -57,13 +58,23 @@ class StepByStep(loop.Match):
             if world.tick % every == 0:
                 self.writer.frame(world.time, [(p.x, p.y, p.heading) for p in map(world.pose, range(len(self.teams)))])
             if self._over():
-                done = any(map(tracker.done, range(len(self.teams))))
-                self.end_reason = "task_complete" if done else "all_stopped"
-                self.ended = True
+                self._end_now()
                 return
             if world.tick >= self.total_steps:
-                self.ended = True
-                return
+                break
+        # at the control tick: each robot's wheels, still or not (a goto robot arrives by standing)
+        for slot, drive in enumerate(world.drives):
+            still = max(abs(w) for w in drive.wheels) <= loop.STILL * drive.model.max_wheel_speed
+            tracker.stand(slot, still, world.state[3 * slot], world.state[3 * slot + 1], world.time)
+        if self._over():
+            self._end_now()
+            return
+        self.ended = world.tick >= self.total_steps
+
+    def _end_now(self):
+        done = any(map(self.tracker.done, range(len(self.teams))))
+        self.end_reason = "task_complete" if done else "all_stopped"
+        self.ended = True
 
 
 def play(level, teams, tmp_path, name, match_class):
@@ -128,11 +139,12 @@ def test_robots_finishing_end_the_match_at_the_step(tmp_path, monkeypatch):
 
 
 def test_goto(tmp_path, monkeypatch):
-    text = edited(MINI_LEVEL, {"task": {"kind": "goto", "radius": 0.05, "goal": [1.5, 0.5]}, "time_limit": 20})
+    # driving blind to the goal and standing there: it arrives at a control tick
+    text = edited(MINI_LEVEL, {"task": {"kind": "goto", "radius": 0.2, "goal": [1.5, 0.5]}, "time_limit": 20})
     result = same_both_ways(
         parse_level(text.encode(), "goto.yaml"), [resolve("ref:dead-reckoning")], tmp_path, monkeypatch
     )
-    assert result.robots[0].task.final_distance is not None
+    assert result.robots[0].task.finished is not None and result.end_reason == "task_complete"
 
 
 def test_a_lap_that_passes_its_final_point_first(tmp_path, monkeypatch):

@@ -89,3 +89,21 @@ def test_the_template_ends_without_its_teardown_once_the_referee_closes_it():
     assert said == b"r"  # it had imported and was serving
     assert template.returncode == 0
     assert "torn down" not in out
+
+
+def test_a_view_of_the_last_observation_held_elsewhere_does_not_stop_the_next():
+    """The step frame's buffer is reused tick to tick; where a view of it is still alive (a
+    finished write's leftover kept by a reference cycle), the next frame takes a new buffer
+    rather than failing to resize the held one."""
+    from robots.api import Command, Observation
+
+    bot = ProcessBot(resolve("ref:idle"), FAST, slot=0)
+    try:
+        assert bot.setup(brief_for(load_level(levels.path("asabe-race")), 0)) is None
+        assert isinstance(bot.step(Observation(tick=0, time=0.0, events=())), Command)
+        held = memoryview(bot.frame)  # as a leftover view of tick 0's frame would
+        assert isinstance(bot.step(Observation(tick=1, time=0.05, events=())), Command)
+        assert held.obj is not bot.frame  # that buffer is left to its holder
+        held.release()
+    finally:
+        bot.close()

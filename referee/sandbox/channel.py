@@ -112,7 +112,9 @@ class Channel:
                 f"a frame of {size} bytes is over the {self.bound}-byte bound of an answer (docs/protocol.md)"
             )
             return Trouble.PROTOCOL
-        frame = memoryview(self.buf)[HEAD.size : HEAD.size + size]
+        frame = self.buf[HEAD.size : HEAD.size + size]  # a copy: nothing decoded holds the buffer
+        del self.buf[: HEAD.size + size]
+        self.arrived = self.arrived if self.whole() else None
         try:
             return protocol.answer(frame)
         except protocol.CommandError as e:
@@ -121,10 +123,6 @@ class Channel:
         except protocol.ProtocolError as e:
             self.problem = str(e)
             return Trouble.PROTOCOL
-        finally:
-            frame.release()
-            del self.buf[: HEAD.size + size]
-            self.arrived = self.arrived if self.whole() else None
 
     def read(self, stamp: float | None = None) -> bool:
         """Read what the controller's output holds now (one non-blocking read: call when select()

@@ -176,7 +176,12 @@ class ProcessBot:
                 return fault
         self.unsent = memoryview(b"")  # (a view into the frame's buffer, which is written anew)
         self.sent = time.monotonic()
-        return self.push(obs, protocol.step_frame(obs, self.frame))
+        try:
+            data = protocol.step_frame(obs, self.frame)
+        except BufferError:  # a view of an earlier frame is still alive somewhere: that one is left to it
+            self.frame = bytearray()
+            data = protocol.step_frame(obs, self.frame)
+        return self.push(obs, data)
 
     def push(self, obs: Observation, data: memoryview | bytearray | None = None) -> Fault | None:
         """Write what its input takes now of `data` (default: what is `unsent`)."""
