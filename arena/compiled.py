@@ -11,9 +11,7 @@ division rule, and the scalar forms of the NumPy calls the compiled loops of the
 - `np.maximum` and `np.minimum` keep their NaN rule (`maximum`, `minimum`), and a division by
   zero gives an infinity or a NaN, as in NumPy (`error_model="numpy"`), not an exception.
 
-A kernel found in the cache is loaded without first readying numba to compile (`_load_cached`,
-decision 0045): the cached machine code needs numba's runtime, not its typing and lowering
-registries, whose imports and installation were a tenth of a second of every run's start.
+How it works, in detail: docs/internals.md, `arena/compiled.py`.
 """
 
 from __future__ import annotations

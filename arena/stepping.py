@@ -1,22 +1,7 @@
 """A run of physics steps in one compiled loop: every drive's update, chipmunk's step and the
 read of every robot's pose, step after step, with no Python between them.
 
-Between two control ticks nothing a controller says changes, and a step's Python glue (the
-drives' arithmetic, pymunk's wrappers, reading the poses) costs more than chipmunk's own work
-for a small world. This loop does the same arithmetic as `DiffDrive.update` and
-`World.step`, in their order, on the same numbers (decision 0029):
-- it calls chipmunk's `cpSpaceStep` at its address in pymunk's own compiled library, so the
-  collision callbacks run as they do under `Space.step`;
-- it reads a body's position, velocity and angle, and writes a kinematic control body's
-  velocity and turn rate, in the body's own memory, at the places `chipmunk.body_layout`
-  has checked in this process (what chipmunk's getters and setters do: a setter's only other
-  work is to wake a sleeping dynamic body, and control bodies are kinematic);
-- `cos` and `sin` are the C library's, as `math`'s are (LLVM may fetch both at once through
-  its `sincos`, which gives the same bits); no fast-math, no fused multiply-add.
-What a command does to its drive's servos (its wheel targets, and a turn's slip, a random
-draw) is worked out in Python before the run (`DiffDrive.changes`); the loop applies it at the
-tick it comes due, as `DiffDrive.update` takes it. `tests/test_stepping.py` compares with
-`World.step`, bit for bit.
+How it works, in detail: docs/internals.md, `arena/stepping.py`.
 """
 
 from __future__ import annotations

@@ -1,27 +1,7 @@
 """`make baselines`: does the score measure the laser? Each built-in level's default reference
 beside the strongest controllers we know that never use it, over many seeds with a secret.
 
-- the reference: the level's default controller (each seed's method, fused with odometry);
-- blind: `ref:dead-reckoning` started from the nominal start written in the public level file
-  (what a team can copy into its code when the brief announces nothing better), driving its
-  task open-loop;
-- sensorless: `ref:sensorless`, which reports that nominal start and stands still (where a
-  level announces a pool of poses, bac-static's one point, this is also the lookup in it);
-- spiral, walls, bounce: searches without the laser (benchmarks/no_laser.py): a square spiral
-  of stops around the announced start, a slide along the walls with stops, and straight runs,
-  stops and random spins;
-- fraction: the reference fed one event in four (benchmarks/no_laser.py).
-
-Each plays robot slot 0 (the level's default controller fills the others) on seeds 1..N with
-the level's default hardware error, its noise drawn from a secret as in grading (a new random
-one per run unless `--secret-file` gives one), in parallel worker processes (in-process
-controllers: the references give the same bytes isolated). The table gives each one's median
-score, the best no-laser median as a share of the reference's (at most 0.5 on every level),
-and on how many seeds the reference beat blind driving and scored at least twice the
-sensorless one. It is printed and written as Markdown to docs/baselines.md (`--out`); `--json`
-keeps every match.
-
-    python benchmarks/baselines.py [--seeds 20] [--workers 2] [--secret-file F] [--out docs/baselines.md] [--json FILE]
+How it works, in detail: docs/internals.md, `benchmarks/baselines.py`.
 """
 
 from __future__ import annotations

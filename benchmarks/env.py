@@ -1,20 +1,6 @@
 """How fast the learning envs step beside bare stepping of the same world, side by side in one run.
 
-Run: python benchmarks/env.py [--repeat 5] [--periods 300] [--json]
-Bare: `arena.world.World(level)` stepped a control period at a time (`world.run`), every robot
-on fixed wheel commands (gentle circles); each env gets the same wheel speeds as its action.
-Figures, each the median of `--repeat` interleaved rounds, as a ratio to bare stepping per
-control period (1.0: an env step costs no more than the physics of its period; target >= 0.5):
-- sensed: the same world with every laser and detector (`Sensing`, a period's states recorded
-  and flushed as a match does), CPU per control period: what any env step costs before the
-  referee's checks and the env's own work, so bare over it is the most an env step can reach;
-- single: `gymnasium.make("LaserArena-v0", level="asabe")`, CPU per step (and with `goal=True`,
-  whose goal block runs the toolkit's tracker);
-- parallel: PettingZoo `parallel_env(level="asabe-race")` (4 agents) beside the 4-robot world;
-- sync1, sync2: `gymnasium.make_vec(..., vectorization_mode="sync")`, CPU per env step;
-- async1, async2: the same with "async" (a process per env): wall time per env step beside
-  bare stepping's wall time, the CPU of all processes per env step, and `async_scaling`, 2
-  envs' throughput over 1 env's (2.0 is linear on two cores; wall time needs idle cores).
+How it works, in detail: docs/internals.md, `benchmarks/env.py`.
 """
 
 from __future__ import annotations

@@ -3,16 +3,7 @@
 Each drives by dead reckoning alone and reports the pose its odometry gives from the announced
 start (the centre of the announced region, or of the field, facing the announced heading):
 
-- `Spiral`: a square spiral around the start, standing still for the task's settle time at
-  every stop, stops a radius and a half apart and rings one radius and a half apart, so that
-  one of its stops falls within the goal's radius of wherever the goal is, if time allows;
-- `Walls`: drives until it must have met a wall, then slides along the walls, pressing on
-  them, standing still at every stop (a goal near a wall lies on its way);
-- `Bounce`: drives straight for a random time (walls stop or turn it), stands still for the
-  settle time, spins by a random angle, again and again;
-- `Fraction`: the level's reference fed one event in FRACTION of those it senses.
-
-They run in-process in `benchmarks/baselines.py`; a team could write any of them.
+How it works, in detail: docs/internals.md, `benchmarks/no_laser.py`.
 """
 
 from __future__ import annotations

@@ -1,33 +1,6 @@
 """How fast a four-robot match runs beside the physics' own cost, measured side by side in one run.
 
-Run: python benchmarks/speed.py [--repeat 3] [--json]
-Figures (medians of `--repeat` runs, at least 5 for the cheap world figures, simulated seconds
-per wall second unless said):
-- bare: the asabe-race world (4 robots driving circles) stepped with nothing else, a
-  `World.step` at a time (pymunk's stepping, the reference of every ratio); and the same
-  world stepped a control period at a time by the compiled loop a match uses (`World.run`);
-- sensing: the same with every laser and detector, and its overhead on bare (target < 50 %);
-- full matches of asabe-race (a process's own start, the compiled kernels loaded and the
-  sandbox's template booted, done before any is timed), isolated (each controller in its
-  sandboxed process) and in this process, with the level's own reference (`ref:bac`, which fuses every laser pulse in Python)
-  and with `ref:dead-reckoning` (a controller that costs next to nothing): the ratio to bare
-  stepping, measured just before and just after each match (`around`: a shared machine's
-  speed drifts), is the figure (targets: ref:dead-reckoning >= 0.5 isolated and >= 0.7 in this
-  process, ref:bac >= 0.3 isolated); the referee's CPU and the rest of the machine's (the
-  controllers, their sandboxes) per simulated second are given apart;
-- grading: the machine's CPU (referee, workers, controllers) for grading `ref:bac` on asabe,
-  per simulated second, beside bare 4-robot stepping's CPU per simulated second measured around
-  it (target: 1.5x); and the same for `ref:dead-reckoning`, whose own computing is next to
-  nothing: the platform's share (referee, sandbox, exchange) of a grading (target: 1.0x);
-- grading from the command line (`laserarena grade asabe --team ref:bac --workers 1`), as a
-  grader runs it: the machine's CPU per simulated second with 4 seeds, and what a run costs
-  whatever its matches (the interpreter, imports, loading the compiled kernels, the sandbox's
-  template), from runs with 1 and 4 seeds;
-- a single run from the command line (`laserarena run asabe-race`, 4 x ref:dead-reckoning,
-  replay and result written), a process of its own as a user starts it, beside a process of its
-  own that imports the arena, loads the level and steps the same world bare for as many
-  simulated seconds (the same ratio, whole processes: every start and exit included).
-CPU figures come from the machine's own count (/proc/stat): run on an otherwise idle machine.
+How it works, in detail: docs/internals.md, `benchmarks/speed.py`.
 """
 
 from __future__ import annotations

@@ -6,13 +6,7 @@ Every message carries `"v": 1` and a `type`; each is a tagged Struct here:
 referee -> controller: `Setup` {brief}, `Step` {obs}, `Stop`
 controller -> referee: `Loaded` {api}, `Ready`, `CommandMsg` {tick, command}, `FaultMsg` {kind, message}
 
-The payloads are the controller API's own dataclasses (`robots.api`): their annotations carry
-the bounds of `robots.bounds`, so they are the schema. Decoding is typed (msgspec): every
-number must be finite and within `LIMIT`, every list and text has a length bound, and unknown
-fields are refused. So the decoded shape is bounded whatever bytes arrive, and a team's bytes
-can raise nothing but `ProtocolError`, whose message names the field. `parse` checks the
-envelope and leaves the payload raw, so that a bad payload is told from a bad envelope;
-`decoded` checks it and gives the API's dataclass. docs/protocol.md describes each message.
+How it works, in detail: docs/internals.md, `robots/protocol.py`.
 """
 
 from __future__ import annotations

@@ -1,34 +1,7 @@
 """The seccomp filter every sandboxed controller runs under: the calls a controller never needs
 and that reach past its slot's bounds are denied.
 
-- the kernel's keyrings (add_key, request_key, keyctl fail with ENOSYS, as on a kernel built
-  without keys): a uid's keyrings outlive its processes, so a key a controller left there
-  would reach the next controller given that uid, or fill its quota;
-- fallocate (EOPNOTSUPP: the C library then writes instead): it reserves disk blocks past
-  any file-size limit;
-- io_uring (ENOSYS, as on a kernel built without it): a ring submits calls (fallocate among
-  them) that this filter would never see;
-- namespaces and mounts (EPERM): unshare, setns, clone with a CLONE_NEW* flag, and every call
-  that mounts, unmounts or changes root. In a user namespace of its own a controller could
-  mount a tmpfs and fill memory no limit of its slot sees. clone3 fails with ENOSYS (its flags
-  lie in memory the filter cannot read), on which the C library falls back to clone;
-- bpf, perf_event_open and userfaultfd (EPERM): kernel interfaces that time other processes
-  or stall the kernel, and that no controller uses;
-- setsid and setpgid (EPERM): a slot's processes stay in its one session, so where the kernel
-  shares CPU between sessions (autogroups) rather than control groups, no number of children
-  weighs more than one slot;
-- sockets and socket pairs of any family but AF_UNIX (EAFNOSUPPORT): a slot has no network,
-  and socket buffers over its loopback are memory a control group may not count;
-- sched_setaffinity (EPERM): a lone controller shares its referee's CPU, and its children may
-  not move to the other referees' CPUs;
-- fcntl F_SETPIPE_SZ (EPERM): its input pipe keeps its size, so an observation always fits
-  when the controller has read the last.
-
-Every call made through another architecture's numbering (a 32-bit entry into the kernel,
-x32), which the filter cannot read, fails with ENOSYS. The template installs the filter in each
-forked controller; a spawned sandbox gets the same program through bwrap's `--seccomp`
-(referee/sandbox/kernel.py). docs/decisions/0024-seccomp-filter-not-an-allowlist.md says why
-a denylist.
+How it works, in detail: docs/internals.md, `robots/seccomp.py`.
 """
 
 from __future__ import annotations

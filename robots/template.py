@@ -8,18 +8,7 @@ the control socket (its descriptor number is the one argument) carrying two sock
 slot's own: the one the referee watches the slot by and the one its configuration comes on.
 The template never reads anything of a team: the forked child reads its configuration itself.
 
-The child is the init of a new PID namespace (the template unshares one for it and returns
-to its own at once). It gives itself new mount, network, IPC, UTS and cgroup namespaces,
-mounts its private /tmp, /dev/shm and /dev/pts, copies its team's files (one memfd) to a
-read-only /team, makes every other mount read-only, joins the slot's control groups (through
-descriptors of their `cgroup.procs` the referee opened), mounts its own /proc, takes its pipes
-as fds 0-2 and closes every other descriptor, leaves root for the slot's uid with no
-capabilities and no-new-privs, puts itself under robots/seccomp.py's filter, and runs
-`robots.runner.main`, which sets the limits before team code loads. The template watches it:
-it kills it on the referee's word or when the referee's end of the watch socket closes, and
-sends its exit status back there (bwrap's convention: the code, or 128 + signal). One process
-per slot, forked once.
-docs/security.md and docs/decisions/0020-controllers-forked-from-a-sandboxed-template.md say why.
+How it works, in detail: docs/internals.md, `robots/template.py`.
 """
 
 from __future__ import annotations

@@ -11,7 +11,5 @@ of its own (`courier`, spoken to over `courier_link`), so the organizer's proces
 what a worker sends; `remote` checks each result against its job (`received`) and audits each
 worker by playing a share of its matches again here (`audit`).
 
-It may import the match core, the sandbox, the records and `arena`; never media, gym, cli or
-`robots` (team code travels as bytes). `dask` (and the `cryptography` its TLS keys need) is
-imported here only (pyproject.toml's contracts hold this).
+How it works, in detail: docs/internals.md, `referee/contest/__init__.py`.
 """

@@ -8,12 +8,7 @@ Importing this module registers `LaserArena-v0` with Gymnasium (that is how `mak
 or a process each ("async"). Observations, actions, rewards and vector envs: docs/rl.md. Needs
 the `rl` extra (`pip install 'laserarena[rl]'`).
 
-The room: this env, the PettingZoo env for multi-robot levels (`parallel`), the match driven
-one control period at a time for agents (`session`) and frames for `render()` (`view`). The
-observation encoding and the action's command are team-side (robots.toolkit.features and
-.policy), so that a trained policy plays in the sandbox on the same numbers. It may import the
-match core, the sandbox's team specs, the records, `arena` and `robots`; nothing imports it but
-users, and `gymnasium` and `pettingzoo` are imported here only.
+How it works, in detail: docs/internals.md, `referee/gym/__init__.py`.
 """
 
 from __future__ import annotations

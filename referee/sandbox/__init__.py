@@ -10,8 +10,5 @@ they rely on (`privacy`), each slot's uid (`uids`) and control groups (`cgroup`)
 `leases`, its log pipe (`log`), and one CPU shared by a referee and its lone controller
 (`affinity`).
 
-It may import `robots` but its toolkit (the border's messages, the spec grammar, the reference
-controllers' registry, the sandbox's entry points), `arena.level` (a level's controller limits
-and default controller), `referee.errors` and `referee.terminal`; never the match, records,
-contest, media, gym or cli (pyproject.toml's contracts hold this).
+How it works, in detail: docs/internals.md, `referee/sandbox/__init__.py`.
 """

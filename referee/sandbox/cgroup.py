@@ -9,19 +9,7 @@
   sessions, threads or children it has (a process in a group of its own is in no session's
   autogroup); the referee's own group weighs `REFEREE_WEIGHT` slots, so it keeps time.
 
-Layout, in each hierarchy, flat (a group within a group costs the scheduler at every switch
-between the referee and a controller: about 5 % of a whole run's CPU, measured):
-`laserarena-<run>-referee`, this process, and `laserarena-<run>-slot-<n>`, one per controller.
-`<run>` is random, held by a lease while the process lives (`leases`). The next referee removes
-the groups of killed referees (`_sweep`), never those of a run with a process in its groups; a
-group that cannot be removed is left: neither fails a run.
-
-Made where the referee is root and finds the controllers mounted: cgroup v2 (at the root of the
-unified hierarchy) or cgroup v1 (beside the referee's own group in the `memory`, `pids` and
-`cpu` hierarchies); cpu is used where it is there. Elsewhere `available()`
-says why not, and a slot keeps the limits its runner sets (docs/security.md). A controller
-joins its groups itself, before it drops root, by writing to descriptors of the groups'
-`cgroup.procs` that the referee opened (`SlotGroup.procs`).
+How it works, in detail: docs/internals.md, `referee/sandbox/cgroup.py`.
 """
 
 from __future__ import annotations

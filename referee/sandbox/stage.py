@@ -10,14 +10,7 @@ holds both (nothing copied), else as copies. The sandbox binds the stage: what i
 and name is the stage's, at neutral paths (LIB_DIR, PYTHON_DIR). An interpreter under /usr
 is used where it is, since the system's /usr is bound whole.
 
-Compiled modules are not taken from the host: a `.pyc` holds the path it was compiled at.
-Each staged folder's sources are compiled afresh under the names the sandbox reads them by
-(`compileall`'s `ddir`), once, when the stage is made. A staged standard library's build
-configuration (`_sysconfigdata_*`, which names the prefix it was built for) names PYTHON_DIR.
-
-A stage is named by what it holds (each source's path and identity; every file of `robots`,
-which may be a checkout being edited): a package reinstalled or a file of `robots` changed
-makes a new one. Stages no referee holds and none has used for `KEEP_HOURS` are removed.
+How it works, in detail: docs/internals.md, `referee/sandbox/stage.py`.
 """
 
 from __future__ import annotations

@@ -1,34 +1,6 @@
 """Bac, Grift & Menezes 2011: the corner-array table.
 
-`Bac` (ref:bac) is the paper's guidance on a fused pose: the toolkit's HitTracker (an EKF of
-every labelled pulse and the commanded wheels, with Bac's revolution checks to restart it)
-gives the pose at every control tick, heading included; its filter in plain floats, checked
-against a revolution's fix every CHECK_TURNS turns while they agree (a quarter of the CPU that
-every pulse's fix took, the same accuracy). On a table whose arrays latch every
-robot's pulse (shared crosstalk, as Bac's hardware would with several robots) the tracker tells
-its own pulses from the others' by when they come (docs/toolkit.md). The robot has no heading sensor and
-the laser no index, so a robot whose heading is not known (not announced, or a localize
-trial's new pose) first drives a few centimetres straight and takes its heading from its
-consecutive positions, as the paper did ("by evaluating two consecutive positions"). Guidance as the paper's: a 0.05 rad
-dead band (drive straight), a pivot turn (one wheel held) for 0.05-0.3 rad, a spin turn
-(wheels opposite) above 0.3 rad, the next waypoint when close. A turn is commanded so that it
-ends on the right angle: for each control period the wheel speeds are solved (on the nominal
-ramped wheel model) so that this period plus the ramp back to straight driving turn exactly
-the remaining angle; a turn longer than a period is driven at full rate until its last period.
-The heading that enters the dead band is the one the robot will have once its wheels settle.
-
-`BacSeed` (ref:bac-seed) is the paper's method alone, kept to reproduce its figures:
-
-Localization: revolutions from one array to the next pass of the same array (there is no
-index); the durations between pulses give the angles; a revolution whose time differs from
-the nominal one by more than its smallest pulse duration is discarded (this also catches a
-merged pulse, whose duration is 0); the closed form of appendix A gives (x, y) from arrays
-O, A and C, or, with one array missing, the three that remain. Heading: from consecutive
-positions more than 1 cm apart (per control period, the mean of its fixes; measured from
-the start of the current straight run); a turn command's angle is taken as achieved. Guidance: a 0.05 rad dead band (no new command), a pivot
-turn (one wheel held) for 0.05-0.3 rad, a spin turn above 0.3 rad, and the next waypoint
-within the task radius. A path that is one straight line from the start is driven as in the
-paper's straight-line experiment: both wheels at the same speed, no steering.
+How it works, in detail: docs/internals.md, `robots/controllers/bac.py`.
 """
 
 from __future__ import annotations

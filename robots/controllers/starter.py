@@ -2,20 +2,7 @@
 
 It has three parts; change one at a time and watch the score.
 
-1. Odometry. Between control ticks the pose moves with the wheel speeds we commanded, ramped
-   at the robot's acceleration as the drive ramps them. This drifts: real wheels slip, their
-   servos never quite match, and commands arrive a little late.
-2. Laser fixes. Within one laser revolution the beam's world angle grows as alpha0 + omega t,
-   so each hit of beacon i at time t_i says  bearing(robot -> beacon i) = alpha0 + omega t_i.
-   Three or more beacons give x, y and alpha0 by a few Gauss-Newton steps; hits that do not
-   fit (a merged or a false pulse) are dropped.
-3. Fusion. Each fix pulls the position part of the way towards it (a complementary filter:
-   odometry is smooth, fixes do not drift). The laser gives no heading (there is no index on
-   the robot), so the heading comes from the direction of travel between positions a few cm
-   apart, as Bac et al. did, and pulls the odometry's heading towards it.
-
-It steers to each waypoint in turn (on the spot when far off course, else with a gentle
-correction) and reports its estimate, which the referee scores.
+How it works, in detail: docs/internals.md, `robots/controllers/starter.py`.
 """
 
 from __future__ import annotations

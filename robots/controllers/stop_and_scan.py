@@ -1,21 +1,6 @@
 """Stop, scan a turn, turn, drive a leg, repeat; find the start first, by moving if need be.
 
-The navigation of robots whose closed-form fix needs a standing robot (Vannoy's BX-24 robot,
-Ubersetzig's servo head, Simi's cart): subclasses supply `candidates(revolution)`, every pose
-that fits one standing turn's returns. While the robot stands, each event closes such a turn
-(`TurnWindow`: no waiting for a turn that begins at an index click). A single candidate starts
-the toolkit's HitTracker from a filter of that turn alone (`fit_turn`: as sure of the pose as
-the turn's geometry makes it, cut to the announced start region); from then on every return
-and index click is an EKF update, predicted between them with the commanded wheels, so the
-pose is fused with odometry and kept at every tick. Several candidates (Vannoy's unlabelled
-returns near his 120-degree point: "the robot would have to move ... to resolve the problem")
-are carried along by odometry through a short move that is safe for each of them, and the
-next standing turn keeps those that still fit. A fix may come from part of a turn, to report
-the pose early; unless an earlier turn bears it out, a whole turn that shares none of its
-returns must, before the robot drives. At every stop a whole turn must bear the filter out: a
-filter that has gone astray restarts from the turn, and one that the turn denies (a wrong
-start, a bad scan, a push) gives way to the turn's candidates. A leg is planned once a standing
-turn has confirmed the pose.
+How it works, in detail: docs/internals.md, `robots/controllers/stop_and_scan.py`.
 """
 
 from __future__ import annotations

@@ -1,18 +1,6 @@
 """Which beacon is which, for unlabelled returns (reflectors).
 
-Seen from inside the layout, the beacons come round in a fixed cyclic order; only which
-return is the first is unknown. Vannoy identified it by the sizes of the sectors between
-returns (long / medium / short). `by_sectors` generalizes that: it predicts the sector sizes
-from a reference point (the field centre, or the last known position), and matches the
-cyclic shift whose sector ranking agrees; it flags the case it cannot decide (sectors of
-nearly equal size, as at Vannoy's 120-degree point). `cyclic` keeps every association in
-that cyclic order, and `hypotheses` the pose each gives by the circle method where it fits the
-returns: Vannoy's "three possible scenarios that make sense", for a robot that keeps those
-where it may be and tells them apart by moving. `by_prediction` associates each return with the beacon whose predicted bearing from a
-prior pose is nearest, within a gate.
-`one_laser` is for labelled pulses from several lasers at once (Bac's arrays, shared by every
-robot on the table): the sets of one pulse per array that one laser, standing near a prior
-position, could have made in its last turn.
+How it works, in detail: docs/internals.md, `robots/toolkit/associate.py`.
 """
 
 from __future__ import annotations

@@ -1,40 +1,6 @@
 """A robot's pose from its laser events and its own wheel commands, kept at every instant.
 
-The EKF of robots.toolkit.ekf predicts with the wheel speeds the controller commanded (the
-nominal ramped model of robots.toolkit.motion: the team cannot know its drive's true gains)
-and takes each event at its own time, so the pose is exact at the control tick, not at the
-last fix. A labelled hit says the beam points at that beacon; an encoder-latched angle says
-where it pointed relative to the robot; an index click says it points straight ahead; an
-unlabelled hit is taken as the beacon whose predicted bearing is nearest. Outliers go at
-three levels:
-- two hits at one instant are Bac's merged pulse ("the measured duration of any pulse was
-  added to the next pulse duration"): both are dropped;
-- the EKF gate rejects a hit whose bearing disagrees with the prediction (a false pulse, a
-  merged pulse at another time, a pulse from a turning laser that the model does not follow);
-- when hits keep failing the gate (half of the last `window` or more: the robot was pushed,
-  or slipped more than the filter allows), or when every closed-form fix for over a
-  revolution, the robot not turning, disagrees with the filter by more than 25 mm plus a
-  revolution's travel (a filter that explains the pulses with a wrong laser phase and
-  position), the tracker restarts from a closed-form fix. For labelled hits that is the fix
-  of the last revolution that passes Bac's checks (robots.toolkit.revolution). Hardware
-  without labels brings its own closed-form fix (`first_fix`), e.g. Vannoy's sector rule
-  between index clicks.
-Where every array also latches other robots' pulses (shared crosstalk), a pulse is no longer
-its own by being labelled: robots.toolkit.crowd notices it, and from then on says which
-pulses are its own and when the filter must restart among the others'.
-A stopping robot can instead judge its standing turns itself: `fit_turn` is a filter of one
-standing turn alone, as sure of the pose as that turn's geometry makes it (not a fixed guess),
-and `adopt` restarts from it. A head at rest that latches the same angle again brings nothing
-new: such a repeat is not taken twice. `odometry` is where the commanded wheels alone put the
-robot, for carrying candidate poses along a move.
-The heading is checked as Bac measured it, "by evaluating two consecutive positions": on a
-straight run, once the filtered position has moved `track_check` (m), the direction of travel
-must agree with the filtered heading within `heading_check` (rad), or the heading restarts
-from it (a robot held by a wall or another robot turns less than it was told, and the laser's
-own rate cannot tell that from a robot that turns). A robot whose heading is not known yet
-(its sd above UNKNOWN_HEADING: no heading announced, and labelled pulses without an index tell
-only the beam's world angle) is predicted to stay where it is, less sure of where the further
-it drives (`WANDER`), since it could be driving any way; its first straight run gives it its heading.
+How it works, in detail: docs/internals.md, `robots/toolkit/tracker.py`.
 """
 
 from __future__ import annotations
