@@ -70,49 +70,43 @@ def test_waypoints_score_time_and_cross_track(tmp_path):
     assert 0.005 < ct["mean"] < 0.012 and ct["std"] > 0
 
 
-def test_a_goto_robot_arrives_by_stopping_and_passing_through_earns_nothing(tmp_path):
-    goto = MINI_LEVEL.replace(
+def goto_level(goal_x: float, time_limit: int) -> str:
+    """The mini table as a goto task: the goal at (`goal_x`, 0.5), radius 5 cm, on the robot's line."""
+    return MINI_LEVEL.replace(
         "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
-        "kind: goto\n  radius: 0.05\n  goal: [1.5, 0.5]",
-    ).replace("time_limit: 4", "time_limit: 16")
+        f"kind: goto\n  radius: 0.05\n  goal: [{goal_x}, 0.5]",
+    ).replace("time_limit: 4", f"time_limit: {time_limit}")
+
+
+def stopping_at(tmp_path, seconds: float):
+    """A team that drives straight on at 0.1 m/s and stops at `seconds`."""
+    body = f"""
+        class StopAt(Controller):
+            def step(self, obs):
+                return Command(0.1, 0.1) if obs.time < {seconds} - 1e-9 else Command(0.0, 0.0)
+    """
+    return team(tmp_path, body, f"stop_{seconds:g}.py")
+
+
+def test_a_goto_robot_arrives_by_stopping_and_passing_through_earns_nothing(tmp_path):
     # at 0.1 m/s from x = 0.5 (the wheels ramp at 0.5 m/s^2: 0.2 s, 1 cm each way), told to stop
     # at t = 9.7 s: x = 0.5 + 0.97 - 0.01 + 0.01 = 1.47, 3 cm short of the goal's centre; the
     # wheels are still (under 1 % of 0.17 m/s) from t = 9.9 s, so it arrives a second later
-    stopper = team(
-        tmp_path,
-        """
-        class Stopper(Controller):
-            def step(self, obs):
-                return Command(0.1, 0.1) if obs.time < 9.7 - 1e-9 else Command(0.0, 0.0)
-    """,
-    )
-    r = play(goto, stopper)
+    r = play(goto_level(1.5, 16), stopping_at(tmp_path, 9.7))
     task = r["robots"][0]["task"]
     assert task["final_distance"] == pytest.approx(0.03, abs=1e-4)
     assert task["finished"] == pytest.approx(10.9, abs=1e-6) and r["end_reason"] == "task_complete"
     assert r["robots"][0]["score"]["task"] == pytest.approx(100 / (1 + task["final_distance"] / 0.05))
     passer = team(tmp_path, STRAIGHT, "passer.py")  # through the goal at t = 10.1 s, never standing
-    r = play(goto.replace("time_limit: 16", "time_limit: 13"), passer)["robots"][0]
+    r = play(goto_level(1.5, 13), passer)["robots"][0]
     assert r["task"]["finished"] is None and r["score"]["task"] == 0
     assert r["task"]["final_distance"] == pytest.approx(0.5 + 0.1 * 13 - 0.01 - 1.5, abs=1e-3)
 
 
 def test_pushing_against_a_wall_within_the_radius_is_not_standing(tmp_path):
-    wall = MINI_LEVEL.replace(
-        "kind: waypoints\n  radius: 0.05\n  path: [[1.0, 0.5], [1.5, 0.5]]",
-        "kind: goto\n  radius: 0.05\n  goal: [1.96, 0.5]",
-    ).replace("time_limit: 4", "time_limit: 20")
     # it meets the east wall at x = 2 - 0.105 / 2 by t = 15 s and goes on pushing, wheels
     # turning, 1.25 cm from the goal; told to stop at t = 17 s, its wheels are still at 17.2 s
-    pusher = team(
-        tmp_path,
-        """
-        class Pusher(Controller):
-            def step(self, obs):
-                return Command(0.1, 0.1) if obs.time < 17.0 - 1e-9 else Command(0.0, 0.0)
-    """,
-    )
-    task = play(wall, pusher)["robots"][0]["task"]
+    task = play(goto_level(1.96, 20), stopping_at(tmp_path, 17.0))["robots"][0]["task"]
     assert task["finished"] == pytest.approx(18.2, abs=1e-6)
     assert task["final_distance"] == pytest.approx(1.96 - (2 - 0.105 / 2), abs=1e-3)
 
