@@ -168,9 +168,7 @@ def replay_folder(db: Path) -> Path:
 
 
 PR_SET_PDEATHSIG = 1
-STOP_GRACE = (
-    10.0  # seconds a stopped pool worker's match has to end its controllers before the worker leaves regardless
-)
+STOP_GRACE = 10.0  # seconds a stopped worker's match has to end its controllers; then it leaves regardless
 _playing = False  # a pool worker is inside a match
 _stopping = False  # told to stop: whatever the match's clean-up raises, the worker leaves
 
