@@ -246,7 +246,8 @@ class Task:
     goal: Pose | None = None
     trials: Trials = Trials()
     settle: float = 0.0  # goto: seconds a robot stands, wheels still, within `radius` to arrive
-    accuracy: float = 0.0  # goto: the arrival's scale, the seed's accuracy: points halve a stop this far off the goal
+    accuracy: float = 0.0  # the seed's accuracy: points halve a goto stop this far off the goal, or a waypoint
+    # whose leg ran this far off the path (RMS); 0 on a waypoint task: every waypoint counts whole
 
 
 @dataclass(frozen=True)

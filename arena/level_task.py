@@ -39,7 +39,10 @@ def task(m: yr.Map, fld: Field) -> tuple[Task, tuple[tuple[float, float], ...]]:
     if kind == "goto":
         settle = m.opt("settle", yr.positive, SETTLE)
         accuracy = m.opt("accuracy", yr.length, radius)
-    for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",)), ("settle", ("goto",)), ("accuracy", ("goto",))):
+    elif kind in ("waypoints", "race"):  # none: every waypoint reached counts whole
+        accuracy = m.opt("accuracy", yr.length, 0.0)
+    followed = ("waypoints", "race", "goto")
+    for key, allowed in (("path", ("waypoints",)), ("goal", ("goto",)), ("settle", ("goto",)), ("accuracy", followed)):
         if m.has(key) and kind not in allowed:
             raise ctx.fail(m.raw(key).line, m.key(key), f"not used by a {kind} task")
     if kind == "localize" and m.has("radius"):

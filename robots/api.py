@@ -61,7 +61,9 @@ class TaskInfo:
     secret pose at the start of each after the first: `Observation.trial` says which).
     A goto robot arrives by standing, its wheels still, for `settle` seconds within `radius`
     of the goal; the arrival is worth 1 / (1 + d / `accuracy`) of the task's points for a
-    stop d from the goal (docs/rules.md)."""
+    stop d from the goal. On a waypoint task with an `accuracy` (0: none), each waypoint is
+    worth 1 / (1 + e / `accuracy`) of its share, e the RMS distance from the path on the
+    leg that led to it (docs/rules.md)."""
 
     kind: Name
     radius: Real

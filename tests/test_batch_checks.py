@@ -53,7 +53,7 @@ class StepByStep(loop.Match):
                 tracker.update(slot, x, y, world.time)
                 line = tracker.polyline[slot]
                 if world.tick % every == 0 and line is not None and tracker.kind != "goto" and not tracker.done(slot):
-                    tracker.deviation[slot].append(line.distances([x], [y])[0])
+                    tracker.sample(slot, line.distances([x], [y])[0])
             self.rules.after_step(world)
             if world.tick % every == 0:
                 self.writer.frame(world.time, [(p.x, p.y, p.heading) for p in map(world.pose, range(len(self.teams)))])
@@ -116,6 +116,13 @@ def test_waypoints_reached(tmp_path, monkeypatch, spec):
     level = variant("asabe", time_limit=40, **(exact_starts("asabe") if spec == "ref:dead-reckoning" else {}))
     result = same_both_ways(level, [resolve(spec)], tmp_path, monkeypatch)
     assert result.robots[0].task.reached >= 5
+
+
+def test_waypoints_weighed_by_the_path_followed(tmp_path, monkeypatch):
+    # bac-line weighs each waypoint by its leg's distance from the line: the same samples per leg
+    result = same_both_ways(variant("bac-line"), [resolve("ref:bac")], tmp_path, monkeypatch)
+    task = result.robots[0].task
+    assert task.reached == 10 and len(task.worth) == 10 and 0 < min(task.worth) <= max(task.worth) < 1
 
 
 def test_robots_finishing_end_the_match_at_the_step(tmp_path, monkeypatch):

@@ -4,7 +4,7 @@ import math
 import textwrap
 
 import pytest
-from helpers import MINI_LEVEL
+from helpers import MINI_LEVEL, edited
 
 from arena.loader import parse_level
 from referee.match.loop import run_match
@@ -68,6 +68,35 @@ def test_waypoints_score_time_and_cross_track(tmp_path):
     ct = r["task"]["cross_track"]  # in m, as every length of a result
     assert ct["max"] == pytest.approx(0.02 / math.hypot(1, 0.04), abs=0.0003)
     assert 0.005 < ct["mean"] < 0.012 and ct["std"] > 0
+
+
+def test_a_waypoint_is_worth_its_legs_distance_from_the_path(tmp_path):
+    """With `task.accuracy` a waypoint earns 1 / (1 + e / accuracy) of its share, e the RMS
+    distance from the ideal path on the leg that led to it. The robot drives dead straight on
+    y = 0.5; the path steps up to y = 0.51 at the first waypoint and stays there, so on the last
+    leg (from where it reached x = 1.0 - sqrt(0.02^2 - 0.01^2) to where it reaches x = 1.5 - the
+    same) it is exactly 1 cm off the path: that waypoint earns 1 / (1 + 0.01 / 0.01) = half."""
+    text = edited(
+        MINI_LEVEL,
+        {
+            "time_limit": 20,
+            "task.radius": 0.02,
+            "task.accuracy": 0.01,
+            "task.path": [[0.6, 0.51], [1.0, 0.51], [1.5, 0.51]],
+        },
+    )
+    r = play(text, team(tmp_path, STRAIGHT))["robots"][0]
+    worth = r["task"]["worth"]
+    assert r["task"]["reached"] == 3 and len(worth) == 3
+    assert worth[2] == pytest.approx(0.5, abs=1e-9)
+    # the second leg begins on the rising segment, nearer the path than 1 cm: a little more
+    assert 0.5 < worth[1] < 0.52
+    # the first leg rises 1 cm over 10 cm from the start; at most 1 cm off at its end: more than half
+    assert 0.5 < worth[0] < 1
+    assert r["score"]["task"] == pytest.approx(100 * sum(worth) / 3, abs=1e-6)
+    # without an accuracy every waypoint counts whole
+    whole = play(edited(text, {"task.accuracy": None}), team(tmp_path, STRAIGHT))["robots"][0]
+    assert "worth" not in whole["task"] and whole["score"]["task"] == 100
 
 
 def goto_level(goal_x: float, time_limit: int) -> str:

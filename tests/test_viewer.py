@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pygame
 import pytest
-from helpers import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, edited, run_cli
 
 import levels
 from arena.draw import BEACON, Painter, color
@@ -73,6 +73,12 @@ def _short(name: str, seconds: float, extra: str = "", rules: str = "") -> bytes
     return text.replace("beacons:", extra + "beacons:", 1).encode()
 
 
+# the mini table as a goto task, the goal on the robot's line: driving blind, it arrives
+GOTO_LEVEL = edited(
+    MINI_LEVEL, {"task": {"kind": "goto", "radius": 0.2, "accuracy": 0.05, "goal": [1.5, 0.5]}, "time_limit": 20}
+)
+
+
 @pytest.fixture(scope="module")
 def replays(tmp_path_factory):
     """Short replays of every beacon kind: four racing robots with debug drawings and a speed
@@ -92,6 +98,8 @@ def replays(tmp_path_factory):
         ("vannoy", _short("vannoy", 3, OBSTACLES), [resolve("ref:vannoy")]),
         ("simi", _short("simi", 2), [resolve("ref:simi")]),
         ("osentoski", _short("osentoski", 2), [resolve("ref:osentoski")]),
+        ("line", levels.path("bac-line").read_bytes(), [resolve("ref:bac")]),  # waypoints weighed by the path
+        ("goto", GOTO_LEVEL.encode(), [resolve("ref:dead-reckoning")]),  # a blind drive that stops on its goal
     ):
         out[key] = d / f"{key}.replay"
         run_match(parse_level(data, f"{key}.yaml"), teams, replay=out[key], isolate=False)
@@ -241,13 +249,16 @@ def test_task_progress_follows_the_result(replays, browser, tmp_path):
         assert f"{count} / {total} reached" in row, (t, row)
 
 
-def test_score_so_far_counts_only_what_was_earned(replays, browser, tmp_path):
+@pytest.mark.parametrize("key", ["race", "line", "goto"])
+def test_score_so_far_counts_only_what_was_earned(replays, browser, tmp_path, key):
     """At t = 0 nothing is earned: no task points, no time bonus, and of the localization points
     at most the first tick's share (Q is the mean over the match's ticks, docs/rules.md). The
-    score so far grows with the ticks and, at the last frame, is the referee's final score."""
-    rep = load(replays["race"])
-    html = tmp_path / "race.html"
-    write_viewer(replays["race"], html)
+    score so far grows with the ticks and, at the last frame, is the referee's final score: on a
+    race, on bac-line, whose waypoints are worth their legs' distance from the line, and on a
+    goto task, whose arrival is a stop."""
+    rep = load(replays[key])
+    html = tmp_path / f"{key}.html"
+    write_viewer(replays[key], html)
     page = _open(browser, html)
     page.evaluate("window.viewer.seek(0)")
     scores = page.locator("#now tr").all_inner_texts()[1:]
@@ -264,7 +275,19 @@ def test_score_so_far_counts_only_what_was_earned(replays, browser, tmp_path):
         assert earned[0] < earned[1] < earned[2] <= earned[3], earned  # points accrue as the match goes
         assert at[3] == pytest.approx(robot["score"]["total"], abs=0.01), (at, robot["score"])
         hud = page.evaluate("window.viewer.scenes.at(0).hud")[1 + slot]
-        assert f"score {at[0]:6.1f}   0/" in hud, hud  # no waypoint yet
+        nothing = "not arrived" if key == "goto" else "0/"
+        assert f"score {at[0]:6.1f}   {nothing}" in hud, hud  # no waypoint yet, no arrival
+        task = robot["task"]
+        assert task["finished"] is not None or key == "race"
+        if task["finished"] is not None:  # just before and at the finish, the HUD says what was done
+            line = "window.viewer.scenes.standings.line({}, 't', {})"
+            before, after = (page.evaluate(line.format(slot, task["finished"] + d)) for d in (-0.05, 0))
+            standings = Scenes(rep).standings  # pygame's HUD says the same
+            assert [before, after] == [standings.line(slot, "t", task["finished"] + d) for d in (-0.05, 0)]
+            if key == "goto":
+                assert "not arrived" in before and f"arrived, {robot['score']['task']:.0f} %" in after, (before, after)
+            else:
+                assert f"{task['total'] - 1}/{task['total']} waypoints" in before and f"{task['total']}/" in after
     # the same in the HUD pygame draws (referee/media/standings.py)
     assert page.evaluate("window.viewer.scenes.at(0).hud") == list(Scenes(rep).at(0).hud)
     assert page.errors == [] and page.remote == []

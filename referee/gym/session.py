@@ -195,7 +195,9 @@ class AgentSession:
         if tracker.kind == "localize" or not targets:
             return 0.0
         i = max(tracker.next[slot], self.free[slot])
-        value = TASK_POINTS * (i / len(targets) if tracker.kind != "goto" else tracker.progress(slot))
+        value = TASK_POINTS * tracker.progress(slot)
+        if tracker.kind != "goto":  # the start's own waypoints count from reset, whole
+            value += TASK_POINTS * (i - tracker.next[slot]) / len(targets)
         if tracker.kind != "goto" and i < len(targets):
             start = m.starts[slot]
             prev = targets[i - 1] if i else (start.x, start.y)

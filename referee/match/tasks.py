@@ -2,14 +2,17 @@
 and how far it strayed from the ideal path. Checked against the true pose; scoring of the
 progress is in referee/match/scoring.py and docs/rules.md.
 
-A waypoint is reached the moment the robot's centre comes within the task radius. A goto
-robot arrives only by stopping there: at a control tick after its wheels have stood still for
-the task's `settle` seconds with its centre within the radius (`stand`); passing through earns
-nothing, and the arrival is worth more the nearer the stop is to the goal's centre.
+A waypoint is reached the moment the robot's centre comes within the task radius. Where the
+task sets an `accuracy`, each waypoint is worth 1 / (1 + e / accuracy) of its share, e the
+RMS distance from the ideal path on the leg that led to it (`worth`). A goto robot arrives
+only by stopping: at a control tick after its wheels have stood still for the task's `settle`
+seconds with its centre within the radius (`stand`); passing through earns nothing, and the
+arrival is worth more the nearer the stop is to the goal's centre.
 """
 
 from __future__ import annotations
 
+import bisect
 import math
 
 import numpy as np
@@ -44,6 +47,14 @@ class TaskTracker:
         # from math.dist by an ulp); what counts as reached is confirmed with math.dist
         self.near = level.task.radius * (1 + 1e-9) + 1e-12
         self.deviation: list[list[float]] = [[] for _ in level.robots]
+        # per robot, per target k, where the task sets an accuracy: its leg's distances from the
+        # path in time order (the samples after the target before it was reached, then the point
+        # where the robot reached it), so that a batch and single steps sum them alike
+        self.weighed = self.kind in ("waypoints", "race") and level.task.accuracy > 0
+        self.legs: list[list[list[float]]] = [
+            [[] for _ in self.targets(r.slot)] if self.weighed else [] for r in level.robots
+        ]
+        self.reach_distance: list[list[float]] = [[] for _ in level.robots]
         # per robot, per target k: at least how far the legs from target k to the last take
         # (`still_to_travel`), summed once here rather than at every control period
         self._rest = [self._legs_after(slot) for slot in range(len(level.robots))]
@@ -73,6 +84,8 @@ class TaskTracker:
             return  # arriving is a stop (`stand`), not a passage
         radius = self.level.task.radius
         while self.next[slot] < len(targets) and math.dist((x, y), targets[self.next[slot]]) <= radius:
+            if self.weighed:
+                self.reach_distance[slot].append(self._off_path(slot, x, y))
             self.next[slot] += 1
             self.reached_at[slot].append(time)
             if self.next[slot] == len(targets):
@@ -95,6 +108,7 @@ class TaskTracker:
                     self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
                 continue
             end = n  # the step after which the robot has finished (no more samples)
+            base, reached = self.next[slot], list[int]()  # the steps at which it reached a target
             i = 0
             while self.next[slot] < len(targets) and i < n:
                 tx, ty = targets[self.next[slot]]
@@ -105,16 +119,43 @@ class TaskTracker:
                     break
                 i = k
                 self.update(slot, float(xs[i]), float(ys[i]), (first_tick + i) / rate)
+                reached.extend([i] * (self.next[slot] - base - len(reached)))
                 if self.done(slot):
                     end = i
             line = self.polyline[slot]
             if line is None or self.kind not in ("waypoints", "race") or (self.done(slot) and end == n):
                 continue  # no path to stray from, or finished before these steps
             if start < end:
-                runs.append((slot, end))
+                runs.append((slot, end, base, reached))
         if runs:
-            for (slot, _), distances in zip(runs, self.paths.distances(states, start, every, runs)):
+            spans = [(slot, end) for slot, end, _, _ in runs]
+            for (slot, _, base, reached), distances in zip(runs, self.paths.distances(states, start, every, spans)):
                 self.deviation[slot].extend(distances)
+                if self.weighed:  # a sample at step s is on the leg to the first target not reached by s
+                    for j, d in enumerate(distances):
+                        self.legs[slot][base + bisect.bisect_right(reached, start + j * every)].append(d)
+
+    def sample(self, slot: int, distance: float) -> None:
+        """One sample of robot `slot`'s distance from its path, taken after this step's
+        `update`: as `advance` samples at the record rate (a step-by-step driver's way)."""
+        self.deviation[slot].append(distance)
+        if self.weighed:
+            self.legs[slot][self.next[slot]].append(distance)
+
+    def _off_path(self, slot: int, x: float, y: float) -> float:
+        line = self.polyline[slot]
+        return line.distances([x], [y])[0] if line is not None else 0.0
+
+    def worth(self, slot: int) -> list[float]:
+        """What each target robot `slot` reached is worth, 0..1: 1 / (1 + e / accuracy), e the
+        RMS of its leg's distances from the path; 1 each where the task sets no accuracy."""
+        if not self.weighed:
+            return [1.0] * self.next[slot]
+        accuracy, out = self.level.task.accuracy, []
+        for leg, last in zip(self.legs[slot], self.reach_distance[slot]):
+            squares = math.fsum(d * d for d in leg) + last * last
+            out.append(1.0 / (1.0 + math.sqrt(squares / (len(leg) + 1)) / accuracy))
+        return out
 
     def stand(self, slot: int, still: bool, x: float, y: float, time: float) -> None:
         """At a control tick: whether robot `slot`'s wheels are still, and where it is. A goto
@@ -150,14 +191,15 @@ class TaskTracker:
         return max(0.0, math.dist((x, y), targets[k]) - self.near) + self._rest[slot][k]
 
     def progress(self, slot: int) -> float:
-        """Task completion, 0..1: waypoints reached; or for goto the arrival, worth
-        1 / (1 + d / accuracy) for a stop d from the goal's centre, 0 without one."""
+        """Task completion, 0..1: the worth of the waypoints reached over their number; or for
+        goto the arrival, worth 1 / (1 + d / accuracy) for a stop d from the goal's centre, 0
+        without one."""
         targets = self.targets(slot)
         if self.kind == "goto":
             if not self.done(slot):
                 return 0.0
             return 1.0 / (1.0 + self.final_distance[slot] / self.level.task.accuracy)
-        return self.next[slot] / len(targets) if targets else 0.0
+        return math.fsum(self.worth(slot)) / len(targets) if targets else 0.0
 
     def summary(self, slot: int) -> TaskProgress:
         """Robot `slot`'s progress as its result record."""
@@ -177,6 +219,7 @@ class TaskTracker:
                 total=len(targets),
                 reached_at=list(self.reached_at[slot]),
                 cross_track=cross,
+                worth=self.worth(slot) if self.weighed else UNSET,
             )
         if self.kind == "goto":
             return TaskProgress(kind=self.kind, finished=finished, final_distance=self.final_distance[slot])

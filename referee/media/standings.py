@@ -1,15 +1,17 @@
 """Each robot's standing at any moment of a replay, for the viewer's HUD: task progress so
 far, score so far, and the error of its latest estimate. Grows with a live replay.
 
-Progress is tracked on the recorded frames from the first frame's true starts (the referee
-tracks every physics step, so a waypoint grazed between two frames may show a frame late);
-the score so far is the points docs/rules.md gives for what happened up to that moment: task
-points, the localization points the ticks so far have earned, the time bonus once finished,
-minus the penalties of the fouls so far. Q is the mean tick quality over the match's ticks,
-so each tick earns its quality over the match's tick count: the result's count once the
-replay has one, before that (live play) the ticks to the time limit, the most a match can
-have. Nothing is counted before it is earned: at t = 0 a robot has earned at most one tick's
-share, the score so far never exceeds the final score, and at the end it is the final score.
+Once the replay has its result, task progress comes from the result's own times: when each
+waypoint was reached and what it was worth, when a goto robot arrived. Before that (live play,
+a replay cut short) it is tracked on the recorded frames from the first frame's true starts:
+a waypoint grazed between two frames shows a frame late, each counts whole, and a goto
+arrival (a stop, seen at control ticks) does not show. The score so far is the points
+docs/rules.md gives for what happened up to that moment: task points, the localization points
+the ticks so far have earned, the time bonus once finished, minus the penalties of the fouls
+so far. Q is the mean tick quality over the match's ticks, so each tick earns its quality over
+the match's tick count (the result's, or the time limit's before it has one). With the result,
+the score so far never exceeds the final score and at the end it is the final score.
+Mirrored for the browser in referee/media/web/viewer.js.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ class Standings:
     def __init__(self, level: Level, rep: Replay):
         self.level, self.rep = level, rep
         self.tracker = TaskTracker(level, tuple(Pose(*p) for p in rep.frames[0][1]) if rep.frames else None)
-        self.progress: list[list[float]] = [[] for _ in level.robots]  # per frame
+        self.reached: list[list[int]] = [[] for _ in level.robots]  # per frame, from the frames
         self.finished: list[float | None] = [None] * len(level.robots)
         rules = level.rules
         self.errors = [ErrorTrack(slot, rules.position_scale, rules.heading_scale) for slot in range(len(level.robots))]
@@ -43,7 +45,7 @@ class Standings:
             for slot, (x, y, _) in enumerate(poses):
                 if t > 0:  # the referee tracks after physics steps, never at the start
                     self.tracker.update(slot, x, y, t)
-                self.progress[slot].append(self.tracker.progress(slot))
+                self.reached[slot].append(self.tracker.next[slot])
                 self.finished[slot] = self.tracker.finished[slot]
         self.frames_done = len(self.rep.frames)
         for track in self.errors:
@@ -53,13 +55,37 @@ class Standings:
         frames = self.rep.frames
         return int(min(max(round(t * self.rep.header["record_rate"]), 0), len(frames) - 1))
 
+    def task_at(self, slot: int, t: float) -> tuple[int, float, float | None]:
+        """Robot `slot`'s task at time `t`: targets reached, progress (0..1), finish time."""
+        result = self.rep.result
+        if result is None:
+            reached = self.reached[slot][self._frame(t)]
+            targets = len(self.tracker.targets(slot))
+            return reached, (reached / targets if targets else 0.0), self.finished[slot]
+        if t >= self.rep.duration - 1e-9:  # the last frame may come a step or two before the end
+            t = max(t, result.end_time)
+        robot = result.robots[slot]
+        task = robot.task
+        if task.kind == "goto":
+            arrived = task.finished is not None and task.finished <= t
+            return int(arrived), (robot.score.task / TASK_POINTS if arrived else 0.0), task.finished
+        times = task.get("reached_at", [])
+        worth = task.get("worth", [1.0] * len(times))
+        reached, progress = 0, 0.0
+        while reached < len(times) and times[reached] <= t:
+            progress += worth[reached]  # added in order, as the browser adds them
+            reached += 1
+        return reached, (progress / task.get("total", 1) if times else 0.0), task.finished
+
     def score(self, slot: int, t: float) -> float:
         """Robot `slot`'s score had the match ended at time `t`."""
         localize = self.level.task.kind == "localize"
-        progress = self.progress[slot][self._frame(t)]
+        result = self.rep.result
+        if result is not None and t >= self.rep.duration - 1e-9:  # the end: what the match ended with
+            t = max(t, result.end_time)
+        _, progress, finished = self.task_at(slot, t)
         points = 0.0 if localize else TASK_POINTS * progress
         quality = min(1.0, self.errors[slot].quality_sum_until(t) / self.match_ticks(slot))
-        finished = self.finished[slot]
         if finished is not None and finished <= t and not localize:
             points += TIME_POINTS * (1.0 - finished / self.level.time_limit) * quality
         points += (LOCALIZE_TASK_POINTS if localize else LOCALIZATION_POINTS) * quality
@@ -79,11 +105,13 @@ class Standings:
     def line(self, slot: int, team: str, t: float) -> str:
         """The HUD line of one robot."""
         kind = self.level.task.kind
-        progress = self.progress[slot][self._frame(t)]
-        targets = len(self.tracker.targets(slot))
-        task = {"localize": "localize", "goto": f"{100 * progress:.0f} % of the way"}.get(
-            kind, f"{round(progress * targets)}/{targets} waypoints"
-        )
+        reached, progress, _ = self.task_at(slot, t)
+        if kind == "localize":
+            task = "localize"
+        elif kind == "goto":
+            task = f"arrived, {100 * progress:.0f} %" if reached else "not arrived"
+        else:
+            task = f"{reached}/{len(self.tracker.targets(slot))} waypoints"
         err = self.error_now(slot, t)
         shown = f"err {1000 * err[0]:.0f} mm {math.degrees(err[1]):.0f} deg" if err else "no estimate"
         return f"{slot} {team}   score {self.score(slot, t):6.1f}   {task}   {shown}"

@@ -1,4 +1,4 @@
-"""The result of a match as typed, frozen records (format `laserarena-result`, version 3).
+"""The result of a match as typed, frozen records (format `laserarena-result`, `RESULT_VERSION`).
 
 Every record is a frozen msgspec Struct (its lists are plain lists, as in the JSON): attribute access for Python (`r.robots[0].score.total`),
 read-only access by the result JSON's own field names for scripts written against the JSON
@@ -83,6 +83,7 @@ class TaskProgress(Record, frozen=True):
     total: int | UnsetType = UNSET
     reached_at: list[float] | UnsetType = UNSET
     cross_track: CrossTrack | UnsetType = UNSET
+    worth: list[float] | UnsetType = UNSET  # where the task sets an accuracy: each reached waypoint's share, 0..1
     final_distance: float | None | UnsetType = UNSET
 
 

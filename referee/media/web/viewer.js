@@ -85,31 +85,20 @@
       const n = geom.robots.length, kind = geom.task.kind, radius = geom.task.radius, P = S.points;
       this.rep = rep; this.geom = geom; this.P = P;
       this.targets = geom.targets;
-      this.progress = geom.robots.map(() => []);
+      this.duration = rep.frames[rep.frames.length - 1][0];
+      this.reached = geom.robots.map(() => []);  // per frame, from the frames (a replay without its result)
       this.finished = Array(n).fill(null);
-      const next = Array(n).fill(0), finalDistance = Array(n).fill(NaN);
-      const startDistance = rep.frames[0][1].map((s, slot) => (this.targets[slot].length
-        ? Math.hypot(s[0] - this.targets[slot][0][0], s[1] - this.targets[slot][0][1]) : NaN));
-      const progress = (slot) => {
-        const targets = this.targets[slot];
-        if (kind === "goto") {
-          if (this.finished[slot] !== null) return 1;
-          const p = Math.max(0, 1 - finalDistance[slot] / startDistance[slot]);
-          return Number.isNaN(p) || !startDistance[slot] ? 0 : p;
-        }
-        return targets.length ? next[slot] / targets.length : 0;
-      };
+      const next = Array(n).fill(0);
       for (const [t, poses] of rep.frames) {
         poses.forEach(([x, y], slot) => {
           const targets = this.targets[slot];
-          if (t > 0) {  // the referee tracks after physics steps, never at the start
-            if (kind === "goto") finalDistance[slot] = Math.hypot(x - targets[0][0], y - targets[0][1]);
+          if (t > 0 && kind !== "goto") {  // the referee tracks after physics steps; a goto arrival is a stop
             while (next[slot] < targets.length && Math.hypot(x - targets[next[slot]][0], y - targets[next[slot]][1]) <= radius) {
               next[slot] += 1;
               if (next[slot] === targets.length) this.finished[slot] = t;
             }
           }
-          this.progress[slot].push(progress(slot));
+          this.reached[slot].push(next[slot]);
         });
       }
       const frameTimes = rep.frames.map((f) => f[0]);
@@ -139,13 +128,31 @@
       return localization ? localization.ticks : this.geom.control_ticks;
     }
 
+    taskAt(slot, t) {  // [targets reached, progress 0..1, finish time] at t (referee/media/standings.py)
+      const result = this.rep.result;
+      if (!result) {
+        const reached = this.reached[slot][this.frame(t)], targets = this.targets[slot].length;
+        return [reached, targets ? reached / targets : 0, this.finished[slot]];
+      }
+      if (t >= this.duration - 1e-9) t = Math.max(t, result.end_time);  // the last frame may come a step or two before the end
+      const robot = result.robots[slot], task = robot.task;
+      if (task.kind === "goto") {
+        const arrived = task.finished !== null && task.finished <= t;
+        return [arrived ? 1 : 0, arrived ? robot.score.task / this.P.task : 0, task.finished];
+      }
+      const times = task.reached_at || [], worth = task.worth || times.map(() => 1);
+      let reached = 0, progress = 0;
+      while (reached < times.length && times[reached] <= t) { progress += worth[reached]; reached += 1; }
+      return [reached, times.length ? progress / task.total : 0, task.finished];
+    }
+
     score(slot, t) {  // the points earned by t (docs/rules.md; referee/media/standings.py)
       const localize = this.geom.task.kind === "localize", P = this.P;
-      const progress = this.progress[slot][this.frame(t)];
+      if (this.rep.result && t >= this.duration - 1e-9) t = Math.max(t, this.rep.result.end_time);  // the end
+      const [, progress, finished] = this.taskAt(slot, t);
       let points = localize ? 0 : P.task * progress;
       const track = this.errors[slot], n = bisectRight(track.times, t + 1e-9);
       const quality = Math.min(1, (n ? track.qualities[n - 1] : 0) / this.matchTicks(slot));
-      const finished = this.finished[slot];
       if (finished !== null && finished <= t && !localize) points += P.time * (1 - finished / this.geom.time_limit) * quality;
       points += (localize ? P.localize_task : P.localization) * quality;
       return points - this.rep.fouls.filter((f) => f.r === slot && f.time <= t).reduce((a, f) => a + f.penalty, 0);
@@ -157,9 +164,10 @@
     }
 
     line(slot, team, t) {  // the HUD line of one robot
-      const kind = this.geom.task.kind, progress = this.progress[slot][this.frame(t)], targets = this.targets[slot].length;
-      const task = kind === "localize" ? "localize" : kind === "goto" ? `${(100 * progress).toFixed(0)} % of the way`
-        : `${pyRound(progress * targets)}/${targets} waypoints`;
+      const kind = this.geom.task.kind, [reached, progress] = this.taskAt(slot, t);
+      const task = kind === "localize" ? "localize"
+        : kind === "goto" ? (reached ? `arrived, ${pyRound(100 * progress).toFixed(0)} %` : "not arrived")
+        : `${reached}/${this.targets[slot].length} waypoints`;
       const err = this.errorNow(slot, t);
       const shown = err ? `err ${(1000 * err[0]).toFixed(0)} mm ${(180 / Math.PI * err[1]).toFixed(0)} deg` : "no estimate";
       return `${slot} ${team}   score ${this.score(slot, t).toFixed(1).padStart(6)}   ${task}   ${shown}`;
