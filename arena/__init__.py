@@ -1,5 +1,5 @@
-"""The physical world: levels, physics, drive, the lasers and detectors (`sensing/`), drawing;
-loops compiled with NumPy's bits (`compiled`).
+"""The physical world: physics, drive, the lasers and detectors (`sensing/`), where robots are
+set down, drawing; loops compiled with NumPy's bits (`compiled`).
 
-Knows nothing of teams or scores.
+Reads levels through the level model below it (`levels`); knows nothing of teams or scores.
 """

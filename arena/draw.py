@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import pygame
 
-from arena.level import Level
+from levels.model import Level
 
 PALETTE = [(230, 80, 60), (60, 140, 230), (60, 180, 90), (220, 170, 40), (170, 90, 210), (40, 190, 190)]
 BACKGROUND, FIELD, WALL, OBSTACLE = (24, 26, 30), (236, 232, 220), (70, 70, 76), (120, 110, 100)

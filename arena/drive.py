@@ -22,8 +22,8 @@ import numpy as np
 import pymunk
 
 from arena import chipmunk
-from arena.level import DriveErrors, RobotModel
 from arena.rng import RandomTree
+from levels.model import DriveErrors, RobotModel
 
 GRAVITY = 9.81  # m/s^2, for the friction force limits
 

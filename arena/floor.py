@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from arena.compiled import compiled
-from arena.level import Floor, Pose, Tiles
 from arena.rng import RandomTree
+from levels.model import Floor, Pose, Tiles
 
 WAVES = 32  # plane waves in a tilt field: enough for its slopes to be nearly Gaussian (ours)
 

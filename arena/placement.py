@@ -19,9 +19,9 @@ import numpy as np
 
 from arena.angles import wrap
 from arena.floor import Grid
-from arena.level import Level, Placement, Pose, Trials
-from arena.level_checks import body_problem, footprint
 from arena.rng import RandomTree
+from levels.checks import body_problem, footprint
+from levels.model import Level, Placement, Pose, Trials
 
 ATTEMPTS = 1000
 

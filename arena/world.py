@@ -18,8 +18,8 @@ import pymunk
 from arena import chipmunk, stepping
 from arena.angles import wrap
 from arena.drive import DiffDrive
-from arena.level import Level, Pose
 from arena.rng import RandomTree
+from levels.model import Level, Pose
 
 WALL_THICKNESS = 0.02  # m; walls lie just outside the field border
 

@@ -22,7 +22,7 @@ import statistics
 import time
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 

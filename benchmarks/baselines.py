@@ -41,7 +41,7 @@ def play(level_name: str, who: str, seed: int, secret: str) -> Outcome:
     """One match of `who` in slot 0 of a built-in level, its noise drawn from `secret`."""
     import no_laser
 
-    from arena.loader import load_level
+    from levels.loader import load_level
     from referee.contest.noise_secret import noise_key
     from referee.match.loop import run_match
     from referee.sandbox.teams import Team, resolve
@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(args.workers) as pool:
         outcomes = list(pool.map(_play, jobs, chunksize=1))
     seconds = time.perf_counter() - start
-    from arena.loader import load_level
+    from levels.loader import load_level
 
     rows = []
     for name in names:

@@ -18,7 +18,7 @@ import tempfile
 from pathlib import Path
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 

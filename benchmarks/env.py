@@ -17,10 +17,10 @@ import gymnasium
 import numpy as np
 
 import referee.gym  # registers LaserArena-v0
-from arena.loader import find_level
 from arena.rng import RandomTree
 from arena.sensing.pipeline import Sensing
 from arena.world import World
+from levels.loader import find_level
 from referee.gym import parallel
 
 LEVEL, RACE = "asabe", "asabe-race"

@@ -33,9 +33,9 @@ import quoted
 import yaml
 
 import levels
-from arena.level import Level
-from arena.loader import parse_level
-from arena.robot_models import ROBOT_MODELS
+from levels.loader import parse_level
+from levels.model import Level
+from levels.robot_models import ROBOT_MODELS
 from referee.match.loop import Match
 from referee.match.views import replay_header
 from referee.media import error_series

@@ -17,7 +17,7 @@ from pathlib import Path
 from speed import machine_cpu
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.contest import grade as g
 from referee.sandbox.teams import resolve
 from referee.version import __version__

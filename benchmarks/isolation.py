@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import Match
 from referee.match.views import brief_for
 from referee.sandbox.exchange import exchange

@@ -19,7 +19,7 @@ import pygame
 
 import levels
 from arena.draw import Painter
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
 from referee.records.replay_reader import load

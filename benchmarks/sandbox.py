@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.views import brief_for
 from referee.sandbox import forkserver, kernel
 from referee.sandbox.process import ProcessBot

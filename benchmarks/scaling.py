@@ -26,9 +26,9 @@ from pathlib import Path
 import yaml
 
 import levels
-from arena.level import Level
-from arena.loader import parse_level
 from arena.world import World
+from levels.loader import parse_level
+from levels.model import Level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 

@@ -12,10 +12,10 @@ import json
 import time
 
 import levels
-from arena.loader import load_level
 from arena.rng import RandomTree
 from arena.sensing.pipeline import Sensing
 from arena.world import World
+from levels.loader import load_level
 
 
 def run(seconds: float, sensing_on: bool) -> tuple[float, int]:

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import sensing
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.contest import grade as g
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.contest import report
 from referee.contest import tournament as t
 from referee.contest.journal import Journal

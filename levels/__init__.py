@@ -1,4 +1,8 @@
-"""The built-in levels, shipped as package data so a non-editable install finds them."""
+"""The level: its model (`model`, `match`), its YAML reading (`loader`), checks and schema, and
+the built-in levels, shipped as package data so a non-editable install finds them.
+
+The bottom of the product: it imports nothing of `arena`, `robots` or `referee`.
+"""
 
 from __future__ import annotations
 

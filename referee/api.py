@@ -16,8 +16,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from arena.level import Level
-from arena.loader import find_level, load_level
+from levels.loader import find_level, load_level
+from levels.model import Level
 from referee.errors import TeamError, UserError
 from referee.records.results import MatchResult
 from referee.sandbox.class_source import class_team

@@ -1,9 +1,9 @@
-"""The referee's errors, one hierarchy under `arena.errors.LaserArenaError`, and their exit codes.
+"""The referee's errors, one hierarchy under `levels.errors.LaserArenaError`, and their exit codes.
 
 Every error path of the command line ends in one of these: `referee.cli.main` prints the one
 line and exits with the error's `exit_code` (docs/cli.md lists the codes).
 
-- `arena.loader.LevelError`: a level file (file:line: key: message);
+- `levels.loader.LevelError`: a level file (file:line: key: message);
 - `TeamError`: a team spec or a team's files that cannot be resolved;
 - `ReplayError`: a replay that cannot be read (also a ValueError, for library callers);
 - `JournalError`: a grading journal that cannot be read or written;
@@ -13,7 +13,7 @@ line and exits with the error's `exit_code` (docs/cli.md lists the codes).
 
 from __future__ import annotations
 
-from arena.errors import LaserArenaError
+from levels.errors import LaserArenaError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE = 0, 1, 2, 130, 141  # docs/cli.md
 

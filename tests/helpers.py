@@ -18,12 +18,12 @@ import numpy as np
 import yaml
 
 import levels
-from arena.level import Level
-from arena.loader import parse_level
 from arena.rng import RandomTree
 from arena.sensing.crossings import Trajectory
 from arena.sensing.pipeline import Sensing
 from arena.world import World
+from levels.loader import parse_level
+from levels.model import Level
 from robots.api import BeaconInfo, Brief, LaserInfo, RobotInfo, StartInfo, TaskInfo
 
 # A small valid level; tests derive variants of it with `variant`.

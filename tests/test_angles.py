@@ -7,9 +7,9 @@ import pytest
 
 import levels
 from arena.angles import wrap
-from arena.level import Pose
-from arena.loader import load_level
 from arena.world import World
+from levels.loader import load_level
+from levels.model import Pose
 from robots.toolkit.angles import wrap as team_wrap
 
 

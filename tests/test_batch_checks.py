@@ -10,7 +10,7 @@ import textwrap
 import pytest
 from helpers import MINI_LEVEL, edited, exact_starts, variant
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match import loop
 from referee.sandbox.teams import resolve
 

@@ -12,8 +12,8 @@ import pytest
 from helpers import closed_to_others
 
 import levels
-from arena.level import ControllerLimits
-from arena.loader import load_level
+from levels.loader import load_level
+from levels.match import ControllerLimits
 from referee.errors import UserError
 from referee.match.views import brief_for
 from referee.sandbox.process import ProcessBot

@@ -32,8 +32,8 @@ def with_facing(kind, beacon_line, degrees, params=""):
     """The test table with one beacon facing `degrees`."""
     from helpers import TABLE
 
-    from arena.loader import parse_level
     from arena.world import World
+    from levels.loader import parse_level
 
     text = TABLE.format(kind=kind, omega=60.0, robots=ONE, params=params, obstacles="")
     text = text.replace(beacon_line, beacon_line[:-1] + f", facing: {degrees}}}")
@@ -265,8 +265,8 @@ def test_light_turret_scan_peaks_at_the_lights():
 
 def test_light_turret_far_lights_merge_into_one_peak():
     # two lights 10 cm apart seen from 3 m: 1.9 deg apart, inside a 6 deg beam -> one dip
-    from arena.loader import parse_level
     from arena.world import World
+    from levels.loader import parse_level
 
     text = """
 name: merge
@@ -321,7 +321,7 @@ def test_flash_limit_is_held_outside_the_measured_ranges():
 
 def level_params(name):
     import levels
-    from arena.loader import load_level
+    from levels.loader import load_level
 
     return load_level(levels.path(name)).beacons.params
 

@@ -5,7 +5,7 @@ import json
 from helpers import run_cli
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
 from referee.records.replay_reader import load

@@ -8,10 +8,10 @@ import statistics
 import pytest
 from helpers import MINI_LEVEL, edited, exact_starts, variant
 
-from arena.level import DriveErrors, Pose
-from arena.loader import parse_level
 from arena.rng import RandomTree
 from arena.world import World
+from levels.loader import parse_level
+from levels.model import DriveErrors, Pose
 from referee.match.loop import Match, run_match
 from referee.sandbox.teams import resolve
 

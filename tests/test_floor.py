@@ -8,11 +8,11 @@ import pytest
 from helpers import ONE, TABLE, edited, hits, sense, simi_on_tiles
 
 from arena import floor
-from arena.level import Pose
-from arena.loader import parse_level
 from arena.placement import starts, trial_poses
 from arena.rng import RandomTree
 from arena.world import World
+from levels.loader import parse_level
+from levels.model import Pose
 from referee.match.loop import Match
 from referee.sandbox.teams import resolve
 

@@ -98,7 +98,7 @@ def test_a_first_sensing_leaves_its_kernels_out_of_the_collectors_sight():
         """
         import gc
         import levels
-        from arena.loader import load_level
+        from levels.loader import load_level
         from arena.rng import RandomTree
         from arena.sensing import spin
         from arena.sensing.pipeline import Sensing

@@ -13,8 +13,8 @@ from helpers import closed_to_others, exact_starts, variant
 from hostile.hostile_kit import sandboxed_processes
 
 import levels
-from arena.level import ControllerLimits
-from arena.loader import load_level
+from levels.loader import load_level
+from levels.match import ControllerLimits
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
 from referee.records.replay_reader import load
@@ -185,9 +185,9 @@ def test_no_world_state_in_the_controller_process(tmp_path):
         import gc
         class Snoop(Controller):
             def step(self, obs):
-                leaks = [m for m in sys.modules if m.split(".")[0] in ("pymunk", "arena", "referee", "numpy")]
+                leaks = [m for m in sys.modules if m.split(".")[0] in ("pymunk", "levels", "arena", "referee", "numpy")]
                 leaks += [type(o).__name__ for o in gc.get_objects()
-                          if type(o).__module__.split(".")[0] in ("pymunk", "arena", "referee")]
+                          if type(o).__module__.split(".")[0] in ("pymunk", "levels", "arena", "referee")]
                 if leaks:
                     raise RuntimeError(f"found {leaks[:5]}")
                 return Command(0.0, 0.0)

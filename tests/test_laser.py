@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from helpers import ONE, TABLE, TWO, hits, make, sense
 
-from arena.loader import parse_level
 from arena.world import World
+from levels.loader import parse_level
 
 
 @pytest.mark.parametrize("omega", [20.0, -81.0, 1.5707963267948966])

@@ -11,8 +11,8 @@ import pytest
 import yaml
 from helpers import MINI_LEVEL, run_cli
 
-from arena.loader import LevelError
-from arena.loader import load_level as load_bare
+from levels.loader import LevelError
+from levels.loader import load_level as load_bare
 from referee.sandbox.teams import controller_problem, resolve
 
 # as the referee loads a level: its default controller checked too
@@ -129,7 +129,7 @@ def test_fewer_than_three_beacons(tmp_path, kind):
     d["beacons"]["items"] = d["beacons"]["items"][:2]
     expect(tmp_path, d, "beacons.items", "needs at least 3")
     # the physics runs with two: text parsed without the level's folder (replays, sensor fixtures) passes
-    from arena.loader import parse_level
+    from levels.loader import parse_level
 
     assert len(parse_level(yaml.safe_dump(d).encode(), "two.yaml").beacons.items) == 2
     d["beacons"]["items"].append({"id": "C", "at": [0, 1]})

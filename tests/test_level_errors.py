@@ -3,7 +3,7 @@
 import pytest
 from helpers import MINI_LEVEL, run_cli
 
-from arena.loader import LevelError, parse_level
+from levels.loader import LevelError, parse_level
 
 
 def line_of(text: str, needle: str) -> int:
@@ -274,7 +274,7 @@ def test_a_read_error_survives_pickling():
     """One raised in a worker process (a pool job's level) reaches its caller as itself."""
     import pickle
 
-    from arena.yaml_reader import ReadError
+    from levels.yaml_reader import ReadError
 
     e = pickle.loads(pickle.dumps(ReadError("lv.yaml", 7, "task.goal", "outside the field")))
     assert isinstance(e, ReadError) and str(e) == "lv.yaml:7: task.goal: outside the field"

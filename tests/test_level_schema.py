@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 import levels
-from arena.level_schema import BY_HAND, SCHEMA_FILE, _unexplored, schema_text, shapes
-from arena.loader import LevelError, parse_level
+from levels.loader import LevelError, parse_level
+from levels.schema import BY_HAND, SCHEMA_FILE, _unexplored, schema_text, shapes
 
 SCHEMA = Path(__file__).resolve().parent.parent / "docs" / "schema" / SCHEMA_FILE
 
@@ -24,7 +24,7 @@ def validator():
 
 
 def test_the_committed_schema_is_the_generated_one():
-    assert SCHEMA.read_text() == schema_text(), "run: python -m arena.level_schema docs/schema"
+    assert SCHEMA.read_text() == schema_text(), "run: python -m levels.schema docs/schema"
 
 
 def test_a_key_of_several_forms_lists_each_once():

@@ -9,7 +9,7 @@ import pytest
 from helpers import run_cli
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 
 FT, IN = 0.3048, 0.0254
 ALL = [

@@ -8,7 +8,7 @@ import pytest
 from helpers import run_cli
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.media import accuracy_map as am
 from robots.toolkit.solvers import least_squares
 

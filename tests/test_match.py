@@ -6,7 +6,7 @@ import textwrap
 import pytest
 from helpers import MINI_LEVEL, edited
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.errors import TeamError
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve

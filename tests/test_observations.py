@@ -9,7 +9,7 @@ import pytest
 from helpers import edited, run_cli
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent

@@ -10,11 +10,11 @@ import pytest
 from helpers import MINI_LEVEL, edited, run_cli, simi_on_tiles, variant
 
 import levels
-from arena.level import Placement, Pose
-from arena.level_checks import footprint
-from arena.loader import load_level, parse_level
 from arena.placement import draw, starts, trial_poses
 from arena.rng import RandomTree
+from levels.checks import footprint
+from levels.loader import load_level, parse_level
+from levels.model import Placement, Pose
 from referee.match.loop import Match
 from referee.match.views import announced_start, brief_for
 from referee.records.replay_reader import load

@@ -10,7 +10,7 @@ from helpers import run_cli
 
 import levels
 from arena.draw import color
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
 from referee.records.replay_reader import load

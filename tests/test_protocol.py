@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import levels
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots import protocol
@@ -122,7 +122,7 @@ def mutations(rng: random.Random, base: bytes) -> bytes:
 
 
 def a_setup_message() -> dict:
-    from arena.loader import load_level
+    from levels.loader import load_level
     from referee.match.views import brief_for
 
     return {"type": "setup", "brief": msgspec.to_builtins(brief_for(load_level(levels.path("asabe-race")), 1))}

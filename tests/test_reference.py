@@ -12,7 +12,7 @@ import pytest
 from helpers import exact_starts, variant
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import Match, run_match
 from referee.sandbox.teams import resolve
 from robots.toolkit.solvers import least_squares

@@ -8,7 +8,7 @@ import pytest
 
 import levels
 from arena.draw import BEACON, FIELD, Painter, color
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes, render
 from referee.records.replay_reader import load
@@ -19,7 +19,7 @@ from referee.sandbox.teams import resolve
 def replay(tmp_path_factory):
     path = tmp_path_factory.mktemp("r") / "race.replay"
     text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 6")
-    from arena.loader import parse_level
+    from levels.loader import parse_level
 
     run_match(parse_level(text.encode(), "race6.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False)
     return path

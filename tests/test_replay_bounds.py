@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from helpers import MINI_LEVEL
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.errors import EXIT_BAD_INPUT
 from referee.match.loop import run_match
 from referee.records.replay_format import MAX_RECORD, MAX_REPLAY

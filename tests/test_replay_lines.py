@@ -14,7 +14,7 @@ from helpers import MINI_LEVEL
 from hypothesis import given
 from hypothesis import strategies as st
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.records.canonical import DECIMALS
 from referee.records.replay_format import Header, TeamEntry
 from referee.records.replay_writer import ReplayWriter

@@ -9,7 +9,7 @@ import jsonschema
 import pytest
 from helpers import MINI_LEVEL, edited, variant
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.records.canonical import dumps
 from referee.records.result_schema import SCHEMA_FILE, schema_text

@@ -16,7 +16,7 @@ pytest.importorskip("pettingzoo", reason="the rl extra is not installed: pip ins
 from helpers import exact_starts, variant  # noqa: E402
 
 import levels  # noqa: E402
-from arena.loader import parse_level  # noqa: E402
+from levels.loader import parse_level  # noqa: E402
 from referee.match.loop import run_match  # noqa: E402
 from referee.match.views import brief_for  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402

@@ -13,7 +13,7 @@ gymnasium = pytest.importorskip("gymnasium", reason="the rl extra is not install
 
 import levels  # noqa: E402
 import referee.gym  # noqa: E402  (registers LaserArena-v0)
-from arena.loader import load_level  # noqa: E402
+from levels.loader import load_level  # noqa: E402
 
 WAIT = 120  # s: the most any one reset or step of a worker may take
 

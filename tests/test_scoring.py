@@ -11,8 +11,8 @@ from helpers import MINI_LEVEL, edited, variant
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from arena.level import Pose
-from arena.loader import parse_level
+from levels.loader import parse_level
+from levels.model import Pose
 from referee.match.estimates import EstimateStats, tick_quality
 from referee.match.loop import run_match
 from referee.match.scoring import score

@@ -163,7 +163,7 @@ def header(replay):
 def forge(folder, replay, key):
     """The replay of the same match played again with noise of the forger's choosing: the
     public API can do it, and the result re-simulates bit for bit."""
-    from arena.loader import parse_level
+    from levels.loader import parse_level
     from referee.match.loop import run_match
     from referee.sandbox.teams import resolve
 

@@ -59,7 +59,7 @@ def test_a_turret_scan_after_a_move_holds_no_sample_from_before_it():
     # osentoski's turret turns once in 2 s; the robot is carried 0.5 s into a turn: the first
     # scan after the move must be a whole turn sensed where it now stands, so it ends at least
     # a turn after the move
-    from arena.level import Pose
+    from levels.model import Pose
 
     level = variant("osentoski", "levels/osentoski.yaml", **exact_starts("osentoski"))
     world = World(level)

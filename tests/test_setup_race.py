@@ -8,8 +8,8 @@ import time
 import pytest
 
 import levels
-from arena.level import ControllerLimits
-from arena.loader import load_level
+from levels.loader import load_level
+from levels.match import ControllerLimits
 from referee.match.views import brief_for
 from referee.sandbox.fault import FaultKind
 from referee.sandbox.process import ProcessBot

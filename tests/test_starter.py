@@ -7,7 +7,7 @@ import sys
 import pytest
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 from robots.controllers import starter

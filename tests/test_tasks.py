@@ -8,7 +8,7 @@ import pytest
 from helpers import variant
 from msgspec import UNSET
 
-from arena.yaml_reader import ReadError
+from levels.yaml_reader import ReadError
 from referee.match.tasks import TaskTracker
 
 

@@ -21,7 +21,7 @@ from helpers import MINI_LEVEL, edited, run_cli
 
 import levels
 from arena.draw import BEACON, Painter, color
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
 from referee.media.viewer import write_viewer

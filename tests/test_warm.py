@@ -16,7 +16,7 @@ import levels
 import numpy as np
 from numba import njit
 from numba.core import base, event
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 

@@ -14,7 +14,7 @@ import yaml
 
 import levels
 from arena.draw import HUD_TEXT, OVERLAY_TEXT, _mix, color
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.match.loop import run_match
 from referee.media.render import Scenes
 from referee.media.watch import HELP_SECONDS, KEYS, Viewer

@@ -1,4 +1,4 @@
-"""The YAML reading kit (arena/yaml_reader.py) on its own, and YAML aliases in a level: refused in
+"""The YAML reading kit (levels/yaml_reader.py) on its own, and YAML aliases in a level: refused in
 the one line docs/levels.md quotes, wherever they appear."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from helpers import MINI_LEVEL, run_cli
 
-from arena import yaml_reader as yr
-from arena.loader import LevelError, parse_level
+from levels import yaml_reader as yr
+from levels.loader import LevelError, parse_level
 
 # the template a base robot's fields would be shared from, were aliases allowed
 ALIASED = MINI_LEVEL.replace("    start: [0.5, 0.5, 0]\n", "    start: &base [0.5, 0.5, 0]\n") + "extra: *base\n"

@@ -18,7 +18,7 @@ import numpy as np
 
 import levels
 from arena.heap import lasting
-from arena.loader import find_level, load_level
+from levels.loader import find_level, load_level
 from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError

@@ -12,8 +12,8 @@ import warnings
 from types import FrameType
 from typing import TextIO
 
-from arena.errors import LaserArenaError
 from arena.heap import lasting
+from levels.errors import LaserArenaError
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
 from referee.fragile import fragile, take_again
 from referee.terminal import safe

@@ -30,7 +30,7 @@ from referee.sandbox.teams import Team, resolve
 from referee.terminal import Progress, csv_text, markdown_text, safe
 
 if TYPE_CHECKING:
-    from arena.level import Level
+    from levels.model import Level
     from referee.contest.cluster import Cluster
 
 
@@ -78,7 +78,7 @@ def _match_jobs(jobs: list[Job], known: Sequence[Team], unsandboxed: bool) -> di
     (the team in slot 0, the level's default controller in the others). The `known` teams are
     shipped as resolved (their files read once, when the jobs were made); any other is
     resolved here, once, and checked against the hash its jobs were made with."""
-    from arena.loader import parse_level
+    from levels.loader import parse_level
 
     texts: dict[str, tuple[bytes, Level]] = {}
     teams = {t.spec: t for t in known}

@@ -33,7 +33,7 @@ from referee.sandbox.teams import Team
 from referee.version import __version__
 
 if TYPE_CHECKING:
-    from arena.level import Level
+    from levels.model import Level
 
 K = TypeVar("K", bound=Hashable)  # what the caller names each job by
 LEVELS_KEPT = 8  # levels a worker keeps parsed: a grading run plays each level's matches in turn
@@ -91,7 +91,7 @@ def _parsed(text: bytes, name: str) -> Level:
     """The level of a job, parsed once per worker for all the matches it plays on it (a Level
     is immutable all the way down; parsing and checking its YAML was a match's largest fixed
     cost after its controllers' start)."""
-    from arena.loader import parse_level
+    from levels.loader import parse_level
 
     return parse_level(text, name)
 

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from arena.level import Level
+from levels.model import Level
 from referee.contest.audit import AuditFailed
 from referee.contest.cluster import Cluster
 from referee.contest.dispatch import run_jobs

@@ -18,7 +18,7 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 
-from arena.level import Level
+from levels.model import Level
 from referee.gym.session import AgentSession
 
 ENV_ID = "LaserArena-v0"

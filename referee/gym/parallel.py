@@ -17,7 +17,7 @@ import numpy as np
 from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
-from arena.level import Level
+from levels.model import Level
 from referee.gym.session import AgentSession, load
 
 

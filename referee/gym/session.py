@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from arena.level import Level
+from levels.model import Level
 from referee.match.loop import Match
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.match.views import brief_for
@@ -46,7 +46,7 @@ def load(level: str | Path | Level) -> Level:
     """A level by built-in name, file path, or already loaded."""
     if isinstance(level, Level):
         return level
-    from arena.loader import find_level
+    from levels.loader import find_level
 
     return find_level(str(level), controllers=controller_problem)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from arena.angles import wrap
-from arena.level import Pose
+from levels.model import Pose
 from referee.records.results import Localization
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from arena.level import ControllerLimits
+from levels.match import ControllerLimits
 from referee.errors import LaserArenaWarning
 from referee.sandbox import affinity
 from referee.sandbox.bot import Bot

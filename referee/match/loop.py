@@ -19,10 +19,11 @@ import functools
 from pathlib import Path
 
 from arena import floor, placement
-from arena.level import ControllerLimits, Level, Pose
 from arena.rng import RandomTree
 from arena.sensing.pipeline import Sensing
 from arena.world import Watch, World
+from levels.match import ControllerLimits
+from levels.model import Level, Pose
 from referee.match.deferral import Deferral
 from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats

@@ -3,7 +3,7 @@ localization, fouls, faults and warnings, and what was played (docs/results.md).
 
 from __future__ import annotations
 
-from arena.level import Level, Pose
+from levels.model import Level, Pose
 from referee.match.drawings import Warnings
 from referee.match.estimates import EstimateStats
 from referee.match.faults import fault_record

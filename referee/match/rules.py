@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from arena.compiled import compiled
-from arena.level import Level
 from arena.world import World
+from levels.model import Level
 from referee.records.results import FoulRecord
 
 

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from msgspec import UNSET, UnsetType
 
-from arena.level import Level, Pose
+from levels.model import Level, Pose
 from referee.match.paths import Paths, Polyline, first_near
 from referee.records.results import CrossTrack, TaskProgress
 

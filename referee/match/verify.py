@@ -13,7 +13,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-from arena.loader import parse_level
+from levels.loader import parse_level
 from referee.errors import UserError
 from referee.match.loop import run_match
 from referee.records.replay_reader import lines, load

@@ -9,8 +9,8 @@ import functools
 import numpy as np
 
 from arena.angles import wrap
-from arena.level import Level
 from arena.sensing.events import Detection
+from levels.model import Level
 from referee.records.replay_format import Header, TeamEntry
 from referee.sandbox.teams import Team
 from referee.version import __version__

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import levels
-from arena.loader import load_level
+from levels.loader import load_level
 from referee.match.loop import run_match
 from referee.sandbox.teams import resolve
 

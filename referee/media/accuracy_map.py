@@ -19,10 +19,10 @@ import numpy as np
 import pygame
 
 from arena.draw import BACKGROUND, BEACON
-from arena.level import Level
 from arena.sensing import hardware as det
 from arena.sensing.crossings import Crossings
 from arena.world import CAT_OBSTACLE, World
+from levels.model import Level
 
 NO_FIX = (90, 90, 96)
 STOPS = [

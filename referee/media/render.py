@@ -13,8 +13,8 @@ from pathlib import Path
 import pygame
 
 from arena.draw import Painter, RobotView, Scene
-from arena.level import Level
-from arena.loader import parse_level
+from levels.loader import parse_level
+from levels.model import Level
 from referee.errors import UserError
 from referee.media.standings import Standings
 from referee.records.replay_format import Replay

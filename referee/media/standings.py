@@ -19,7 +19,7 @@ from __future__ import annotations
 import bisect
 import math
 
-from arena.level import Level, Pose
+from levels.model import Level, Pose
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.match.tasks import TaskTracker
 from referee.media.error_series import ErrorTrack

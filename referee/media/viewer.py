@@ -14,8 +14,8 @@ from pathlib import Path
 
 import levels
 from arena import draw
-from arena.level import Level
-from arena.loader import LevelError, load_level, parse_level
+from levels.loader import LevelError, load_level, parse_level
+from levels.model import Level
 from referee.errors import UserError
 from referee.match import scoring
 from referee.match.tasks import TaskTracker

@@ -142,7 +142,7 @@ def watch(
         except ValueError as e:
             raise UserError(str(e)) from None
     else:
-        from arena.loader import find_level
+        from levels.loader import find_level
         from referee.match.loop import Match
         from referee.match.views import replay_header
         from referee.sandbox.teams import controller_problem, fill_slots

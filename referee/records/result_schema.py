@@ -1,6 +1,6 @@
 """The result's published JSON Schema, generated from the typed records (`results`):
 `python -m referee.records.result_schema [FOLDER]` writes it to docs/schema/ (or FOLDER), in
-the one text form the level format's schema has too (`arena.schema_file`), so a test can
+the one text form the level format's schema has too (`levels.schema_file`), so a test can
 hold the committed file to the generated one byte for byte."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from typing import Any
 
 import msgspec
 
-from arena import schema_file
+from levels import schema_file
 from referee.records.results import RESULT_FORMAT, RESULT_VERSION, MatchResult
 
 SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from arena.level import ControllerLimits
+from levels.match import ControllerLimits
 
 
 @dataclass

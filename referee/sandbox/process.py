@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from arena.level import ControllerLimits
+from levels.match import ControllerLimits
 from referee.sandbox import cgroup, forkserver, kernel
 from referee.sandbox.allowance import Allowance
 from referee.sandbox.channel import Channel, Trouble

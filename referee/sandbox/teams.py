@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from arena.level import Level
+from levels.model import Level
 from referee.errors import TeamError
 from referee.sandbox.team_files import read_file, read_package
 from referee.terminal import safe

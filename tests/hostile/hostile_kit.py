@@ -11,8 +11,8 @@ from pathlib import Path
 import yaml
 
 import levels
-from arena.level import ControllerLimits
-from arena.loader import parse_level
+from levels.loader import parse_level
+from levels.match import ControllerLimits
 from referee.match.loop import run_match
 from referee.sandbox import leases, uids
 from referee.sandbox.kernel import unavailable

@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 from types import MappingProxyType
 
-from arena import yaml_reader as yr
-from arena.level import Beacon, Beacons, Field
-from arena.level_geometry import inside
+from levels import yaml_reader as yr
+from levels._geometry import inside
+from levels.model import Beacon, Beacons, Field
 
 BEACONS_KEYS = ("kind", "radius", "params", "items", "crosstalk")
 BEACON_KEYS = ("id", "at", "facing", "gain")

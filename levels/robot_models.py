@@ -1,6 +1,6 @@
 """Built-in robot models a level names with `model:`; their drive errors are documented in docs/drive.md."""
 
-from arena.level import DriveErrors, RobotModel
+from levels.model import DriveErrors, RobotModel
 
 # Hobby servos or gear motors on small wheels, driven over a slow one-way radio link
 # (Bac et al. 2011: commands every 200 ms at 4,800 baud). A level may override any of these per robot.

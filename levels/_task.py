@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import math
 
-from arena import yaml_reader as yr
-from arena.level import Field, Pose, Task, Trials
-from arena.level_geometry import inside, pose
+from levels import yaml_reader as yr
+from levels._geometry import inside, pose
+from levels.model import Field, Pose, Task, Trials
 
 TASK_KINDS = ("waypoints", "goto", "localize", "race")
 TASK_KEYS = ("kind", "radius", "path", "goal", "trials", "settle", "accuracy")

@@ -4,10 +4,12 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from arena import yaml_reader as yr
-from arena.level import ControllerLimits, Rules
+from levels import yaml_reader as yr
+from levels._frozen import reduce_proxies
 
 DEFAULT_RECORD_RATE = 30  # replay frames per second
 RULE_KEYS = ("speed_limit", "min_impulse", "position_scale", "heading_scale", "penalties")
@@ -21,6 +23,50 @@ LIMIT_KEYS = (
     "memory_mb",
     "log_kb",
 )
+
+
+@dataclass(frozen=True)
+class ControllerLimits:
+    """What each controller may use: set-up time, time per step, an overage bank for
+    occasional slow steps, consecutive skipped ticks before disqualification, a think budget
+    for the whole match (so no team can stretch a grade without limit), memory."""
+
+    setup_time: float = 10.0  # s for start-up, imports and setup()
+    step_time: float = 0.1  # s per control step; slower answers draw on the bank
+    step_deadline: float = 1.0  # s; later answers are skipped ticks
+    overage_bank: float = 5.0  # s, summed over the match
+    max_skips: int = 5  # consecutive skipped ticks
+    think_budget: float = 0.25  # s of answer time per simulated second of the time limit, summed over the match
+    memory: int = 1 << 30  # bytes of address space (0: none)
+    log_bytes: int = 1 << 20  # stdout + stderr kept per controller; more is an output flood (0: none)
+
+
+@dataclass(frozen=True)
+class Rules:
+    """The level's rules: what counts as a foul and what each costs (points off the score)."""
+
+    speed_limit: float = 0.0  # m/s; 0 = none
+    min_impulse: float = 0.02  # N s: lighter touches are not collisions
+    # the localization score's scales (docs/rules.md): an estimate this far off in position,
+    # or this far off in heading, earns half the points of a perfect one at that tick
+    position_scale: float = 0.01  # m
+    heading_scale: float = 0.05  # rad: Bac's dead band, "more than 0.05 radians"
+    penalties: Mapping[str, float] = field(
+        default_factory=lambda: MappingProxyType(
+            {
+                "robot_collision": 2.0,
+                "wall_collision": 1.0,
+                "obstacle_collision": 1.0,
+                "beacon_collision": 5.0,
+                "leave_field": 10.0,
+                "speeding": 1.0,
+                "skipped_tick": 0.5,
+                "fault": 25.0,
+            }
+        )
+    )
+
+    __reduce__ = reduce_proxies
 
 
 def clocks(top: yr.Map) -> tuple[int, float, int]:

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import math
 
-from arena import level_checks
-from arena import yaml_reader as yr
-from arena.level import Field, Floor, Obstacle, Pose, Tiles
+from levels import checks
+from levels import yaml_reader as yr
+from levels.model import Field, Floor, Obstacle, Pose, Tiles
 
 FIELD_KEYS = ("size", "origin", "walls")
 OBSTACLE_KEYS = ("kind", "center", "size", "angle", "radius", "points")
@@ -60,7 +60,7 @@ def obstacle(ctx: yr.Context, node: yr.Node, key: str, fld: Field) -> Obstacle:
     pts = m.req("points", yr.points)
     if len(pts) < 3:
         raise ctx.fail(m.raw("points").line, m.key("points"), "a polygon needs at least 3 points")
-    why = level_checks.convex_problem(pts)
+    why = checks.convex_problem(pts)
     if why:
         raise ctx.fail(m.raw("points").line, m.key("points"), why)
     for i, p in enumerate(pts):

@@ -3,10 +3,10 @@
 Every problem becomes a `LevelError` whose text is one line naming the file, the line
 and the key (`levels/x.yaml:12: robots[0].start: outside the field`), so the command
 line can print it and exit 2 without a traceback. The file is read with the kit of
-arena/yaml_reader.py, each section by its own module: the clocks, limits and rules by
-arena/level_match.py, the field, obstacles and floor by arena/level_geometry.py, the
-beacons by arena/level_beacons.py, the task by arena/level_task.py, the robots and lasers
-by arena/level_robots.py; the checks across sections are arena/level_checks.py's.
+levels/yaml_reader.py, each section by its own module: the clocks, limits and rules by
+levels/match.py, the field, obstacles and floor by levels/_geometry.py, the
+beacons by levels/_beacons.py, the task by levels/_task.py, the robots and lasers
+by levels/_robots.py; the checks across sections are levels/checks.py's.
 """
 
 from __future__ import annotations
@@ -16,10 +16,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 import levels
-from arena import level_beacons, level_checks, level_geometry, level_match, level_robots, level_task
-from arena import yaml_reader as yr
-from arena.level import ControllerLimits, Field, Floor, Level, Rules, Task
-from arena.units import LENGTH_UNITS
+from levels import _beacons, _geometry, _robots, _task, checks, match
+from levels import yaml_reader as yr
+from levels.match import ControllerLimits, Rules
+from levels.model import Field, Floor, Level, Task
+from levels.units import LENGTH_UNITS
 
 TOP_KEYS = (
     "name",
@@ -41,7 +42,7 @@ TOP_KEYS = (
     "rules",
     "floor",
 )
-MAX_LEVEL_BYTES = level_checks.MAX_BYTES
+MAX_LEVEL_BYTES = checks.MAX_BYTES
 
 
 class LevelError(yr.ReadError):
@@ -86,24 +87,24 @@ def parse_level(
     must exist (a file found relative to `base`). A replay's level text is parsed without `base` (its controller
     may live elsewhere), as are test fixtures that simulate, say, two lights."""
     ctx = yr.Context(source, LevelError)
-    problem = level_checks.text_problem(data)
+    problem = checks.text_problem(data)
     if problem:
         raise LevelError(source, problem.line, problem.key, problem.message)
     text, located = yr.compose(ctx, data)  # bounded: text_problem ran first
     top = yr.Map(ctx, located, "", TOP_KEYS)
     units = top.opt("units", yr.choice(*LENGTH_UNITS), "m")
     ctx.scale = LENGTH_UNITS[units]
-    physics_rate, control_period, record_rate = level_match.clocks(top)
-    fld = level_geometry.field(top.sub("field", level_geometry.FIELD_KEYS))
+    physics_rate, control_period, record_rate = match.clocks(top)
+    fld = _geometry.field(top.sub("field", _geometry.FIELD_KEYS))
     obstacles = (
-        tuple(level_geometry.obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) if top.has("obstacles") else ()
+        tuple(_geometry.obstacle(ctx, n, k, fld) for n, k in top.seq("obstacles")) if top.has("obstacles") else ()
     )
-    beacons = level_beacons.beacons(top.sub("beacons", level_beacons.BEACONS_KEYS), fld)
-    default_laser = level_robots.laser(top.sub("laser", level_robots.LASER_KEYS))
-    task_map = top.sub("task", level_task.TASK_KEYS)
-    task, shared_path = level_task.task(task_map, fld)
+    beacons = _beacons.beacons(top.sub("beacons", _beacons.BEACONS_KEYS), fld)
+    default_laser = _robots.laser(top.sub("laser", _robots.LASER_KEYS))
+    task_map = top.sub("task", _task.TASK_KEYS)
+    task, shared_path = _task.task(task_map, fld)
     floor = _floor(top, fld, task)
-    robots = level_robots.robots(top, fld, default_laser, task, shared_path, physics_rate)
+    robots = _robots.robots(top, fld, default_laser, task, shared_path, physics_rate)
     if task.kind == "race" and len(robots) < 2:
         raise ctx.fail(task_map.node.line, "task.kind", "a race needs at least two robots")
     default_controller = _default_controller(top, base, controllers)
@@ -124,10 +125,8 @@ def parse_level(
         robots=tuple(sorted(robots, key=lambda r: r.slot)),
         task=task,
         default_controller=default_controller,
-        limits=level_match.limits(top.sub("limits", level_match.LIMIT_KEYS))
-        if top.has("limits")
-        else ControllerLimits(),
-        rules=level_match.rules(top.sub("rules", level_match.RULE_KEYS)) if top.has("rules") else Rules(),
+        limits=match.limits(top.sub("limits", match.LIMIT_KEYS)) if top.has("limits") else ControllerLimits(),
+        rules=match.rules(top.sub("rules", match.RULE_KEYS)) if top.has("rules") else Rules(),
         floor=floor,
         text=text,
     )
@@ -139,8 +138,8 @@ def _floor(top: yr.Map, fld: Field, task: Task) -> Floor:
     """The floor, flat without a `floor` key; tiles lay out the task's listed trial positions."""
     if not top.has("floor"):
         return Floor()
-    floor_map = top.sub("floor", level_geometry.FLOOR_KEYS)
-    floor = level_geometry.floor(floor_map, fld)
+    floor_map = top.sub("floor", _geometry.FLOOR_KEYS)
+    floor = _geometry.floor(floor_map, fld)
     if floor.tiles is not None and not task.trials.positions:
         line = floor_map.raw("tiles").line
         raise top.ctx.fail(line, "floor.tiles", "tiles lay out listed trial positions, and the task lists none")
@@ -162,7 +161,7 @@ def _default_controller(top: yr.Map, base: Path | None, controllers: ControllerC
 def _check(ctx: yr.Context, level: Level, located: yr.Node, contest: bool) -> None:
     """The checks of the whole level (level_checks'; with `contest`, those of a contest too),
     and trials that fit in the match."""
-    problem = level_checks.level_problem(level, contest=contest)
+    problem = checks.level_problem(level, contest=contest)
     if problem:
         raise ctx.fail(problem.line or yr.line_of(located, problem.key), problem.key, problem.message)
     trials = level.task.trials.count

@@ -1,10 +1,10 @@
 """Checks of a level beyond its schema: file size, YAML nesting and aliases, convex obstacles,
 start poses clear of everything, and enough beacons for a fix. (Whether the default controller
 exists is the referee's check, `referee.sandbox.teams.controller_problem`, which the referee
-passes to `arena.loader`.)
+passes to `levels.loader`.)
 
 Each check returns a `Problem` (the dotted key it concerns and a one-line message) or None;
-`arena.loader` turns the first problem into a `LevelError` with the key's file line.
+`levels.loader` turns the first problem into a `LevelError` with the key's file line.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import yaml
 
-from arena.level import Level, Obstacle, Pose, RobotModel
+from levels.model import Level, Obstacle, Pose, RobotModel
 
 MAX_BYTES = 1 << 20  # a level is a page of YAML; a megabyte is already absurd
 MAX_DEPTH = 16  # nested mappings and lists; the deepest built-in level nests 4

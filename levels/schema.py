@@ -1,11 +1,11 @@
 """The level format as a JSON Schema, for editors (`# yaml-language-server: $schema=...`).
 
-Made from the loader itself: the built-in levels are read with `arena.yaml_reader.SHAPES` set,
+Made from the loader itself: the built-in levels are read with `levels.yaml_reader.SHAPES` set,
 so every mapping records the keys it allows, the converter each key went through, which keys it
 required and which held lists; each converter has its JSON Schema fragment here. A key no
 built-in level exercises is still listed (the loader allows it), with any value. The loader
 stays the authority: the schema checks what an editor can check (keys, types, signs), not the
-geometry (`laserarena check` does). `python -m arena.level_schema [FOLDER]` writes it to
+geometry (`laserarena check` does). `python -m levels.schema [FOLDER]` writes it to
 docs/schema/ (tests/test_level_schema.py holds the committed file to this).
 """
 
@@ -18,8 +18,8 @@ from typing import Any
 import yaml
 
 import levels
-from arena import level_geometry, loader, schema_file
-from arena import yaml_reader as yr
+from levels import _geometry, loader, schema_file
+from levels import yaml_reader as yr
 
 SCHEMA_FILE = "level.schema.json"
 NUMBER: dict[str, Any] = {"type": "number"}
@@ -37,7 +37,7 @@ FRAGMENTS: dict[Callable[..., Any], dict[str, Any]] = {  # each converter's valu
     yr.flag: {"type": "boolean"},
     yr.point: POINT,
     yr.size: {**POINT, "items": {"type": "number", "exclusiveMinimum": 0}},
-    level_geometry.pose: {"type": "array", "items": NUMBER, "minItems": 3, "maxItems": 3},
+    _geometry.pose: {"type": "array", "items": NUMBER, "minItems": 3, "maxItems": 3},
     yr.rectangle: {"type": "array", "items": POINT, "minItems": 2, "maxItems": 2},
     yr.points: {"type": "array", "items": POINT, "minItems": 1},
 }

@@ -7,10 +7,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from arena import yaml_reader as yr
-from arena.level import DriveErrors, Field, Laser, Placement, RobotSlot, Task
-from arena.level_geometry import inside, pose
-from arena.robot_models import ROBOT_MODELS
+from levels import yaml_reader as yr
+from levels._geometry import inside, pose
+from levels.model import DriveErrors, Field, Laser, Placement, RobotSlot, Task
+from levels.robot_models import ROBOT_MODELS
 
 ROBOT_KEYS = ("slot", "model", "start", "placement", "start_known", "laser", "path", "drive", "silhouette")
 LASER_KEYS = ("angular_velocity", "index", "beam_offset", "height")

@@ -2,9 +2,9 @@
 line and the key: safe composing with each value's line, mappings that refuse unknown keys, and
 converters of numbers, text, lists, points and sizes (in the file's length unit).
 
-It knows nothing of what the file describes (arena/loader.py reads levels with it). While
+It knows nothing of what the file describes (levels/loader.py reads levels with it). While
 `SHAPES` is set, every mapping read records what it allowed and how each key was converted:
-arena/level_schema.py makes the published JSON Schema from that.
+levels/schema.py makes the published JSON Schema from that.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import Any
 
 import yaml
 
-from arena.errors import LaserArenaError
+from levels.errors import LaserArenaError
 
 
 class ReadError(LaserArenaError):
@@ -127,7 +127,7 @@ def line_of(root: Node, key: str) -> int | None:
 
 @dataclass
 class Shape:
-    """What was read at one mapping of a file (`arena/level_schema.py` makes the published JSON
+    """What was read at one mapping of a file (`levels/schema.py` makes the published JSON
     Schema from these): its allowed keys, each key's converters, how many times the mapping was
     read and each key required, and the keys that held lists."""
 
