@@ -23,7 +23,7 @@ import time
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 LEVELS = ("asabe", "asabe-race")
@@ -34,7 +34,7 @@ def cpu_per_second(level_name: str, spec: str, seed: int) -> float:
     level = load_level(levels.path(level_name))
     teams = [resolve(spec)] * len(level.robots)
     c0 = time.process_time()
-    result = run_match(level, teams, seed=seed, isolate=False)
+    result = play_match(level, teams, seed=seed, isolate=False)
     return (time.process_time() - c0) / result.end_time
 
 
@@ -64,7 +64,7 @@ def accuracy(seeds: int) -> None:
     asabe = load_level(levels.path("asabe"))
     rms = []
     for seed in range(1, seeds + 1):
-        r = run_match(asabe, [resolve("ref:bac")], seed=seed, isolate=False).to_dict()
+        r = play_match(asabe, [resolve("ref:bac")], seed=seed, isolate=False).to_dict()
         rms.append(r["robots"][0]["localization"]["position_rms"])
     print(
         f"asabe position RMS, mean of seeds 1-{seeds}: {1000 * statistics.mean(rms):.3f} mm "
@@ -75,7 +75,7 @@ def accuracy(seeds: int) -> None:
     race = load_level(levels.path("asabe-race"))
     worst = []
     for seed in range(1, seeds + 1):
-        r = run_match(race, [resolve("ref:bac")] * len(race.robots), seed=seed, isolate=False).to_dict()
+        r = play_match(race, [resolve("ref:bac")] * len(race.robots), seed=seed, isolate=False).to_dict()
         worst.append(max(robot["localization"]["position_rms"] for robot in r["robots"]))
     print(
         f"asabe-race worst robot's position RMS over seeds 1-{seeds}: {1000 * max(worst):.1f} mm "
@@ -88,9 +88,9 @@ def profile(top: int) -> None:
     """The top functions of one asabe-race match of ref:bac, by their own time."""
     level = load_level(levels.path("asabe-race"))
     teams = [resolve("ref:bac")] * len(level.robots)
-    run_match(level, teams, seed=1, isolate=False)
+    play_match(level, teams, seed=1, isolate=False)
     prof = cProfile.Profile()
-    prof.runcall(run_match, level, teams, seed=1, isolate=False)
+    prof.runcall(play_match, level, teams, seed=1, isolate=False)
     pstats.Stats(prof).sort_stats("tottime").print_stats(top)
 
 

@@ -43,7 +43,7 @@ def play(level_name: str, who: str, seed: int, secret: str) -> Outcome:
 
     from levels.loader import load_level
     from referee.contest.noise_secret import noise_key
-    from referee.match.loop import run_match
+    from referee.match.loop import play_match
     from referee.sandbox.teams import Team, resolve
     from robots.controllers.dead_reckoning import DeadReckoning
     from robots.controllers.sensorless import Sensorless
@@ -66,7 +66,7 @@ def play(level_name: str, who: str, seed: int, secret: str) -> Outcome:
         team = Team(who, who, f"sha256:{who}", factory=no_laser.STRATEGIES[who])
     others = [resolve(level.default_controller) for _ in level.robots[1:]]
     key = noise_key(secret, level.hash, seed)
-    r = run_match(level, [team, *others], seed=seed, isolate=False, noise_key=key)["robots"][0]
+    r = play_match(level, [team, *others], seed=seed, isolate=False, noise_key=key)["robots"][0]
     loc = r["localization"]
     return Outcome(
         level_name,

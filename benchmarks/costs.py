@@ -19,7 +19,7 @@ from pathlib import Path
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 AREAS = [
@@ -63,9 +63,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as d:
         # a first match, unprofiled: loading the compiled kernels and the first imports are a
         # process's cost, not a match's (a grading worker pays them once)
-        run_match(level, teams, replay=Path(d) / "warm.replay", isolate=args.isolate)
+        play_match(level, teams, replay=Path(d) / "warm.replay", isolate=args.isolate)
         profile.enable()
-        result = run_match(level, teams, replay=Path(d) / "m.replay", isolate=args.isolate)
+        result = play_match(level, teams, replay=Path(d) / "m.replay", isolate=args.isolate)
         profile.disable()
     stats = pstats.Stats(profile)
     total = sum(v[2] for v in stats.stats.values())  # type: ignore[attr-defined]

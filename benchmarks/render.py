@@ -20,7 +20,7 @@ import pygame
 import levels
 from arena.draw import Painter
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.media.render import Scenes
 from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
@@ -33,7 +33,7 @@ def measure(count: int = 600) -> dict:
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "race.replay"
         text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 20")
-        run_match(
+        play_match(
             parse_level(text.encode(), "race20.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False
         )
         scenes = Scenes(load(path))

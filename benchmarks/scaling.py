@@ -29,7 +29,7 @@ import levels
 from arena.world import World
 from levels.loader import parse_level
 from levels.model import Level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 ROBOTS = (1, 2, 4, 6, 8)
@@ -80,7 +80,7 @@ def match(level: Level, isolate: bool) -> tuple[float, float]:
     teams = [resolve("ref:dead-reckoning")] * len(level.robots)
     with tempfile.TemporaryDirectory() as d:
         c0, w0 = cpu(), time.perf_counter()
-        r = run_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
+        r = play_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
         wall, used = time.perf_counter() - w0, cpu() - c0
     return r.end_time / wall, used / r.end_time
 

@@ -25,7 +25,7 @@ import sensing
 import levels
 from levels.loader import load_level
 from referee.contest import grade as g
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from referee.version import __version__
 
@@ -109,12 +109,12 @@ def match(spec: str, isolate: bool, repeat: int) -> dict:
     teams = [resolve(spec)] * len(level.robots)
     with tempfile.TemporaryDirectory() as d:  # a process's start, once for all its matches (given
         # apart below): the compiled kernels loaded, the sandbox's template booted, untimed
-        run_match(dataclasses.replace(level, time_limit=2.0), teams, replay=Path(d) / "m.replay", isolate=isolate)
+        play_match(dataclasses.replace(level, time_limit=2.0), teams, replay=Path(d) / "m.replay", isolate=isolate)
 
     def played() -> dict:
         with tempfile.TemporaryDirectory() as d:
             c0, m0, w0 = cpu(resource.RUSAGE_SELF), machine_cpu(), time.perf_counter()
-            r = run_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
+            r = play_match(level, teams, replay=Path(d) / "m.replay", isolate=isolate)
             wall = time.perf_counter() - w0
             own, everything = cpu(resource.RUSAGE_SELF) - c0, machine_cpu() - m0
         return {

@@ -55,7 +55,7 @@ def run_match(
     spec string (`ref:NAME`, `FILE.py[:Class]`, `DIR[:Class]`, `module:Class`) or a Controller
     class; slots left over get the level's default controller. `isolate=False` runs the
     controllers in this process (a debugger can stop in them)."""
-    from referee.match.loop import run_match as run  # the match loop loads pymunk: only when called
+    from referee.match.loop import play_match as run  # the match loop loads pymunk: only when called
 
     lv = _level(level)
     given = list(teams or [])

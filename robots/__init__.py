@@ -1,6 +1,6 @@
 """The team side: the controller API, the localization toolkit and reference controllers.
 
-Imports nothing from `arena` or `referee`: this package is what runs inside a team's process.
+Imports nothing from `levels`, `arena` or `referee`: this package is what runs inside a team's process.
 """
 
 from robots.api import (
@@ -14,6 +14,7 @@ from robots.api import (
     Observation,
     RobotInfo,
     SensorEvent,
+    StartInfo,
     TaskInfo,
 )
 
@@ -28,5 +29,6 @@ __all__ = [
     "Observation",
     "RobotInfo",
     "SensorEvent",
+    "StartInfo",
     "TaskInfo",
 ]  # the public API: `from robots import ...`

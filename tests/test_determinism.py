@@ -6,7 +6,7 @@ from helpers import run_cli
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.canonical import dumps
 from referee.records.replay_reader import load
 from referee.records.results import MatchResult
@@ -24,7 +24,7 @@ def test_two_processes_give_identical_bytes(tmp_path):
     # and the same bytes again inside this process
     level = load_level(levels.path("asabe-race"))
     replay = tmp_path / "here.replay"
-    result = run_match(level, [resolve(level.default_controller) for _ in level.robots], seed=7, replay=replay)
+    result = play_match(level, [resolve(level.default_controller) for _ in level.robots], seed=7, replay=replay)
     assert (dumps(result) + "\n").encode() == outs[0][0]
     assert replay.read_bytes() == outs[0][1]
     # the replay carries a frame per record period and ends with the same result

@@ -12,7 +12,7 @@ from arena.rng import RandomTree
 from arena.world import World
 from levels.loader import parse_level
 from levels.model import DriveErrors, Pose
-from referee.match.loop import Match, run_match
+from referee.match.loop import Match, play_match
 from referee.sandbox.teams import resolve
 
 BIG = edited(MINI_LEVEL, {"field.size": [4.0, 4.0], "robots.0.start": [2.0, 2.0, 0]})
@@ -338,10 +338,10 @@ def test_blind_dead_reckoning_drifts_on_the_asabe_letters():
     level = variant("asabe", **exact_starts("asabe"))  # the drive's errors alone: set down exactly at the start
     drifts = []
     for seed in (1, 2):
-        loc = run_match(level, [resolve("ref:dead-reckoning")], seed=seed, isolate=False)["robots"][0]["localization"]
+        loc = play_match(level, [resolve("ref:dead-reckoning")], seed=seed, isolate=False)["robots"][0]["localization"]
         drifts.append(loc["position_rms"])
     assert min(drifts) > 0.1 and drifts[0] != drifts[1]
-    ideal = run_match(level, [resolve("ref:dead-reckoning")], seed=1, isolate=False, ideal=True)
+    ideal = play_match(level, [resolve("ref:dead-reckoning")], seed=1, isolate=False, ideal=True)
     assert ideal["robots"][0]["localization"]["position_rms"] < 0.01
 
 

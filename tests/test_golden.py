@@ -15,7 +15,7 @@ from pathlib import Path
 
 from helpers import variant
 
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.replay_format import BEHAVIOUR, VERSION
 from referee.records.results import RESULT_VERSION
 from referee.sandbox.teams import resolve
@@ -28,7 +28,7 @@ def content_hash() -> str:
     level = variant("asabe-race", "levels/asabe-race.yaml", time_limit=6)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "golden.replay"
-        run_match(
+        play_match(
             level,
             [resolve("ref:best"), resolve("ref:bac"), resolve("ref:dead-reckoning"), resolve("ref:starter")],
             seed=11,

@@ -15,7 +15,7 @@ from hostile.hostile_kit import sandboxed_processes
 import levels
 from levels.loader import load_level
 from levels.match import ControllerLimits
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.canonical import dumps
 from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
@@ -35,8 +35,8 @@ def test_isolated_and_in_process_give_identical_bytes(tmp_path):
     lv = variant("asabe-race", **exact_starts("asabe-race"))  # set down exactly, for driving blind
     teams = [resolve("ref:dead-reckoning")] * 4
     # a perfect drive (ideal), so blind dead reckoning really finishes the race
-    a = run_match(lv, teams, seed=4, replay=tmp_path / "a.replay", isolate=True, ideal=True)
-    b = run_match(lv, teams, seed=4, replay=tmp_path / "b.replay", isolate=False, ideal=True)
+    a = play_match(lv, teams, seed=4, replay=tmp_path / "a.replay", isolate=True, ideal=True)
+    b = play_match(lv, teams, seed=4, replay=tmp_path / "b.replay", isolate=False, ideal=True)
     assert dumps(a) == dumps(b)
     assert (tmp_path / "a.replay").read_bytes() == (tmp_path / "b.replay").read_bytes()
     assert all(r["task"]["reached"] == 6 for r in a["robots"])
@@ -54,7 +54,7 @@ def hostile_match(tmp_path, body, limits=FAST):
         resolve("ref:dead-reckoning"),
         resolve("ref:dead-reckoning"),
     ]
-    return run_match(lv, teams, seed=2, limits=limits)
+    return play_match(lv, teams, seed=2, limits=limits)
 
 
 def check_contained(result, *kinds):
@@ -272,7 +272,7 @@ def test_cannot_find_the_replay_while_it_is_written(tmp_path, shared_dir):
                 return Command(0.0, 0.0)
     """,
     )
-    result = run_match(lv, [resolve(snoop)] + [resolve("ref:dead-reckoning")] * 3, replay=replay, limits=FAST)
+    result = play_match(lv, [resolve(snoop)] + [resolve("ref:dead-reckoning")] * 3, replay=replay, limits=FAST)
     assert result["robots"][0]["faults"] == []
     assert load(replay).header["format"] == "laserarena-replay"  # and it is there at the end
     assert not [p for p in shared_dir.iterdir() if p.name.endswith(".part")]
@@ -302,7 +302,7 @@ def test_output_flood_is_capped_and_reported(tmp_path):
         "oops.py",
     )
     limits = dataclasses.replace(FAST, log_bytes=64 << 10)
-    result = run_match(
+    result = play_match(
         lv, [resolve(flood), resolve(crash)] + [resolve("ref:dead-reckoning")] * 2, limits=limits, logs=logs
     )
     assert [f["kind"] for f in result["robots"][0]["faults"]] == ["output_flood"]

@@ -8,7 +8,7 @@ from helpers import MINI_LEVEL, edited
 
 from levels.loader import parse_level
 from referee.errors import TeamError
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from robots.api import StartInfo
 from robots.loading import load_class
@@ -48,7 +48,7 @@ def test_exception_in_step_stops_that_robot_only(tmp_path, isolate):
                 return Command(0.1, 0.1)
     """,
     )
-    result = run_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")], isolate=isolate)
+    result = play_match(level(TWO), [resolve(bad), resolve("ref:dead-reckoning")], isolate=isolate)
     r0, r1 = result["robots"]
     (fault,) = r0.faults  # the typed result; the same fields by their JSON names below
     assert (fault.tick, fault.kind, fault.message) == (3, "exception", "in step: RuntimeError: boom second line")
@@ -80,7 +80,7 @@ def test_exception_in_setup_and_bad_commands(tmp_path, isolate):
     """,
         "b.py",
     )
-    result = run_match(level(TWO), [resolve(setup_fails), resolve(nan)], isolate=isolate)
+    result = play_match(level(TWO), [resolve(setup_fails), resolve(nan)], isolate=isolate)
     (f0,), (f1,) = result["robots"][0]["faults"], result["robots"][1]["faults"]
     assert (f0["kind"], f0["tick"]) == ("exception", 0) and "ValueError: no" in f0["message"]
     assert (f1["kind"], f1["tick"]) == ("bad_command", 0) and "left" in f1["message"]
@@ -99,7 +99,7 @@ def test_wrong_return_type_is_a_bad_command(tmp_path, isolate):
                 return (0.1, 0.1)
     """,
     )
-    result = run_match(level(), [resolve(t)], isolate=isolate)
+    result = play_match(level(), [resolve(t)], isolate=isolate)
     assert result["robots"][0]["faults"][0]["kind"] == "bad_command"
     assert result["robots"][0]["faults"][0]["message"] == "step() returned tuple, not Command"
 
@@ -115,7 +115,7 @@ def test_estimate_errors_scored_against_truth(tmp_path):
                 return Command(0.0, 0.0, estimate=est)
     """,
     )
-    result = run_match(level(), [resolve(t)])
+    result = play_match(level(), [resolve(t)])
     loc = result["robots"][0]["localization"]
     n = round(4.0 / 0.05)  # control ticks in the 4 s time limit
     assert loc["ticks"] == n and loc["estimates"] == n // 2 and loc["fraction"] == 0.5
@@ -133,7 +133,7 @@ def test_heading_error_wraps_around(tmp_path):
                 return Command(0.0, 0.0, estimate=(0.5, 0.5, 2 * math.pi - 0.02))
     """,
     )
-    loc = run_match(level(), [resolve(t)])["robots"][0]["localization"]
+    loc = play_match(level(), [resolve(t)])["robots"][0]["localization"]
     assert loc["heading_max"] == pytest.approx(0.02)
 
 
@@ -151,7 +151,7 @@ def test_observations_arrive_every_control_period(tmp_path):
     """,
     )
     team = resolve(t)
-    run_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
+    play_match(level(), [team], isolate=False)  # reads the controller's memory afterwards
     seen = __import__(load_class(team.spec).__module__).SEEN
     brief, ticks = seen[0], seen[1:]
     assert brief.start == StartInfo(0.5, 0.5, 0.0) and brief.control_period == 0.05
@@ -172,7 +172,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
     """,
     )
     team = resolve(t)
-    run_match(level(edited(MINI_LEVEL, {"robots.0.start_known": False})), [team], isolate=False)
+    play_match(level(edited(MINI_LEVEL, {"robots.0.start_known": False})), [team], isolate=False)
     brief = __import__(load_class(team.spec).__module__).BRIEFS[0]
     assert brief.start is None
     text = repr(brief)
@@ -181,7 +181,7 @@ def test_brief_hides_start_unless_announced(tmp_path):
 
 def test_waypoint_task_ends_match_when_done():
     # a perfect drive (ideal), so blind dead reckoning surely reaches both waypoints
-    result = run_match(level(edited(MINI_LEVEL, {"time_limit": 12})), [resolve("ref:dead-reckoning")], ideal=True)
+    result = play_match(level(edited(MINI_LEVEL, {"time_limit": 12})), [resolve("ref:dead-reckoning")], ideal=True)
     r = result["robots"][0]
     assert r["task"]["reached"] == 2 and r["score"]["task"] == 100.0
     assert result["end_reason"] == "task_complete"
@@ -231,7 +231,7 @@ def test_loading_problems_are_load_faults_of_their_slot(tmp_path):
             (two + ":Three", "Three is not a Controller"),
             (broken, "broken.py failed to load: ModuleNotFoundError"),
         ):
-            result = run_match(level(), [resolve(spec)], isolate=isolate)
+            result = play_match(level(), [resolve(spec)], isolate=isolate)
             (fault,) = result["robots"][0]["faults"]
             assert fault["kind"] == "load" and words in fault["message"], (isolate, fault)
 
@@ -245,7 +245,7 @@ def test_the_replay_written_while_controllers_compute_is_the_replay_written_at_o
 
     lv = variant("asabe-race", time_limit=8)
     teams = [resolve(s) for s in ("ref:bac", "ref:dead-reckoning", "ref:best", "ref:starter")]
-    run_match(lv, teams, seed=5, replay=tmp_path / "run.replay", isolate=False)
+    play_match(lv, teams, seed=5, replay=tmp_path / "run.replay", isolate=False)
     m = Match(lv, teams, seed=5, replay=tmp_path / "stepwise.replay", isolate=False)
     try:
         m.begin()

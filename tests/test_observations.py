@@ -10,7 +10,7 @@ from helpers import edited, run_cli
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from robots.api import Observation, SensorEvent
 
@@ -86,7 +86,7 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
     from referee.sandbox.teams import Team
 
     level = load_level(levels.path("asabe"))
-    run_match(level, [Team("spy", spec="", code_hash="", factory=Spy)], ideal=False, isolate=False)
+    play_match(level, [Team("spy", spec="", code_hash="", factory=Spy)], ideal=False, isolate=False)
     assert len(log) > 100
     for prev, obs in zip(log, log[1:]):
         times = [e.time for e in obs.events]
@@ -100,5 +100,5 @@ def test_events_arrive_at_the_next_tick_in_order(tmp_path):
 
 def test_shared_crosstalk_level_runs(tmp_path, write_level):
     text = edited("asabe-race", {"beacons.crosstalk": "shared"})
-    result = run_match(load_level(write_level(text)), [resolve("ref:dead-reckoning")] * 4)
+    result = play_match(load_level(write_level(text)), [resolve("ref:dead-reckoning")] * 4)
     assert len(result["robots"]) == 4

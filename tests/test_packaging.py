@@ -45,3 +45,19 @@ def test_robots_imports_nothing_from_arena_or_referee():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
     assert out.stdout.strip() == "[]", out.stderr
+
+
+def test_robots_exports_every_public_name_of_its_api():
+    """`from robots import X` works for every class and constant the API module defines (the
+    docs import them from `robots.api`; either way is the same object)."""
+    import robots.api as api
+
+    tree = ast.parse(Path(api.__file__).read_text())
+    defined = {node.name for node in tree.body if isinstance(node, ast.ClassDef)}
+    defined |= {
+        t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets if isinstance(t, ast.Name)
+    }
+    defined = {name for name in defined if not name.startswith("_")}
+    assert "StartInfo" in defined and "API_VERSION" in defined
+    assert set(robots.__all__) == defined
+    assert all(getattr(robots, name) is getattr(api, name) for name in defined)

@@ -11,7 +11,7 @@ from helpers import run_cli
 import levels
 from arena.draw import color
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.media.plot import BACKGROUND, FAULT, FOUL, GRID, error_figure
 from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
@@ -38,7 +38,7 @@ def replay(tmp_path_factory):
     d["rules"] = {"speed_limit": 0.05}
     level = parse_level(yaml.safe_dump(d).encode(), "race6.yaml")
     path = folder / "race.replay"
-    result = run_match(
+    result = play_match(
         level, [resolve(str(folder / "crash.py"))] + [resolve("ref:bac")] * 3, replay=path, isolate=False
     )
     return path, result

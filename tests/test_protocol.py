@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 import levels
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from robots import protocol
 from robots.api import Brief, Command, Drawing, Observation, SensorEvent
@@ -321,7 +321,7 @@ def hostile(shared_dir, body: str, name: str = "hostile.py", isolate: bool = Tru
     path = shared_dir / name
     path.write_text(textwrap.dedent(body))
     teams = [resolve(str(path))] + [resolve("ref:dead-reckoning")] * 3
-    return run_match(race(), teams, seed=2, isolate=isolate, replay=replay)
+    return play_match(race(), teams, seed=2, isolate=isolate, replay=replay)
 
 
 STOPS_AT_4 = """
@@ -426,7 +426,7 @@ def test_a_controller_for_another_api_version_is_refused_in_one_line(tmp_path, i
     """)
     )
     level = parse_level(levels.path("bac-static").read_bytes(), "levels/bac-static.yaml")
-    result = run_match(level, [resolve(str(team))], isolate=isolate)
+    result = play_match(level, [resolve(str(team))], isolate=isolate)
     (fault,) = result["robots"][0]["faults"]
     assert fault["kind"] == "load" and fault["tick"] == 0
     assert fault["message"] == f"the team's controller speaks API version {version}, this referee speaks 2"

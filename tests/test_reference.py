@@ -13,7 +13,7 @@ from helpers import exact_starts, variant
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import Match, run_match
+from referee.match.loop import Match, play_match
 from referee.sandbox.teams import resolve
 from robots.toolkit.solvers import least_squares
 
@@ -26,7 +26,7 @@ def result(level, team, seed=None, ideal=False):
     """Every robot's result of `team` driving all of the level's robots (cached: several
     tests read the same matches)."""
     lv = load_level(levels.path(level))
-    return run_match(lv, [resolve(team)] * len(lv.robots), seed=seed, ideal=ideal, isolate=False)["robots"]
+    return play_match(lv, [resolve(team)] * len(lv.robots), seed=seed, ideal=ideal, isolate=False)["robots"]
 
 
 def run(level, team, **kw):
@@ -145,7 +145,7 @@ def test_bac_drives_the_asabe_letters_at_the_papers_speed():
     # turns end on the angle: with a perfect drive, set down exactly at its known start, the
     # robot stays on the letters' lines
     level = variant("asabe", **exact_starts("asabe"))
-    ideal = run_match(level, [resolve("ref:bac")], ideal=True, isolate=False)["robots"][0]
+    ideal = play_match(level, [resolve("ref:bac")], ideal=True, isolate=False)["robots"][0]
     assert ideal["task"]["finished"] is not None and ideal["task"]["cross_track"]["max"] < 0.025
 
 

@@ -9,7 +9,7 @@ import pytest
 import levels
 from arena.draw import BEACON, FIELD, Painter, color
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.media.render import Scenes, render
 from referee.records.replay_reader import load
 from referee.sandbox.teams import resolve
@@ -21,7 +21,9 @@ def replay(tmp_path_factory):
     text = levels.path("asabe-race").read_text().replace("time_limit: 180", "time_limit: 6")
     from levels.loader import parse_level
 
-    run_match(parse_level(text.encode(), "race6.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False)
+    play_match(
+        parse_level(text.encode(), "race6.yaml"), [resolve("ref:dead-reckoning")] * 4, replay=path, isolate=False
+    )
     return path
 
 

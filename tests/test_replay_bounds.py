@@ -14,7 +14,7 @@ from helpers import MINI_LEVEL
 
 from levels.loader import parse_level
 from referee.errors import EXIT_BAD_INPUT
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.replay_format import MAX_RECORD, MAX_REPLAY
 from referee.sandbox.teams import resolve
 
@@ -43,7 +43,7 @@ def _bomb(path: Path, header: bytes, line: bytes) -> None:
 def header(tmp_path_factory) -> bytes:
     """The first line of a real replay: the bombs are replays but for their size."""
     path = tmp_path_factory.mktemp("bounds") / "real.replay"
-    run_match(
+    play_match(
         parse_level(MINI_LEVEL.encode(), "mini.yaml"), [resolve("ref:dead-reckoning")], replay=path, isolate=False
     )
     return gzip.open(path).readline()

@@ -10,7 +10,7 @@ import pytest
 from helpers import MINI_LEVEL, edited, variant
 
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.canonical import dumps
 from referee.records.result_schema import SCHEMA_FILE, schema_text
 from referee.records.results import MatchResult
@@ -41,11 +41,11 @@ def results(tmp_path_factory):
     )
     waypoints = parse_level(edited(MINI_LEVEL, {"time_limit": 8}).encode(), "mini.yaml")
     return [
-        run_match(waypoints, [resolve(str(crash))], isolate=False),
-        run_match(waypoints, [resolve("ref:dead-reckoning")], isolate=False),
-        run_match(variant("bac-static", time_limit=3), [resolve("ref:bac")], isolate=False),
-        run_match(variant("vannoy", time_limit=5), [resolve("ref:vannoy")], isolate=False),
-        run_match(variant("asabe-race", time_limit=4), [resolve("ref:bac")] * 4, isolate=False),
+        play_match(waypoints, [resolve(str(crash))], isolate=False),
+        play_match(waypoints, [resolve("ref:dead-reckoning")], isolate=False),
+        play_match(variant("bac-static", time_limit=3), [resolve("ref:bac")], isolate=False),
+        play_match(variant("vannoy", time_limit=5), [resolve("ref:vannoy")], isolate=False),
+        play_match(variant("asabe-race", time_limit=4), [resolve("ref:bac")] * 4, isolate=False),
     ]
 
 

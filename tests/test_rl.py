@@ -17,7 +17,7 @@ from helpers import exact_starts, variant  # noqa: E402
 
 import levels  # noqa: E402
 from levels.loader import parse_level  # noqa: E402
-from referee.match.loop import run_match  # noqa: E402
+from referee.match.loop import play_match  # noqa: E402
 from referee.match.views import brief_for  # noqa: E402
 from referee.sandbox.teams import resolve  # noqa: E402
 from robots.api import Observation  # noqa: E402
@@ -67,7 +67,7 @@ def test_env_runs_the_referees_physics_and_its_return_is_the_score():
     from referee.gym import LaserArenaEnv
 
     level = variant("bac-line", **exact_starts("bac-line"))  # set down exactly where the blind driver believes
-    ref = run_match(level, [resolve("ref:dead-reckoning")], isolate=False)["robots"][0]
+    ref = play_match(level, [resolve("ref:dead-reckoning")], isolate=False)["robots"][0]
     env = LaserArenaEnv(level=level)
     total, info = drive_like_dead_reckoning(env, level)
     env.close()

@@ -7,7 +7,7 @@ import pytest
 from helpers import MINI_LEVEL, edited
 
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 
@@ -23,7 +23,7 @@ def team(tmp_path, body, name="t.py"):
 
 def play(text, *teams):
     """A match with a perfect drive (ideal), so the fouls land where straight-line kinematics says."""
-    return run_match(level(text), list(teams), isolate=False, ideal=True)
+    return play_match(level(text), list(teams), isolate=False, ideal=True)
 
 
 STRAIGHT = """

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from levels.loader import parse_level
 from levels.model import Pose
 from referee.match.estimates import EstimateStats, tick_quality
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
 from referee.sandbox.teams import Team, resolve
@@ -127,7 +127,7 @@ def test_a_match_scores_withheld_guesses_no_higher(tmp_path):
         path = tmp_path / f"guesser{withhold}.py"
         path.write_text(textwrap.dedent(GUESSER.format(withhold=withhold)))
         for seed in (1, 2, 3):
-            r = run_match(level, [resolve(str(path))], seed=seed, isolate=False)["robots"][0]
+            r = play_match(level, [resolve(str(path))], seed=seed, isolate=False)["robots"][0]
             totals[withhold, seed] = r["score"]["total"]
     assert all(totals[True, s] < totals[False, s] for s in (1, 2, 3)), totals
 
@@ -160,9 +160,9 @@ def test_faulting_to_end_a_match_early_never_pays(tmp_path):
         path.write_text(textwrap.dedent(QUITTER.format(how=how, quit=name != "reporter", action=action)))
         teams[name] = resolve(str(path))
     for seed in (1, 2, 3):
-        reporter = run_match(level, [teams["reporter"]], seed=seed, isolate=False)["robots"][0]
+        reporter = play_match(level, [teams["reporter"]], seed=seed, isolate=False)["robots"][0]
         for name in ("raiser", "nan"):
-            result = run_match(level, [teams[name]], seed=seed, isolate=False)
+            result = play_match(level, [teams[name]], seed=seed, isolate=False)
             quitter = result["robots"][0]
             assert result["end_reason"] == "all_stopped" and result["end_time"] < 1.0
             assert quitter["stopped"] and quitter["localization"]["ticks"] == level.control_ticks == 120
@@ -185,7 +185,7 @@ class Turned(Bac):
 @pytest.mark.parametrize("level", ["bac-static", "asabe"])
 def test_a_heading_turned_by_20_degrees_costs_at_least_5_points(level):
     lv = variant(level, time_limit=40)  # asabe: the first strokes of the letters
-    ref = run_match(lv, [resolve("ref:bac")], seed=5, isolate=False)["robots"][0]
-    turned = run_match(lv, [Team("turned", "turned", "sha256:0", factory=Turned)], seed=5, isolate=False)["robots"][0]
+    ref = play_match(lv, [resolve("ref:bac")], seed=5, isolate=False)["robots"][0]
+    turned = play_match(lv, [Team("turned", "turned", "sha256:0", factory=Turned)], seed=5, isolate=False)["robots"][0]
     assert turned["final_pose"] == ref["final_pose"]  # the same match, driven alike
     assert turned["score"]["total"] <= ref["score"]["total"] - 5

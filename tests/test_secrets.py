@@ -164,13 +164,13 @@ def forge(folder, replay, key):
     """The replay of the same match played again with noise of the forger's choosing: the
     public API can do it, and the result re-simulates bit for bit."""
     from levels.loader import parse_level
-    from referee.match.loop import run_match
+    from referee.match.loop import play_match
     from referee.sandbox.teams import resolve
 
     h = header(replay)
     level = parse_level(h["level"]["text"].encode(), "mini.yaml")
     out = folder / f"forged-{key[:6]}.replay"
-    run_match(level, [resolve(t["spec"]) for t in h["teams"]], seed=h["seed"], replay=out, noise_key=key)
+    play_match(level, [resolve(t["spec"]) for t in h["teams"]], seed=h["seed"], replay=out, noise_key=key)
     return str(out)
 
 

@@ -11,7 +11,7 @@ from helpers import ARRAYS, table_brief, variant
 from arena.rng import RandomTree
 from arena.sensing.pipeline import Sensing
 from arena.world import World
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from robots.api import SensorEvent, StartInfo
 from robots.toolkit.associate import one_laser
@@ -133,7 +133,7 @@ def test_a_short_shared_race_every_robot_finishes(seed):
     # others' from a start they must find the heading of, and drive on them
     short = {f"robots__{i}__path": path[:2] for i, path in enumerate(race_paths())}
     level = variant("asabe-race-shared", "short-shared.yaml", time_limit=30, **short)
-    result = run_match(level, [resolve("ref:bac")] * 4, seed=seed, isolate=False)
+    result = play_match(level, [resolve("ref:bac")] * 4, seed=seed, isolate=False)
     for r in result.robots:
         assert r.task.reached == r.task.total == 2, r
         assert r.localization.position_rms is not None and r.localization.position_rms < 0.02, r

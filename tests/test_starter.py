@@ -8,7 +8,7 @@ import pytest
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from robots.controllers import starter
 from robots.controllers.starter import fix
@@ -43,10 +43,10 @@ def test_fix_drops_a_merged_pulse():
 
 
 def test_starter_static_is_exact_when_ideal_and_follows_the_line():
-    static = run_match(load_level(levels.path("bac-static")), [resolve("ref:starter")], ideal=True)
+    static = play_match(load_level(levels.path("bac-static")), [resolve("ref:starter")], ideal=True)
     loc = static["robots"][0]["localization"]
     assert loc["position_max"] < 1e-6 and loc["fraction"] > 0.99
-    line = run_match(load_level(levels.path("bac-line")), [resolve("ref:starter")], ideal=True)
+    line = play_match(load_level(levels.path("bac-line")), [resolve("ref:starter")], ideal=True)
     r = line["robots"][0]
     assert r["task"]["reached"] == 10 and r["localization"]["position_rms"] < 0.005
 

@@ -22,7 +22,7 @@ from helpers import MINI_LEVEL, edited, run_cli
 import levels
 from arena.draw import BEACON, Painter, color
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.media.render import Scenes
 from referee.media.viewer import write_viewer
 from referee.records.replay_reader import load
@@ -102,7 +102,7 @@ def replays(tmp_path_factory):
         ("goto", GOTO_LEVEL.encode(), [resolve("ref:dead-reckoning")]),  # a blind drive that stops on its goal
     ):
         out[key] = d / f"{key}.replay"
-        run_match(parse_level(data, f"{key}.yaml"), teams, replay=out[key], isolate=False)
+        play_match(parse_level(data, f"{key}.yaml"), teams, replay=out[key], isolate=False)
     return out
 
 
@@ -400,13 +400,13 @@ def test_a_built_in_level_replay_opens_in_any_page(browser, tmp_path):
     """Pages embed every built-in level, so a replay of one opens in a page made for another."""
     replay = tmp_path / "mini.replay"
     lv = parse_level(MINI_LEVEL.replace("time_limit: 4", "time_limit: 1").encode(), "mini.yaml")
-    run_match(lv, [resolve("ref:dead-reckoning")], replay=replay, isolate=False)
+    play_match(lv, [resolve("ref:dead-reckoning")], replay=replay, isolate=False)
     html = tmp_path / "mini.html"
     write_viewer(replay, html)  # embeds mini (its own level) and the built-in levels
     page = _open(browser, html)
     assert page.evaluate("window.viewer.error") is None
     builtin = tmp_path / "simi.replay"  # the built-in level file as shipped
-    run_match(
+    play_match(
         parse_level(levels.path("simi").read_bytes(), "simi.yaml"), [resolve("ref:idle")], replay=builtin, isolate=False
     )
     page.set_input_files("#file", str(builtin))
@@ -443,7 +443,7 @@ def test_names_that_would_end_the_script_keep_the_page_working(browser, tmp_path
     bot.write_text("from robots.controllers.dead_reckoning import DeadReckoning as Bot\n")
     level = parse_level(MINI_LEVEL.replace("name: mini", f"name: {json.dumps(bad)}").encode(), "mini.yaml")
     replay = tmp_path / "r<!--<script>.replay"
-    run_match(level, [resolve(str(bot))], replay=replay, isolate=False)
+    play_match(level, [resolve(str(bot))], replay=replay, isolate=False)
     html = tmp_path / "page.html"
     write_viewer(replay, html)
     data = html.read_text().split('id="laserarena-data">', 1)[1].split("</script>", 1)[0]

@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 from numba.core import base, event
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 refreshed = []  # numba readying its target context to compile
@@ -29,7 +29,7 @@ with event.install_recorder("numba:compile") as compiled, tempfile.TemporaryDire
         level = dataclasses.replace(level, time_limit=min(level.time_limit, 8.0))
         teams = [resolve(level.default_controller)] * len(level.robots)
         for ideal in (False, True):
-            run_match(level, teams, seed=7, ideal=ideal, isolate=False, replay=Path(folder) / "m.replay")
+            play_match(level, teams, seed=7, ideal=ideal, isolate=False, replay=Path(folder) / "m.replay")
 print("readied to compile:", len(refreshed))
 print("a new function:", njit(lambda a: np.sum(a * 2.0))(np.arange(4.0)), "readied:", len(refreshed) > 0)
 print(sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in compiled.buffer if e.is_start}))

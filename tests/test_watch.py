@@ -15,7 +15,7 @@ import yaml
 import levels
 from arena.draw import HUD_TEXT, OVERLAY_TEXT, _mix, color
 from levels.loader import parse_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.media.render import Scenes
 from referee.media.watch import HELP_SECONDS, KEYS, Viewer
 from referee.records.replay_reader import load
@@ -31,7 +31,7 @@ def replay(tmp_path_factory):
     d["time_limit"] = 12
     d["rules"]["speed_limit"] = 0.05  # ref:bac drives faster: speeding fouls to score
     path = tmp_path_factory.mktemp("watch") / "race.replay"
-    result = run_match(
+    result = play_match(
         parse_level(yaml.safe_dump(d).encode(), "race12.yaml"), [resolve("ref:bac")] * 4, replay=path, isolate=False
     )
     return path, result

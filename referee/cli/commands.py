@@ -66,8 +66,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.in_process:  # a root referee's controller template boots on the other CPU meanwhile
         forkserver.start()
     with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
-        from referee.match.loop import run_match
-    result = run_match(
+        from referee.match.loop import play_match
+    result = play_match(
         level,
         teams,
         seed=args.seed,

@@ -100,7 +100,7 @@ def play(job: MatchJob) -> Played:
     """Run one job (in a worker), its replay in a scratch folder of its own."""
     forkserver.start()  # a root referee's template boots on the other CPU while a first match's modules load
     with lasting():  # numba's objects live as long as this process (arena.heap)
-        from referee.match.loop import run_match
+        from referee.match.loop import play_match
     from referee.records.canonical import dumps
 
     if job.software != __version__:
@@ -116,7 +116,7 @@ def play(job: MatchJob) -> Played:
         replay = Path(scratch) / "match.replay"
         try:
             _playing = True
-            result = run_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
+            result = play_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
         finally:
             _playing = False
             if _stopping:  # the match has stopped its controllers on the way out (a clean-up cut

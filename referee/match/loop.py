@@ -312,7 +312,7 @@ class Match:
         return match_result(self.level, self.seed, self.ideal, self.world.time, self.end_reason, robots)
 
 
-def run_match(
+def play_match(
     level: Level,
     teams: list[Team],
     seed: int | None = None,
@@ -323,7 +323,8 @@ def run_match(
     logs: Path | None = None,
     noise_key: str | None = None,
 ) -> MatchResult:
-    """Run one match and return its result. `ideal` turns every sensor noise and failure and
+    """Play one match of loaded teams and return its result (the public `referee.run_match`
+    names level and teams as a user does). `ideal` turns every sensor noise and failure and
     every drive error off; `isolate=False` runs the controllers inside this process instead of
     their own; `limits` replaces the level's controller limits (`fleet.NO_LIMITS` for debugging);
     `logs` is a folder for each controller's output (`slotN.log`), tracebacks included;

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from levels.loader import parse_level
 from referee.errors import UserError
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.records.replay_reader import lines, load
 from referee.sandbox.teams import code_hash, resolve
 
@@ -62,7 +62,7 @@ def verify(
         teams.append(resolve(spec))
     with tempfile.TemporaryDirectory() as d:
         again = Path(d) / "again.replay"
-        run_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
+        play_match(level, teams, seed=h["seed"], replay=again, ideal=h["ideal"], noise_key=h.get("noise_key"))
         counts, first = [0, 0], None  # records of each; the first that differs
         try:  # a line at a time: two replays of any size are compared in the memory of a record
             for i, pair in enumerate(itertools.zip_longest(lines(path), lines(again))):

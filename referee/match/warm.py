@@ -18,7 +18,7 @@ from pathlib import Path
 
 import levels
 from levels.loader import load_level
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 
 SECONDS = 3.0  # of each match: enough for every level's lasers to sweep every beacon
@@ -34,7 +34,7 @@ def warm(seconds: float = SECONDS) -> float:
             level = dataclasses.replace(level, time_limit=min(level.time_limit, seconds))
             teams = [resolve(level.default_controller)] * len(level.robots)
             for ideal in (False, True):
-                run_match(level, teams, ideal=ideal, isolate=False, replay=Path(folder) / "warm.replay")
+                play_match(level, teams, ideal=ideal, isolate=False, replay=Path(folder) / "warm.replay")
     return time.process_time() - began
 
 

@@ -13,7 +13,7 @@ import yaml
 import levels
 from levels.loader import parse_level
 from levels.match import ControllerLimits
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox import leases, uids
 from referee.sandbox.kernel import unavailable
 from referee.sandbox.teams import resolve
@@ -39,7 +39,7 @@ def team_file(folder: Path, body: str, name: str = "hostile.py") -> str:
 def hostile_match(folder: Path, body: str, seconds: float = 6.0, **kwargs) -> dict:
     """Slot 0 runs the hostile controller, slots 1-3 an honest reference one."""
     teams = [resolve(team_file(folder, body))] + [resolve(HONEST)] * 3
-    return run_match(short_race(seconds), teams, seed=2, limits=kwargs.pop("limits", FAST), **kwargs)
+    return play_match(short_race(seconds), teams, seed=2, limits=kwargs.pop("limits", FAST), **kwargs)
 
 
 def assert_others_unharmed(result: dict, bad: int = 0) -> None:

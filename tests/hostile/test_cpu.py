@@ -17,7 +17,7 @@ import pytest
 from helpers import run_cli, secret_file
 
 from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, slot_uids, team_file
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox import cgroup
 from referee.sandbox.teams import resolve
 
@@ -74,7 +74,7 @@ def race(tmp_path, body: str, name: str, honest: str):
     teams = [resolve(team_file(tmp_path, body, name))] + [resolve(honest)] * 3
     logs = tmp_path / name.removesuffix(".py")
     logs.mkdir()
-    return run_match(short_race(20.0), teams, seed=3, limits=FAST, logs=logs).to_dict(), logs
+    return play_match(short_race(20.0), teams, seed=3, limits=FAST, logs=logs).to_dict(), logs
 
 
 def test_a_cpu_hog_costs_the_others_nothing(tmp_path):
@@ -97,7 +97,7 @@ def test_sixty_children_in_sessions_of_their_own_cost_thinking_neighbours_nothin
 FALLBACK = """
 import json, os, sys
 from hostile.hostile_kit import FAST, short_race
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox import cgroup
 from referee.sandbox.teams import resolve
 
@@ -110,7 +110,7 @@ for line in open("/proc/self/mountinfo"):
         open(fields[4] + "/cgroup.procs", "w").write(str(os.getpid()))
 cgroup.OPTIONAL = ()
 teams = [resolve(sys.argv[1])] + [resolve(sys.argv[2])] * 3
-print(json.dumps(run_match(short_race(20.0), teams, seed=3, limits=FAST).to_dict()))
+print(json.dumps(play_match(short_race(20.0), teams, seed=3, limits=FAST).to_dict()))
 """
 
 

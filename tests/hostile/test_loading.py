@@ -17,7 +17,7 @@ from hostile.hostile_kit import (
     short_race,
     team_file,
 )
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.match.verify import verify
 from referee.sandbox.teams import resolve
 
@@ -98,7 +98,7 @@ def test_run_with_only_broken_teams_exits_2_in_one_line(tmp_path):
 
 def test_one_broken_team_among_good_ones_is_just_its_fault(tmp_path):
     broken = team_file(tmp_path, "def broken(:\n", "broken.py")
-    result = run_match(short_race(), [resolve(HONEST), resolve(broken), resolve(HONEST), resolve(HONEST)], seed=2)
+    result = play_match(short_race(), [resolve(HONEST), resolve(broken), resolve(HONEST), resolve(HONEST)], seed=2)
     assert [f["kind"] for f in result["robots"][1]["faults"]] == ["load"]
     assert_others_unharmed(result, bad=1)
     assert "LASERARENA_PWNED" not in sys.modules
@@ -124,6 +124,6 @@ def test_a_package_team_is_shipped_whole_and_never_imported_here(tmp_path, monke
         data = (tmp_path / rel).read_bytes()
         h.update(f"{rel}\0{len(data)}\0".encode() + data)
     assert team.code_hash == "sha256:" + h.hexdigest()
-    result = run_match(short_race(3), [team] + [resolve(HONEST)] * 3, seed=2)
+    result = play_match(short_race(3), [team] + [resolve(HONEST)] * 3, seed=2)
     assert all(not r["faults"] for r in result["robots"])  # it loaded and ran, in its sandbox
     assert "evilpkg" not in sys.modules and not hasattr(builtins, "LASERARENA_PWNED")

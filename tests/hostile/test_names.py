@@ -52,9 +52,9 @@ def test_referees_that_are_each_pid_one_hold_no_uid_in_common():
 KILLED = """
 import sys
 from hostile.hostile_kit import HONEST, short_race
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
-run_match(short_race(600.0), [resolve(sys.argv[1])] + [resolve(HONEST)] * 3, seed=2)
+play_match(short_race(600.0), [resolve(sys.argv[1])] + [resolve(HONEST)] * 3, seed=2)
 """
 
 
@@ -96,18 +96,18 @@ def test_groups_a_killed_referee_left_never_fail_the_next_run(tmp_path):
 NEXT = """
 import json
 from hostile.hostile_kit import HONEST, short_race
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
-print(json.dumps(run_match(short_race(), [resolve(HONEST)] * 4, seed=2).to_dict()))
+print(json.dumps(play_match(short_race(), [resolve(HONEST)] * 4, seed=2).to_dict()))
 """
 
 
 HIDDEN = """
 import json, sys
 from hostile.hostile_kit import HONEST, short_race
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
-print(json.dumps(run_match(short_race(float(sys.argv[1])), [resolve(HONEST)] * 4, seed=2).to_dict()))
+print(json.dumps(play_match(short_race(float(sys.argv[1])), [resolve(HONEST)] * 4, seed=2).to_dict()))
 """
 
 

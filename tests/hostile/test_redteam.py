@@ -25,7 +25,7 @@ from hostile.hostile_kit import (
     short_race,
     team_file,
 )
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.sandbox import forkserver, kernel
 from referee.sandbox.teams import resolve
 from referee.sandbox.uids import slot_uid
@@ -235,7 +235,7 @@ class Reader(Controller):
 """,
         "reader.py",
     )
-    result = run_match(
+    result = play_match(
         short_race(), [resolve(writer), resolve(reader), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
     )
     assert result["robots"][0]["faults"] == []
@@ -289,7 +289,7 @@ def test_its_memory_holds_no_other_teams_code_and_no_noise_key(tmp_path):
             f"class Other(Controller):\n    MARK = {mark!r}\n    def step(self, obs): return Command(0, 0)\n",
             "other.py",
         )
-        result = run_match(
+        result = play_match(
             short_race(3),
             [resolve(scanner), resolve(other), resolve(HONEST), resolve(HONEST)],
             seed=2,
@@ -528,7 +528,7 @@ class Probe(Controller):
 
     def play(name: str, first: str, seconds: float) -> None:
         started.wait(timeout=30)
-        results[name] = run_match(short_race(seconds), [resolve(first)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+        results[name] = play_match(short_race(seconds), [resolve(first)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
 
     threads = [
         threading.Thread(target=play, args=("bomb", bomb, 6.0)),
@@ -735,7 +735,7 @@ class Prober(Controller):
 """,
         "prober.py",
     )
-    result = run_match(
+    result = play_match(
         short_race(), [resolve(taker), resolve(prober), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
     )
     assert result["robots"][0]["faults"] == []

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from hostile.hostile_kit import FAST, HONEST, assert_contained, short_race, team_file
-from referee.match.loop import Match, run_match
+from referee.match.loop import Match, play_match
 from referee.records.replay_reader import load
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
@@ -44,7 +44,7 @@ class Snoop(Controller):
         return Command(0.0, 0.0)
 """,
     )
-    result = run_match(
+    result = play_match(
         short_race(),
         [resolve(snoop), resolve(other), resolve(HONEST), resolve(HONEST)],
         seed=2,
@@ -58,7 +58,7 @@ class Snoop(Controller):
 
 
 def test_writes_land_in_its_private_tmp_only(tmp_path, shared_dir):
-    result = run_match(
+    result = play_match(
         short_race(),
         [
             resolve(
@@ -101,7 +101,7 @@ def test_no_network_not_even_the_hosts_loopback(tmp_path):
     server.setblocking(False)
     port = server.getsockname()[1]
     try:
-        result = run_match(
+        result = play_match(
             short_race(),
             [
                 resolve(

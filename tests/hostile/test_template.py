@@ -8,7 +8,7 @@ import os
 import pytest
 
 from hostile.hostile_kit import FAST, HONEST, assert_others_unharmed, short_race, team_file
-from referee.match.loop import run_match
+from referee.match.loop import play_match
 from referee.match.views import brief_for
 from referee.sandbox import forkserver
 from referee.sandbox.process import ProcessBot
@@ -58,7 +58,7 @@ class Probe(Controller):
         raise RuntimeError("contained: nothing" if not found else f"LEAK: {found}")
 """,
     )
-    result = run_match(short_race(), [resolve(probe)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
+    result = play_match(short_race(), [resolve(probe)] + [resolve(HONEST)] * 3, seed=2, limits=FAST)
     bad = result["robots"][0]
     assert [f["message"] for f in bad["faults"]] == ["in step: RuntimeError: contained: nothing"], bad["faults"]
     assert_others_unharmed(result)
@@ -92,7 +92,7 @@ class Reader(Controller):
 """,
         "reader.py",
     )
-    result = run_match(
+    result = play_match(
         short_race(), [resolve(writer), resolve(reader), resolve(HONEST), resolve(HONEST)], seed=2, limits=FAST
     )
     assert result["robots"][0]["faults"] == []
