@@ -8,14 +8,10 @@ import select
 import time
 from collections.abc import Callable, Sequence
 
-from referee.sandbox.bot import Bot
+from referee.sandbox.bot import Awaited, Bot, Reply
 from referee.sandbox.channel import Trouble
 from referee.sandbox.fault import Fault
-from referee.sandbox.process import ProcessBot
-from robots import protocol
 from robots.api import Command, Observation
-
-Reply = tuple[protocol.Message | Trouble, float]  # an answer (or trouble) and the seconds it took
 
 
 def exchange(
@@ -29,16 +25,16 @@ def exchange(
     arrival; one that arrived while the referee was busy with `meanwhile`, to when that work
     began."""
     out: list[Command | Fault | None] = [None] * len(bots)
-    waiting: dict[int, ProcessBot] = {}
+    waiting: dict[int, Awaited] = {}
     for slot, (bot, obs) in enumerate(zip(bots, observations)):
         if obs is None:
             continue
-        if not isinstance(bot, ProcessBot):
-            out[slot] = bot.step(obs)  # a controller in this process answers at once
-        elif fault := bot.send(obs):
-            out[slot] = fault
+        sent = bot.send(obs)
+        if isinstance(sent, Command | Fault):  # answered at once (in this process), or gone
+            out[slot] = sent
         else:
-            waiting[slot] = bot
+            waiting[slot] = sent
+    awaited = dict(waiting)  # (`waiting` loses each as it answers)
     replies: dict[int, Reply] = {}
     if meanwhile is not None and waiting:
         began = time.monotonic()
@@ -46,29 +42,18 @@ def exchange(
         replies.update(_arrived(waiting, began))
     replies.update(_gathered(waiting))
     for slot in sorted(replies):
-        obs, bot = observations[slot], bots[slot]
-        assert obs is not None and isinstance(bot, ProcessBot)
-        out[slot] = bot.judge(obs, *replies[slot])
+        obs = observations[slot]
+        assert obs is not None
+        out[slot] = awaited[slot].judge(obs, *replies[slot])
     return out
 
 
-def _channels(waiting: dict[int, ProcessBot]) -> dict[int, int]:
+def _channels(waiting: dict[int, Awaited]) -> dict[int, int]:
     """Each waiting bot's output descriptor, and its slot."""
-    return {bot.channel.fileno(): slot for slot, bot in waiting.items()}
+    return {bot.reader(): slot for slot, bot in waiting.items()}
 
 
-def _judged(bot: ProcessBot) -> Reply:
-    """The answer `bot` has read whole, decoded, and the seconds it took: from its observation's
-    sending to its arrival, plus its decoding (the bytes it sent cost the referee that long)."""
-    channel = bot.channel
-    arrived = channel.arrived
-    began = time.monotonic()
-    got = channel.message()
-    assert got is not None and arrived is not None
-    return got, max(0.0, arrived - bot.sent) + time.monotonic() - began
-
-
-def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
+def _arrived(waiting: dict[int, Awaited], began: float) -> dict[int, Reply]:
     """The answers that came in while the referee was busy since `began`, timed to `began`: the
     referee, not the controller, kept them waiting (later answers are timed as always). Their
     bots leave `waiting`."""
@@ -77,17 +62,17 @@ def _arrived(waiting: dict[int, ProcessBot], began: float) -> dict[int, Reply]:
     for fd in select.select(list(readers), [], [], 0)[0]:
         slot = readers[fd]
         bot = waiting[slot]
-        if not bot.channel.read(max(began, bot.sent)):
+        if not bot.read_more(began):
             replies[slot] = (Trouble.CRASH, max(0.0, began - bot.sent))
-        elif bot.channel.whole():
-            replies[slot] = _judged(bot)
+        elif bot.answered():
+            replies[slot] = bot.decoded()
         else:
             continue
         del waiting[slot]
     return replies
 
 
-def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
+def _gathered(waiting: dict[int, Awaited]) -> dict[int, Reply]:
     """Every waiting bot's answer, or its trouble (`timeout` at its own deadline). An answer is
     timed to when the referee could first have seen it: the end of its wait in select(), or,
     for one found at once after the referee decoded another's answer, the start of that work
@@ -99,55 +84,50 @@ def _gathered(waiting: dict[int, ProcessBot]) -> dict[int, Reply]:
         busy = None  # when the referee began decoding answers in this round
         for slot in fresh:
             bot = waiting.get(slot)
-            if bot is None or not bot.channel.whole():
+            if bot is None or not bot.answered():
                 continue
-            if bot.unsent:  # an answer to an observation it has not read
-                bot.channel.problem = "it answers without reading its observations"
+            if bot.writer() is not None:  # an answer to an observation it has not read
+                bot.refuse("it answers without reading its observations")
                 replies[slot] = (Trouble.PROTOCOL, time.monotonic() - bot.sent)
             else:
                 busy = time.monotonic() if busy is None else busy
-                replies[slot] = _judged(bot)
-            del waiting[slot], readers[bot.channel.fileno()]
+                replies[slot] = bot.decoded()
+            del waiting[slot], readers[bot.reader()]
         if not waiting:
             break
-        writers = (
-            {bot.channel.stdin.fileno(): slot for slot, bot in waiting.items() if bot.unsent}
-            if any(bot.unsent for bot in waiting.values())
-            else {}
-        )
+        writers = {fd: slot for slot, bot in waiting.items() if (fd := bot.writer()) is not None}
         ready: list[int] = select.select(list(readers), [], [], 0)[0] if busy is not None else []
         if ready and busy is not None:
             stamp = busy  # it came while the referee was decoding
         else:
             now = time.monotonic()
             for slot, bot in list(waiting.items()):
-                if now - bot.sent >= bot.limits.step_deadline:
-                    if bot.unsent:  # its input still full of observations: it answers without reading them
-                        bot.channel.problem = "it does not read its observations"
-                    replies[slot] = (Trouble.PROTOCOL if bot.unsent else Trouble.TIMEOUT, now - bot.sent)
-                    del waiting[slot], readers[bot.channel.fileno()]
+                if now >= bot.deadline:
+                    unread = bot.writer() is not None
+                    if unread:  # its input still full of observations: it answers without reading them
+                        bot.refuse("it does not read its observations")
+                    replies[slot] = (Trouble.PROTOCOL if unread else Trouble.TIMEOUT, now - bot.sent)
+                    del waiting[slot], readers[bot.reader()]
             if not waiting:
                 break
-            left = min(bot.sent + bot.limits.step_deadline for bot in waiting.values()) - now
+            left = min(bot.deadline for bot in waiting.values()) - now
             wait = None if left == float("inf") else max(left, 0.0)
             writable = [fd for fd in writers if waiting.get(writers[fd]) is not None]
             ready, can_write, _ = select.select(list(readers), writable, [], wait)
             stamp = time.monotonic()
             for fd in can_write:
                 slot = writers[fd]
-                rest = waiting[slot].channel.write_now(waiting[slot].unsent)
-                if isinstance(rest, Trouble):  # its input closed: it ended
-                    replies[slot] = (rest, stamp - waiting[slot].sent)
-                    del readers[waiting[slot].channel.fileno()], waiting[slot]
-                else:
-                    waiting[slot].unsent = rest
+                trouble = waiting[slot].write_more()
+                if trouble is not None:  # its input closed: it ended
+                    replies[slot] = (trouble, stamp - waiting[slot].sent)
+                    del readers[waiting[slot].reader()], waiting[slot]
         fresh = []
         for fd in ready:
             if readers.get(fd) is None:
                 continue
             slot = readers[fd]
             bot = waiting[slot]
-            if not bot.channel.read(max(stamp, bot.sent)):
+            if not bot.read_more(stamp):
                 replies[slot] = (Trouble.CRASH, time.monotonic() - bot.sent)
                 del waiting[slot], readers[fd]
             else:

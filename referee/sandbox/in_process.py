@@ -63,6 +63,10 @@ class InProcessBot:
         except ProtocolError as e:
             return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
 
+    def send(self, obs: Observation) -> Command | Fault:
+        """In this process the answer comes at once: a step."""
+        return self.step(obs)
+
     def ask_to_end(self) -> None:
         """Nothing to tell: the match's end reaches a controller in this process by `close`."""
 

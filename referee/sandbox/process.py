@@ -20,6 +20,7 @@ from pathlib import Path
 from levels.match import ControllerLimits
 from referee.sandbox import cgroup, forkserver, kernel
 from referee.sandbox.allowance import Allowance
+from referee.sandbox.bot import Reply
 from referee.sandbox.channel import Channel, Trouble
 from referee.sandbox.fault import Fault, traceback_tail
 from referee.sandbox.launch import MAX_PROCS, Launched, Plan, launch
@@ -89,6 +90,7 @@ class ProcessBot:
         self.started: Launched | None = None  # the process, once launched
         self._pipes: Channel | None = None  # its stdin and stdout, once launched
         self.sent = 0.0  # when the last observation was sent (time.monotonic)
+        self.deadline = 0.0  # when its answer to it is late
         self.unsent = memoryview(b"")  # what its input has not taken yet of the last observation
         self.frame = bytearray()  # the step frame's buffer, reused every tick
         self.loaded = False  # the controller process has loaded the team's code
@@ -153,9 +155,9 @@ class ProcessBot:
     def step(self, obs: Observation) -> Command | Fault:
         """The controller's answer, a skipped tick (non-fatal Fault) or a fatal Fault, by the
         rules of its time `allowance`. (`exchange` does the same for several controllers at once.)"""
-        fault = self.send(obs)
-        if fault:
-            return fault
+        sent = self.send(obs)
+        if isinstance(sent, Fault):
+            return sent
         if self.unsent:  # the rest of the observation, within the step's deadline
             unsent = self.channel.write(self.unsent, self.sent + self.limits.step_deadline - time.monotonic())
             self.unsent = memoryview(b"")
@@ -164,12 +166,12 @@ class ProcessBot:
         reply = self.channel.receive(self.sent + self.limits.step_deadline - time.monotonic())
         return self.judge(obs, reply, time.monotonic() - self.sent)
 
-    def send(self, obs: Observation) -> Fault | None:
+    def send(self, obs: Observation) -> Fault | ProcessBot:
         """The first half of a step: wait out a skipped tick's late answer, start its clock
         (`sent`) and write `obs`, as much of it as its input takes at once (the rest is
-        `unsent`, for `push`): a controller that leaves its input full waits for its own
+        `unsent`, for `write_more`): a controller that leaves its input full waits for its own
         observation, on its own clock, and no other controller waits for it. A Fault if the
-        controller is gone."""
+        controller is gone, else itself, to be waited on (`Awaited`)."""
         if self.allowance.pending is not None:
             fault = self._drain(obs)
             if fault:
@@ -181,16 +183,44 @@ class ProcessBot:
         except BufferError:  # a view of an earlier frame is still alive somewhere: that one is left to it
             self.frame = bytearray()
             data = protocol.step_frame(obs, self.frame)
-        return self.push(obs, data)
-
-    def push(self, obs: Observation, data: memoryview | bytearray | None = None) -> Fault | None:
-        """Write what its input takes now of `data` (default: what is `unsent`)."""
-        rest = self.channel.write_now(self.unsent if data is None else data)
+        self.deadline = self.sent + self.limits.step_deadline
+        rest = self.channel.write_now(data)
         if isinstance(rest, Trouble):
             self.unsent = memoryview(b"")
             return self._fault(obs.tick, obs.time, rest, "step")
         self.unsent = rest
+        return self
+
+    # ---- Awaited: what `exchange` waits on ----
+
+    def reader(self) -> int:
+        return self.channel.fileno()
+
+    def writer(self) -> int | None:
+        return self.channel.stdin.fileno() if self.unsent else None
+
+    def write_more(self) -> Trouble | None:
+        rest = self.channel.write_now(self.unsent)
+        if isinstance(rest, Trouble):
+            return rest
+        self.unsent = rest
         return None
+
+    def read_more(self, since: float) -> bool:
+        return self.channel.read(max(since, self.sent))
+
+    def answered(self) -> bool:
+        return self.channel.whole()
+
+    def decoded(self) -> Reply:
+        arrived = self.channel.arrived
+        began = time.monotonic()
+        got = self.channel.message()
+        assert got is not None and arrived is not None
+        return got, max(0.0, arrived - self.sent) + time.monotonic() - began
+
+    def refuse(self, problem: str) -> None:
+        self.channel.problem = problem
 
     def _unread(self, obs: Observation, trouble: Trouble) -> Fault:
         """The fault of an observation its input did not take by the step's deadline."""
