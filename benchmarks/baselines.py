@@ -45,9 +45,9 @@ def play(level_name: str, who: str, seed: int, secret: str) -> Outcome:
     from referee.contest.noise_secret import noise_key
     from referee.match.loop import play_match
     from referee.sandbox.teams import Team, resolve
+    from robots._host.loading import load_class
     from robots.controllers.dead_reckoning import DeadReckoning
     from robots.controllers.sensorless import Sensorless
-    from robots.loading import load_class
 
     level = load_level(levels.path(level_name))
     start = level.robots[0].start

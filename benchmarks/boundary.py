@@ -24,7 +24,7 @@ from collections.abc import Callable
 import msgspec
 
 from referee.sandbox import cgroup, leases, stage, uids
-from robots import protocol
+from robots._host import protocol
 from robots.api import Command, Drawing
 
 SLOW = -1.2345678901234567e-300  # a number of the slowest kind to read: 17 digits, an extreme exponent

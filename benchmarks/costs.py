@@ -37,7 +37,7 @@ AREAS = [
             "TextIOWrapper",
         ),
     ),
-    ("exchange", ("referee/sandbox/", "robots/protocol.py", "select", "subprocess", "msgspec", "BufferedWriter")),
+    ("exchange", ("referee/sandbox/", "robots/_host/protocol.py", "select", "subprocess", "msgspec", "BufferedWriter")),
     ("controllers", ("robots/",)),
 ]
 

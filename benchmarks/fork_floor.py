@@ -2,7 +2,7 @@
 of a process holding what the controllers' template holds, bare and with a slot's namespaces.
 
 Run: python benchmarks/fork_floor.py [--starts 30]   (prints JSON; benchmarks/sandbox.py uses it)
-This process imports only the standard library and robots/template.py, and prepares itself as
+This process imports only the standard library and robots/_host/template.py, and prepares itself as
 the template does (`template.prepare`: the preloaded imports, the seccomp filter, the frozen
 heap), so what it forks is the template's size. Each fork's CPU counts both sides: the parent's
 (copying the page tables) and the child's (the pages it writes, copied, and its exit). With the
@@ -21,7 +21,7 @@ import resource
 import statistics
 from typing import NoReturn
 
-from robots import template
+from robots._host import template
 
 
 def fork(own_pids: int, namespaces: bool) -> tuple[float, int]:

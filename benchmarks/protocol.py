@@ -14,7 +14,7 @@ import io
 import json
 import time
 
-from robots import protocol
+from robots._host import protocol
 from robots.api import Command, Observation, SensorEvent
 
 OBS = Observation(120, 6.0, tuple(SensorEvent(5.9 + 0.01 * i, "hit", "A", 1.0 + i) for i in range(4)))

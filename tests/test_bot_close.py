@@ -70,8 +70,8 @@ def test_the_template_ends_without_its_teardown_once_the_referee_closes_it():
     code = (
         "import atexit, runpy, sys\n"
         "atexit.register(print, 'torn down')\n"
-        "sys.argv = ['robots.template', sys.argv[1]]\n"
-        "runpy.run_module('robots.template', run_name='__main__')\n"
+        "sys.argv = ['robots._host.template', sys.argv[1]]\n"
+        "runpy.run_module('robots._host.template', run_name='__main__')\n"
     )
     with subprocess.Popen(
         [sys.executable, "-c", code, str(theirs.fileno())],

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from robots.loading import STANDARD_VIEW
+from robots._host.loading import STANDARD_VIEW
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = tomllib.loads((ROOT / "pyproject.toml").read_text())

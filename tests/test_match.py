@@ -10,8 +10,8 @@ from levels.loader import parse_level
 from referee.errors import TeamError
 from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
+from robots._host.loading import load_class
 from robots.api import StartInfo
-from robots.loading import load_class
 
 TWO = edited(
     MINI_LEVEL,

@@ -20,7 +20,7 @@ def _python(code: str, cwd=None) -> subprocess.CompletedProcess:
 
 def test_imports_and_levels_without_posix_modules():
     out = _python(
-        WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grade, robots.runner\n"
+        WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grade, robots._host.runner\n"
         "from referee.cli.main import main\nraise SystemExit(main(['levels']))"
     )
     assert out.returncode == 0, out.stderr
@@ -28,7 +28,9 @@ def test_imports_and_levels_without_posix_modules():
 
 
 def test_runner_limits_missing_or_refused_are_one_line_warnings():
-    missing = _python(WITHOUT_POSIX + "from robots.runner import _limit\nprint(_limit('RLIMIT_AS', 1 << 30, 'memory'))")
+    missing = _python(
+        WITHOUT_POSIX + "from robots._host.runner import _limit\nprint(_limit('RLIMIT_AS', 1 << 30, 'memory'))"
+    )
     assert missing.stdout.strip() == "False"
     assert missing.stderr.strip() == (
         "laserarena: warning: no memory limit on this system (RLIMIT_AS: "
@@ -37,7 +39,7 @@ def test_runner_limits_missing_or_refused_are_one_line_warnings():
     # macOS: setrlimit(RLIMIT_AS) raises ValueError
     refused = _python(
         "import resource\ndef refuse(*a): raise ValueError('not supported')\n"
-        "resource.setrlimit = refuse\nfrom robots.runner import _limit\n"
+        "resource.setrlimit = refuse\nfrom robots._host.runner import _limit\n"
         "print(_limit('RLIMIT_AS', 1 << 30, 'memory'))"
     )
     assert refused.stdout.strip() == "False" and len(refused.stderr.strip().splitlines()) == 1

@@ -19,7 +19,7 @@ import levels
 from levels.loader import parse_level
 from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
-from robots import protocol
+from robots._host import protocol
 from robots.api import Brief, Command, Drawing, Observation, SensorEvent
 
 

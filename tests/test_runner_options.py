@@ -1,4 +1,4 @@
-"""The controller process's command line (`robots.runner`), read by hand: what the referee
+"""The controller process's command line (`robots._host.runner`), read by hand: what the referee
 passes, in both option forms, and a clear error for anything else."""
 
 import subprocess
@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from robots.runner import options
+from robots._host.runner import options
 
 
 def test_spec_and_limits():
@@ -34,12 +34,15 @@ def test_spec_and_limits():
 def test_bad_command_lines(argv, words):
     with pytest.raises(SystemExit) as e:
         options(argv)
-    assert words in str(e.value) and str(e.value).startswith("usage: python -m robots.runner SPEC")
+    assert words in str(e.value) and str(e.value).startswith("usage: python -m robots._host.runner SPEC")
 
 
 def test_a_bad_command_line_exits_with_one_line_and_no_traceback():
     out = subprocess.run(
-        [sys.executable, "-m", "robots.runner", "ref:idle", "--max-procs"], capture_output=True, text=True, timeout=60
+        [sys.executable, "-m", "robots._host.runner", "ref:idle", "--max-procs"],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert out.returncode == 1
     assert "Traceback" not in out.stderr and "--max-procs needs a value" in out.stderr

@@ -3,7 +3,7 @@ looked at), as the referee and a controller's own process both read it."""
 
 import pytest
 
-from robots.loading import SpecKind, TeamSpec, is_file_spec, parse_spec
+from robots._host.loading import SpecKind, TeamSpec, is_file_spec, parse_spec
 
 
 @pytest.mark.parametrize(

@@ -267,7 +267,7 @@ def owner(pid: int) -> int | None:
 def playing(worker: int) -> bool:
     """Whether a worker is in the middle of a heat: its controllers are running below it (a
     spawned runner, or a controller forked from the template, which runs as a slot's uid)."""
-    return any("robots.runner" in cmdline(p) or owner(p) not in (None, 0) for p in descendants(worker))
+    return any("robots._host.runner" in cmdline(p) or owner(p) not in (None, 0) for p in descendants(worker))
 
 
 def start(cmd: list[str], cwd: Path) -> subprocess.Popen:

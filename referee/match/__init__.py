@@ -7,7 +7,7 @@ the replay writes put off while controllers compute (`deferral`); the rules that
 re-running a recorded match to check it (`verify`); and the compiled kernels readied at
 install by short matches (`warm`).
 
-It may import `arena` (the world it referees), `robots.api` and `robots.protocol` (the
+It may import `arena` (the world it referees), `robots.api` and `robots._host.protocol` (the
 messages a controller exchanges), the sandbox (to run controllers) and records (to write
 replays); nothing from contest, media, gym or cli, and no controller or toolkit code
 (pyproject.toml's contracts hold this).

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from referee.records.canonical import dumps
 from referee.records.results import WarningRecord
 from referee.terminal import safe
-from robots.protocol import drawing_problem
+from robots._host.protocol import drawing_problem
 
 TICK_BYTES = 16 << 10  # a robot's `dbg` record in one tick, at most (bytes of the replay line)
 MATCH_BYTES = 2 << 20  # a robot's `dbg` records over a match, at most

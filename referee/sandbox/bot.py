@@ -10,7 +10,7 @@ from typing import Protocol
 
 from referee.sandbox.channel import Trouble
 from referee.sandbox.fault import Fault
-from robots import protocol
+from robots._host import protocol
 from robots.api import Brief, Command, Observation
 
 Reply = tuple[protocol.Message | Trouble, float]  # an answer (or trouble) and the seconds it took

@@ -15,7 +15,7 @@ import time
 from enum import StrEnum
 from typing import IO
 
-from robots import protocol
+from robots._host import protocol
 
 
 class Trouble(StrEnum):

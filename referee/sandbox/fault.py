@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from robots.protocol import FaultKind
+from robots._host.protocol import FaultKind
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ def traceback_tail(log: str) -> str | None:
         i
         for i, line in enumerate(lines)
         if line.startswith("  File ")
-        and any(f'{p}"' in line.replace("\\", "/") for p in ("robots/runner.py", "referee/sandbox/in_process.py"))
+        and any(f'{p}"' in line.replace("\\", "/") for p in ("robots/_host/runner.py", "referee/sandbox/in_process.py"))
     ]
     body = lines[ours[-1] + 1 :] if ours else lines[1:]  # the team's frames: not the call site's
     while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):

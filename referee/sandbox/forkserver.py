@@ -1,9 +1,9 @@
 """Controllers forked from a sandboxed template instead of spawned one by one (root referee).
 
-A `ForkServer` runs `robots.template` as root inside a bubblewrap sandbox holding only the
+A `ForkServer` runs `robots._host.template` as root inside a bubblewrap sandbox holding only the
 shared read-only system view (referee/sandbox/kernel.py `template_launch`); with the
 interpreter, msgspec, numpy and `robots` already imported there, a controller start is a fork
-plus the slot's own namespaces, mounts and uid (robots/template.py) instead of a new bwrap, a
+plus the slot's own namespaces, mounts and uid (robots/_host/template.py) instead of a new bwrap, a
 new interpreter and its imports. One template per referee thread, reused by every match that
 thread runs (its state never changes: it reads nothing of a team). Where it cannot be made or
 fails its probe, `server()` says None and ProcessBot spawns a bwrap sandbox per controller.
@@ -19,7 +19,6 @@ import os
 import select
 import signal
 import socket
-import struct
 import subprocess
 import sys
 import threading
@@ -31,8 +30,8 @@ from referee.fragile import steady
 from referee.sandbox import cgroup, kernel
 from referee.sandbox.privacy import switches_users
 from referee.sandbox.uids import slot_uid
+from robots._host import forking
 
-STATUS = struct.Struct("<id")  # a slot's last word from the template: exit status, CPU seconds (robots/template.py)
 READY_TIME = 30.0  # seconds the template may take to import and answer (a loaded machine)
 
 
@@ -50,11 +49,11 @@ class Forked:
         self.problem = ""  # what its slot could not do, if it failed before the controller ran
 
     def _take(self, message: bytes) -> None:
-        if message[:1] == b"s" and len(message) == 1 + STATUS.size:
-            self.returncode, self.cpu = STATUS.unpack(message[1:])
+        if message[:1] == forking.ENDED and len(message) == 1 + forking.STATUS.size:
+            self.returncode, self.cpu = forking.STATUS.unpack(message[1:])
         else:  # a slot that could not be made (its reason), or a template gone without a word: killed
             self.problem = message[1:].decode(errors="replace")
-            self.returncode = 1 if message[:1] == b"e" else 128 + signal.SIGKILL
+            self.returncode = 1 if message[:1] == forking.FAILED else 128 + signal.SIGKILL
         self.watch.close()
 
     def wait(self, timeout: float | None = None) -> int:
@@ -80,7 +79,7 @@ class Forked:
     def kill(self) -> None:
         """Have the template kill the controller (its PID namespace goes with it)."""
         try:
-            self.watch.send(b"k")
+            self.watch.send(forking.KILL)
         except OSError:
             pass  # the template is gone: so is the controller
 
@@ -90,7 +89,7 @@ class ForkServer:
 
     def __init__(self) -> None:
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
-        command = [kernel.python(), "-s", "-m", "robots.template", str(theirs.fileno())]
+        command = [kernel.python(), "-s", "-m", "robots._host.template", str(theirs.fileno())]
         launch = kernel.template_launch(command, kernel.SANDBOX_ENV)
         try:
             self.proc = subprocess.Popen(
@@ -127,7 +126,11 @@ class ForkServer:
         """Wait for the template's imports and its probe slot's end; why it cannot serve, or None."""
         if self.ready:
             return None
-        if not select.select([self.control], [], [], READY_TIME)[0] or self.control.recv(16) != b"r" or not self.probe:
+        if (
+            not select.select([self.control], [], [], READY_TIME)[0]
+            or self.control.recv(16) != forking.READY
+            or not self.probe
+        ):
             return "the controller template did not start"
         try:
             status = self.probe.wait(READY_TIME)
@@ -159,7 +162,7 @@ class ForkServer:
         settings, its_settings = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         try:
             with self.lock:
-                socket.send_fds(self.control, [b"f"], [its_watch.fileno(), its_settings.fileno()])
+                socket.send_fds(self.control, [forking.FORK], [its_watch.fileno(), its_settings.fileno()])
             message = json.dumps({**config, "files": sizes}).encode()
             socket.send_fds(settings, [message], [*stdio, bundle, *groups])
         except OSError:

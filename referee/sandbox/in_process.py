@@ -10,9 +10,9 @@ from pathlib import Path
 
 from referee.sandbox.fault import Fault, traceback_tail
 from referee.sandbox.teams import Team
+from robots._host.loading import LoadError, is_file_spec, load_class
+from robots._host.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
 from robots.api import API_VERSION, Brief, Command, Controller, Observation
-from robots.loading import LoadError, is_file_spec, load_class
-from robots.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
 
 
 class InProcessBot:

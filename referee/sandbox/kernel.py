@@ -1,4 +1,4 @@
-"""One kernel sandbox per controller: bubblewrap (`bwrap`) namespaces around `robots.runner`.
+"""One kernel sandbox per controller: bubblewrap (`bwrap`) namespaces around `robots._host.runner`.
 
 Each slot gets its own PID namespace (its processes see and signal only each other, and all
 die with the namespace's init), mount namespace (a read-only view of the system's /usr, of the
@@ -27,12 +27,12 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import robots.seccomp
+import robots._host.seccomp
 from referee.sandbox.privacy import switches_users
 from referee.sandbox.stage import ALLOWED, LIB_DIR, PYTHON_DIR, stage
 from referee.sandbox.uids import slot_uid
 from referee.threads import ONE_BLAS_THREAD
-from robots import protocol
+from robots._host import protocol
 
 TEAM_DIR = "/team"  # the slot's code, read-only
 TMP_SIZE = 64 << 20  # bytes of the private /tmp (and /dev/shm): memory, not disk
@@ -211,11 +211,11 @@ def _sandbox(
 ) -> Launch:
     """bwrap's arguments up to `--`: the namespaces, the system view, `files` at TEAM_DIR, a
     private /proc, /dev, /tmp and /dev/shm, a read-only root and the environment `env`;
-    `filtered`: under robots/seccomp.py's filter."""
+    `filtered`: under robots/_host/seccomp.py's filter."""
     team, fds = _team_files(files)
     info, info_w = os.pipe()
     fds.append(info_w)
-    code = robots.seccomp.program() if filtered else None
+    code = robots._host.seccomp.program() if filtered else None
     if code is not None:
         rules = os.memfd_create("seccomp", 0)
         os.write(rules, code)
@@ -259,7 +259,7 @@ def launch(command: list[str], files: tuple[tuple[str, bytes], ...], env: dict[s
 
 
 def template_launch(command: list[str], env: dict[str, str]) -> Launch:
-    """The bwrap command line running the controller template (robots/template.py) as root in
+    """The bwrap command line running the controller template (robots/_host/template.py) as root in
     a sandbox like a controller's but empty at TEAM_DIR: the view every slot forked from it
     starts with (it makes its own namespaces, mounts and uid from there)."""
     box = _sandbox((), env, False)

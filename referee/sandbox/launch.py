@@ -1,7 +1,7 @@
 """Starting a controller process, one of three ways: forked from a root referee's template
 (`forkserver`, into namespaces of its own), spawned in a bwrap sandbox of its own (`kernel`),
 or, where no sandbox can be made, a plain process in its own session, run as `nobody` when the
-referee is root (with a one-line warning). Each is a fresh `robots.runner` that imports only
+referee is root (with a one-line warning). Each is a fresh `robots._host.runner` that imports only
 `robots` and the team's code, and speaks the protocol on its stdin and stdout.
 """
 
@@ -30,7 +30,7 @@ from referee.sandbox.privacy import (
 )
 from referee.sandbox.teams import Team
 from referee.sandbox.uids import slot_uid
-from robots.loading import is_file_spec
+from robots._host.loading import is_file_spec
 
 ROBOTS_HOME = str(Path(robots.__file__).resolve().parent.parent)
 MAX_PROCS = 64  # processes and threads a slot may have at once (a controller needs one; no fork bomb)
@@ -98,7 +98,7 @@ def _sandboxed(plan: Plan, limits: list[str], stderr: int, groups: list[int]) ->
         config = {"uid": uid, "argv": [entry, *limits], **({"cpus": plan.cpus} if plan.cpus else {})}
         return Launched(_forked(server, plan.team, config, stderr, groups), in_sandbox=True)
     launch = kernel.launch(
-        [kernel.python(), "-s", "-m", "robots.runner", entry, *limits], plan.team.files, kernel.SANDBOX_ENV, uid
+        [kernel.python(), "-s", "-m", "robots._host.runner", entry, *limits], plan.team.files, kernel.SANDBOX_ENV, uid
     )
     try:
         proc = subprocess.Popen(
@@ -156,7 +156,17 @@ def _plain(plan: Plan, limits: list[str], stderr: int, groups: list[int]) -> Lau
     env.update(RUNNER_ENV, PYTHONPATH=path)
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-s", "-m", "robots.runner", entry, *limits, "--path", folder.name, *_joining(groups)],
+            [
+                sys.executable,
+                "-s",
+                "-m",
+                "robots._host.runner",
+                entry,
+                *limits,
+                "--path",
+                folder.name,
+                *_joining(groups),
+            ],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=stderr,

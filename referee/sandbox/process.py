@@ -3,7 +3,7 @@
 The process is started by `launch` (forked from a root referee's template, spawned in a bwrap
 sandbox of its own, or, where no sandbox can be made, a plain process); it imports only
 `robots` and the team's code. The referee talks to it over a framed `channel` with the
-messages of `robots.protocol`, waits for each answer no longer than its time `allowance`
+messages of `robots._host.protocol`, waits for each answer no longer than its time `allowance`
 permits, and turns whatever goes wrong into a typed `Fault`. Its stderr is a pipe the referee
 caps (`log`); a root referee puts it in a control group of its own (`cgroup`).
 """
@@ -26,10 +26,20 @@ from referee.sandbox.fault import Fault, traceback_tail
 from referee.sandbox.launch import MAX_PROCS, Launched, Plan, launch
 from referee.sandbox.log import TeamLog
 from referee.sandbox.teams import Team
-from robots import protocol
+from robots._host import protocol
+from robots._host.loading import is_file_spec
+from robots._host.protocol import (
+    PROTOCOL_VERSION,
+    REPORTED,
+    CommandMsg,
+    FaultKind,
+    FaultMsg,
+    Loaded,
+    Ready,
+    Setup,
+    Stop,
+)
 from robots.api import Brief, Command, Observation
-from robots.loading import is_file_spec
-from robots.protocol import PROTOCOL_VERSION, REPORTED, CommandMsg, FaultKind, FaultMsg, Loaded, Ready, Setup, Stop
 
 ENDING_TIME = 0.5  # seconds a controller whose output has ended may take to exit before it is killed
 STOP_TIME = 0.5  # seconds a controller told the match is over may take to exit before it is killed

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import robots
-from robots.loading import STANDARD_VIEW
+from robots._host.loading import STANDARD_VIEW
 
 LIB_DIR = "/laserarena"  # the packages a controller may import besides the standard library
 PYTHON_DIR = "/python"  # an interpreter that lies outside /usr, with its standard library

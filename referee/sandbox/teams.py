@@ -22,9 +22,9 @@ from levels.model import Level
 from referee.errors import TeamError
 from referee.sandbox.team_files import read_file, read_package
 from referee.terminal import safe
+from robots._host.loading import LoadError, SpecKind, TeamSpec, entry_point, parse_spec, unknown_reference
 from robots.api import Controller
 from robots.controllers import REFERENCE
-from robots.loading import LoadError, SpecKind, TeamSpec, entry_point, parse_spec, unknown_reference
 
 BUILT_IN = "robots"  # present in every controller process: nothing of it is shipped
 RESERVED = frozenset(sys.stdlib_module_names) | {BUILT_IN, "sitecustomize", "usercustomize"}

@@ -10,11 +10,11 @@ import threading
 
 from hostile.hostile_kit import assert_contained, assert_others_unharmed, hostile_match
 from referee.sandbox.channel import Channel, Trouble
-from robots import protocol
+from robots._host import protocol
 
 # a team that replaces its own writer: every answer it sends is the message it builds here
 WRITER = """
-import robots.protocol as P
+import robots._host.protocol as P
 
 def frame(tick):
     return BODY.replace(b"TICK", str(tick).encode())
@@ -112,7 +112,7 @@ def test_bytes_taken_back_from_the_pipe_stall_only_their_own_answer():
 
 STALLER = """
 import array, fcntl, struct, termios
-from robots import protocol
+from robots._host import protocol
 
 def pipes():
     found = {}

@@ -250,7 +250,7 @@ def test_the_runner_sets_its_limits_before_the_team_can_replace_anything(tmp_pat
         "class C(Controller):\n    def step(self, obs):\n        return Command(0, 0)\n"
     )
     done = subprocess.run(
-        [sys.executable, "-s", "-m", "robots.runner", str(team / "ctl.py"), "--path", str(team)]
+        [sys.executable, "-s", "-m", "robots._host.runner", str(team / "ctl.py"), "--path", str(team)]
         + ["--memory", str(1 << 30)],
         stdin=subprocess.DEVNULL,
         capture_output=True,

@@ -11,7 +11,7 @@ from hostile.hostile_kit import FAST, assert_contained, assert_others_unharmed, 
 from referee.match.drawings import MATCH_BYTES, TICK_BYTES
 from referee.match.fleet import NO_LIMITS
 from referee.records.canonical import dumps
-from robots.protocol import MAX_DRAWINGS, MAX_POINTS, MAX_TEXT
+from robots._host.protocol import MAX_DRAWINGS, MAX_POINTS, MAX_TEXT
 
 # every drawing as large as the caps allow: the longest numbers, text of astral characters
 # (12 bytes each as JSON escapes), as many drawings as a tick may have

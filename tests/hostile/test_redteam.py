@@ -333,7 +333,7 @@ def test_an_answer_in_pieces_counts_when_whole(tmp_path):
     result = hostile_match(
         tmp_path,
         """
-import robots.protocol as protocol
+import robots._host.protocol as protocol
 whole = protocol.write
 class Slow:
     def __init__(self, out):
@@ -367,7 +367,7 @@ def test_answering_twice_or_ahead_is_a_protocol_fault(tmp_path):
     result = hostile_match(
         tmp_path,
         """
-import robots.protocol as protocol
+import robots._host.protocol as protocol
 whole = protocol.write
 def twice(out, msg):
     whole(out, msg)
@@ -458,7 +458,7 @@ def test_answering_ahead_without_reading_does_not_block_the_referee(tmp_path):
         PROTOCOL_OUT
         + """
 import threading
-import robots.protocol as protocol
+import robots._host.protocol as protocol
 def answer_ahead(out):
     for tick in range(3, 100_000):
         protocol.write(out, protocol.CommandMsg(v=1, tick=tick, command=Command(0.05, 0.05)))

@@ -1,7 +1,7 @@
 """The seccomp filter every sandboxed controller runs under: the calls a controller never needs
 and that reach past its slot's bounds are denied.
 
-How it works, in detail: docs/internals.md, `robots/seccomp.py`.
+How it works, in detail: docs/internals.md, `robots/_host/seccomp.py`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The controller process: `python -m robots.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]`.
+"""The controller process: `python -m robots._host.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]`.
 
 Started by the referee as a fresh interpreter whose import path holds the standard library and
 `robots` only. It joins the slot's control groups (`--join`: descriptors of their
@@ -19,9 +19,9 @@ import traceback
 from collections.abc import Callable
 from typing import Any, Final
 
-from robots import protocol
+from robots._host import protocol
+from robots._host.loading import LoadError, load_class
 from robots.api import Brief, Observation
-from robots.loading import LoadError, load_class
 
 
 def _private_channel() -> tuple:
@@ -98,7 +98,7 @@ def _limit(name: str, value: int, what: str) -> bool:
 
 
 OPTIONS = ("--memory", "--max-procs")
-USAGE = "usage: python -m robots.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]"
+USAGE = "usage: python -m robots._host.runner SPEC [--path DIR] [--memory BYTES] [--max-procs N] [--join FDS]"
 TEXT_OPTIONS = ("--path", "--join")
 
 

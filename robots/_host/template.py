@@ -1,14 +1,14 @@
-"""The controller template: `python -m robots.template`, a fork server for controller processes.
+"""The controller template: `python -m robots._host.template`, a fork server for controller processes.
 
 Started by a root referee inside a bubblewrap sandbox that holds only the shared read-only
 system view (no team's code, no /team content, its own PID namespace, no network). It imports
-what every controller start would import (`robots.runner`, msgspec) and preloads numpy and the
+what every controller start would import (`robots._host.runner`, msgspec) and preloads numpy and the
 reference controllers, then forks one controller per request. A request is one datagram on
 the control socket (its descriptor number is the one argument) carrying two sockets of the
 slot's own: the one the referee watches the slot by and the one its configuration comes on.
 The template never reads anything of a team: the forked child reads its configuration itself.
 
-How it works, in detail: docs/internals.md, `robots/template.py`.
+How it works, in detail: docs/internals.md, `robots/_host/template.py`.
 """
 
 from __future__ import annotations
@@ -23,14 +23,13 @@ import resource  # noqa: F401 (the runner sets its limits with it: imported once
 import select
 import signal
 import socket
-import struct
 import sys
 from collections.abc import Callable
 from types import ModuleType
 from typing import Any, NoReturn
 
-import robots.runner
-from robots import protocol, seccomp
+import robots._host.runner
+from robots._host import forking, protocol, seccomp
 from robots.controllers import REFERENCE
 
 REFERENCE_MODULES = sorted({spec.split(":")[0].rsplit(".", 1)[1] for spec in REFERENCE.values()})
@@ -168,8 +167,8 @@ def _controller(config: dict[str, Any], stdio: list[int], groups: list[int]) -> 
         os.chdir("/tmp")
         # /team is new; every other folder the template's finders cached is the same read-only one
         sys.path_importer_cache.pop(TEAM_DIR, None)
-        sys.argv = [robots.runner.__file__, *config["argv"]]
-        code = robots.runner.main(config["argv"])
+        sys.argv = [robots._host.runner.__file__, *config["argv"]]
+        code = robots._host.runner.main(config["argv"])
     except BaseException:
         import traceback
 
@@ -218,7 +217,7 @@ def _slot(watch: socket.socket, config: socket.socket) -> NoReturn:
             os.sched_setaffinity(0, [int(c) for c in settings["cpus"]])
     except BaseException as e:
         try:
-            watch.send(b"e" + protocol.describe(e)[:400].encode())
+            watch.send(forking.FAILED + protocol.describe(e)[:400].encode())
         finally:
             os._exit(1)
     watch.close()
@@ -254,7 +253,7 @@ class _Watched:
             word = self.watch.recv(16)
         except OSError:
             word = b""
-        if word in (b"", b"k"):
+        if word in (b"", forking.KILL):
             try:
                 signal.pidfd_send_signal(self.pidfd, signal.SIGKILL)
             except ProcessLookupError:
@@ -268,7 +267,7 @@ class _Watched:
         os.close(self.pidfd)
         code = os.WEXITSTATUS(status) if os.WIFEXITED(status) else 128 + os.WTERMSIG(status)
         try:
-            self.watch.send(b"s" + struct.pack("<id", code, usage.ru_utime + usage.ru_stime))
+            self.watch.send(forking.ENDED + forking.STATUS.pack(code, usage.ru_utime + usage.ru_stime))
         except OSError:
             pass  # the referee is gone
         self.watch.close()
@@ -335,7 +334,7 @@ def _started(fds: list[int], own_pids: int) -> _Watched | None:
         pid = fork_init(lambda: _slot(watch, config), own_pids)
     except OSError as e:
         try:
-            watch.send(b"e" + protocol.describe(e)[:400].encode())
+            watch.send(forking.FAILED + protocol.describe(e)[:400].encode())
         except OSError:
             pass  # the referee is gone
         watch.close()
@@ -351,7 +350,7 @@ def serve(control_fd: int) -> None:
     control = socket.socket(fileno=control_fd)
     own_pids = os.open("/proc/self/ns/pid", os.O_RDONLY | os.O_CLOEXEC)
     prepare()
-    control.send(b"r")
+    control.send(forking.READY)
     by_pidfd: dict[int, _Watched] = {}
     while True:
         listening = {w.watch.fileno(): w for w in by_pidfd.values() if w.listening}

@@ -6,7 +6,7 @@ Every message carries `"v": 1` and a `type`; each is a tagged Struct here:
 referee -> controller: `Setup` {brief}, `Step` {obs}, `Stop`
 controller -> referee: `Loaded` {api}, `Ready`, `CommandMsg` {tick, command}, `FaultMsg` {kind, message}
 
-How it works, in detail: docs/internals.md, `robots/protocol.py`.
+How it works, in detail: docs/internals.md, `robots/_host/protocol.py`.
 """
 
 from __future__ import annotations
