@@ -18,7 +18,7 @@ from speed import machine_cpu
 
 import levels
 from levels.loader import load_level
-from referee.contest import grade as g
+from referee.contest import grading as g
 from referee.sandbox.teams import resolve
 from referee.version import __version__
 
@@ -33,7 +33,7 @@ def run(matches: int, workers: int) -> tuple[float, float]:
             [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
         )
         c0, w0 = machine_cpu(), time.perf_counter()
-        g.grade(jobs, journal, workers=workers, quiet=True)
+        g.grade_jobs(jobs, journal, workers=workers, quiet=True)
         return time.perf_counter() - w0, machine_cpu() - c0
 
 

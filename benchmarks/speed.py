@@ -24,7 +24,7 @@ import sensing
 
 import levels
 from levels.loader import load_level
-from referee.contest import grade as g
+from referee.contest import grading as g
 from referee.match.loop import play_match
 from referee.sandbox.teams import resolve
 from referee.version import __version__
@@ -144,7 +144,7 @@ def grading(matches: int, spec: str = "ref:bac") -> dict:
                 [(load_level(path), path)], [(team.spec, team.code_hash)], matches, journal.secret(None), __version__
             )
             c0 = machine_cpu()
-            g.grade(jobs, journal, workers=1, quiet=True)
+            g.grade_jobs(jobs, journal, workers=1, quiet=True)
             used = machine_cpu() - c0
             simulated = sum(result["end_time"] for _, result in journal.results(jobs))
         return {"matches": matches, "cpu_per_s": used / simulated, "simulated_s": simulated}

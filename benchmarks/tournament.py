@@ -20,7 +20,7 @@ import numpy as np
 import levels
 from levels.loader import load_level
 from referee.contest import report
-from referee.contest import tournament as t
+from referee.contest import tournaments as t
 from referee.contest.journal import Journal
 from referee.contest.ratings import Placing, ranks, rate
 from referee.contest.schedule import schedule

@@ -42,27 +42,30 @@ def _level(level: str | Path | Level) -> Level:
 
 def run_match(
     level: str | Path | Level,
-    teams: list[str | type] | None = None,
+    teams: Sequence[str | type] | None = None,
     seed: int | None = None,
     ideal: bool = False,
     isolate: bool = True,
     replay: str | Path | None = None,
     logs: str | Path | None = None,
+    limits: bool = True,
 ) -> MatchResult:
-    """Run one match and return its typed result (`r.robots[0].score.total`).
+    """Run one match and return its typed result (`r.robots[0].score.total`); `laserarena run`
+    is this call.
 
     `level`: a built-in name, a YAML path or a Level; `teams`: one per slot, in order, each a
     spec string (`ref:NAME`, `FILE.py[:Class]`, `DIR[:Class]`, `module:Class`) or a Controller
     class; slots left over get the level's default controller. `isolate=False` runs the
-    controllers in this process (a debugger can stop in them)."""
-    from referee.match.loop import play_match as run  # the match loop loads pymunk: only when called
+    controllers in this process (a debugger can stop in them); `limits=False` lifts their time
+    and memory limits (debugging)."""
+    from referee.match.fleet import NO_LIMITS
+    from referee.match.loop import play_match  # the match loop loads pymunk: only when called
 
     lv = _level(level)
+    check_seed(seed)
     given = list(teams or [])
     if len(given) > len(lv.robots):
-        raise UserError(f"{lv.name} has {len(lv.robots)} robot slot(s); got {len(given)} teams")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-        raise UserError(f"seed must be a whole number >= 0, got {seed!r}")
+        raise TeamError(f"{lv.name}: {len(given)} teams for {len(lv.robots)} robot slot(s)")
     given += [lv.default_controller] * (len(lv.robots) - len(given))
     folder = Path(tempfile.mkdtemp(prefix="laserarena-api-"))
     try:
@@ -71,17 +74,25 @@ def run_match(
         resolved = [resolve(t) if isinstance(t, str) else class_team(t, ship, folder) for t in given]
         if logs is not None:
             Path(logs).mkdir(parents=True, exist_ok=True)
-        return run(
+        return play_match(
             lv,
             resolved,
             seed=seed,
             replay=replay,
             ideal=ideal,
             isolate=isolate,
+            limits=None if limits else NO_LIMITS,
             logs=Path(logs) if logs is not None else None,
         )
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+
+
+def check_seed(seed: object, name: str = "seed") -> None:
+    """A match seed is a whole number >= 0 (None: the level's own); UserError naming it as
+    `name` (the command line's `--seed`) otherwise."""
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+        raise UserError(f"{name} {seed!r}: a seed is a whole number >= 0")
 
 
 # ---- grading and tournaments ---------------------------------------------------------------
@@ -341,9 +352,9 @@ def leaderboard(
     audit: float = 0.05,
 ) -> Leaderboard:
     """`grade`, returning its notes beside the rows instead of printing them."""
-    from referee.contest import grade as g
+    from referee.contest import grading as g
     from referee.contest.runner import sandbox_missing
-    from referee.contest.tournament import names as tournament_names
+    from referee.contest.tournaments import names as tournament_names
     from referee.version import __version__
 
     found = contest_levels(levels)
@@ -357,8 +368,10 @@ def leaderboard(
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     with g.Journal(db) as journal:
         jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(given), __version__)
-        g.grade(jobs, journal, workers=workers, cluster=where, quiet=quiet, teams=resolved, unsandboxed=unsandboxed)
-        rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard(journal, jobs)]
+        g.grade_jobs(
+            jobs, journal, workers=workers, cluster=where, quiet=quiet, teams=resolved, unsandboxed=unsandboxed
+        )
+        rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard_rows(journal, jobs)]
         notes = _notes(journal, refused)
     if board is not None:
         g.write_leaderboard(rows, board, notes)
@@ -389,7 +402,7 @@ def tournament(
     and `audit` as in `grade`; the result's
     `notes` (also in the report) name the teams refused and any heat played unsandboxed."""
     from referee.contest import report
-    from referee.contest import tournament as t
+    from referee.contest import tournaments as t
     from referee.contest.journal import Journal
     from referee.contest.runner import sandbox_missing
     from referee.media.viewer import write_viewer

@@ -12,7 +12,7 @@ import time
 import pytest
 from helpers import alive, run_cli, secret_file, stop_point
 
-from referee.contest.grade import interval
+from referee.contest.grading import interval
 
 ARGS = [
     "bac-line",

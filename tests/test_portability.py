@@ -20,7 +20,7 @@ def _python(code: str, cwd=None) -> subprocess.CompletedProcess:
 
 def test_imports_and_levels_without_posix_modules():
     out = _python(
-        WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grade, robots._host.runner\n"
+        WITHOUT_POSIX + "import arena, robots, referee, referee.contest.grading, robots._host.runner\n"
         "from referee.cli.main import main\nraise SystemExit(main(['levels']))"
     )
     assert out.returncode == 0, out.stderr

@@ -145,7 +145,7 @@ def test_bootstrap_matches_the_exact_distribution_of_two_heats():
 
 def test_fewer_teams_than_slots_are_filled_by_the_level_default(contest, tmp_path):
     from levels.loader import load_level
-    from referee.contest.tournament import entrants, plan
+    from referee.contest.tournaments import entrants, plan
     from referee.sandbox.teams import resolve
 
     path = contest / "race.yaml"

@@ -19,13 +19,13 @@ import numpy as np
 import levels
 from arena.heap import lasting
 from levels.loader import find_level, load_level
+from referee import api
 from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
-from referee.match.fleet import NO_LIMITS
 from referee.records.canonical import dumps
 from referee.sandbox import forkserver
-from referee.sandbox.teams import controller_problem, fill_slots
+from referee.sandbox.teams import controller_problem
 from referee.terminal import safe
 
 
@@ -53,29 +53,25 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.quiet:  # nothing on success: not even that the controllers run unsandboxed
         warnings.simplefilter("ignore", LaserArenaWarning)
     level = find_level(args.level, controllers=controller_problem)
-    teams = fill_slots(level, args.team)
-    if args.seed is not None and args.seed < 0:
-        raise UserError(f"--seed {args.seed}: a seed is a whole number >= 0")
+    api.check_seed(args.seed, "--seed")
     if args.replay == "-":
         raise UserError("--replay -: a replay is binary; give a file")
     for path in (args.json, args.replay):
         if path and path != "-" and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
-    if args.logs:
-        Path(args.logs).mkdir(parents=True, exist_ok=True)
     if not args.in_process:  # a root referee's controller template boots on the other CPU meanwhile
         forkserver.start()
     with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
-        from referee.match.loop import play_match
-    result = play_match(
+        import referee.match.loop  # noqa: F401
+    result = api.run_match(
         level,
-        teams,
+        args.team,
         seed=args.seed,
         replay=args.replay,
         ideal=args.ideal,
         isolate=not args.in_process,
-        limits=NO_LIMITS if args.no_limits else None,
-        logs=Path(args.logs) if args.logs else None,
+        limits=not args.no_limits,
+        logs=args.logs,
     )
     failed = [r["slot"] for r in result["robots"] if r["faults"]]
     # in-process, the team's output went to this terminal: nothing to keep, nothing to say
@@ -118,8 +114,7 @@ def _contest_options(args: argparse.Namespace) -> dict:
 
 
 def cmd_grade(args: argparse.Namespace) -> int:
-    from referee import api
-    from referee.contest.grade import markdown
+    from referee.contest.grading import markdown
 
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
@@ -145,7 +140,6 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
-    from referee import api
 
     start = time.perf_counter()
     done = api.tournament(

@@ -1,5 +1,5 @@
-"""Many matches: grading teams x levels x seeds and its leaderboard (`grade`), tournaments of
-teams racing in heats with their ratings and report (`tournament`, `schedule`, `ratings`,
+"""Many matches: grading teams x levels x seeds and its leaderboard (`grading`), tournaments of
+teams racing in heats with their ratings and report (`tournaments`, `schedule`, `ratings`,
 `report`), all into one resumable journal (`journal`), played as self-contained jobs
 (`runner`, `shipping`) on this process, a local pool or a Dask cluster (`dispatch` says
 which), their noise drawn from a

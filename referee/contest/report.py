@@ -13,7 +13,7 @@ import shutil
 from collections.abc import Sequence
 from pathlib import Path
 
-from referee.contest.tournament import HeatResult, Outcome
+from referee.contest.tournaments import HeatResult, Outcome
 from referee.terminal import csv_text, markdown_text
 
 PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#7f7f7f"]

@@ -106,7 +106,7 @@ def _match_jobs(jobs: list[Job], known: Sequence[Team], unsandboxed: bool) -> di
     return out
 
 
-def grade(
+def grade_jobs(
     jobs: list[Job],
     journal: Journal,
     workers: int = 1,
@@ -198,7 +198,7 @@ def interval(values: list[float]) -> tuple[float, float]:
     return mean, t * sd / math.sqrt(n)
 
 
-def leaderboard(journal: Journal, jobs: list[Job]) -> list[dict]:
+def leaderboard_rows(journal: Journal, jobs: list[Job]) -> list[dict]:
     """One row per (team, level): mean score over seeds with its 95 % interval, and more."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for job, result in journal.results(jobs):
