@@ -25,18 +25,13 @@ TRACEBACK_LINES, TRACEBACK_BYTES = 12, 8192
 
 
 def traceback_tail(log: str) -> str | None:
-    """The last traceback in a team's log, cut to its last TRACEBACK_LINES lines, or None."""
+    """The last traceback in a team's log (printed from the team's own first frame, by
+    robots._host.tracebacks), cut to its last TRACEBACK_LINES lines, or None."""
     start = log.rfind("Traceback (most recent call last):")
     if start < 0:
         return None
     lines = log[start:].rstrip().splitlines()
-    ours = [
-        i
-        for i, line in enumerate(lines)
-        if line.startswith("  File ")
-        and any(f'{p}"' in line.replace("\\", "/") for p in ("robots/_host/runner.py", "referee/sandbox/in_process.py"))
-    ]
-    body = lines[ours[-1] + 1 :] if ours else lines[1:]  # the team's frames: not the call site's
+    body = lines[1:][-(TRACEBACK_LINES - 1) :]
     while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
-        body = body[1:]
-    return "\n".join(lines[:1] + body[-(TRACEBACK_LINES - 1) :])
+        body = body[1:]  # from a frame's first line, not the middle of one
+    return "\n".join(lines[:1] + body)

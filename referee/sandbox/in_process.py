@@ -5,13 +5,13 @@ take the very checks and conversions of the wire."""
 from __future__ import annotations
 
 import sys
-import traceback
 from pathlib import Path
 
 from referee.sandbox.fault import Fault, traceback_tail
 from referee.sandbox.teams import Team
 from robots._host.loading import LoadError, is_file_spec, load_class
 from robots._host.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
+from robots._host.tracebacks import team_traceback
 from robots.api import API_VERSION, Brief, Command, Controller, Observation
 
 
@@ -42,7 +42,7 @@ class InProcessBot:
             self.controller = controller = cls()
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
-            tail = traceback_tail(traceback.format_exc())
+            tail = traceback_tail(team_traceback(e))
             return Fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
         return None
 
@@ -52,7 +52,7 @@ class InProcessBot:
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
-            tail = traceback_tail(traceback.format_exc())
+            tail = traceback_tail(team_traceback(e))
             return Fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)

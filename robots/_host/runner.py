@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import os
 import sys
-import traceback
 from collections.abc import Callable
 from typing import Any, Final
 
 from robots._host import protocol
 from robots._host.loading import LoadError, load_class
+from robots._host.tracebacks import team_traceback
 from robots.api import Brief, Observation
 
 
@@ -57,7 +57,7 @@ class _Reader:
 
 
 def _fault(out, kind: protocol.FaultKind, where: str, e: BaseException) -> None:
-    traceback.print_exc(file=sys.stderr)
+    sys.stderr.write(team_traceback(e))
     message = f"in {where}: {protocol.describe(e)}"
     protocol.write(out, protocol.FaultMsg(v=protocol.PROTOCOL_VERSION, kind=kind, message=message))
 
