@@ -18,6 +18,7 @@ import numpy as np
 
 from levels.model import Level
 from referee.match.loop import Match
+from referee.match.report import RobotReport
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
 from referee.match.views import brief_for
 from referee.records.results import MatchResult
@@ -103,7 +104,8 @@ class AgentSession:
         for enc in self.encoders.values():
             enc.reset()
         self.free = {s: self._free(s) for s in self.agents}
-        self.potential = {s: self._potential(s) for s in self.agents}
+        self.reports = {s: self.match.report(s) for s in self.agents}
+        self.potential = {s: self._potential(self.reports[s], s) for s in self.agents}
         self.fouls = {s: 0 for s in self.agents}
         return self._observe()
 
@@ -120,10 +122,10 @@ class AgentSession:
             if obs is None:
                 continue
             if slot in self.others:
-                m.answer(slot, m.fleet.bots[slot].step(obs))
+                m.play_own(slot, obs)
             else:
                 self.encoders[slot].take(obs)
-        return self._encode(m.world.time)
+        return self._encode(m.report(self.agents[0]).time)
 
     def _encode(self, time: float) -> dict[int, np.ndarray]:
         """Every agent's observation vector at `time` (the encoders are keyed in agent order)."""
@@ -136,32 +138,33 @@ class AgentSession:
             raise RuntimeError("the match has ended: call reset()")
         loc: dict[int, float] = {}  # each agent's localization points of the tick
         for slot in self.agents:
-            if m.stopped[slot]:
+            if self.reports[slot].stopped:  # (as the last step left it: only agents' answers stop agents)
                 continue
             if self.done[slot]:  # a finished agent stands still while the others play on
                 m.answer(slot, Command(0.0, 0.0))
                 continue
             action = actions[slot]
             cmd = command(action if self.report_estimate else action[:2], self.briefs[slot])
-            before = m.estimates[slot].quality_sum
-            m.answer(slot, cmd)
-            if cmd.estimate is not None:  # the tick's quality, as the referee scored it
-                loc[slot] = self._localization(m.estimates[slot].quality_sum - before)
+            earned = m.answer(slot, cmd)
+            if earned is not None:  # the tick's quality, as the referee scored it
+                loc[slot] = self._localization(earned)
             self.encoders[slot].commanded(cmd.left, cmd.right)
         m.advance()
-        terminated = {s: m.tracker.done(s) or m.stopped[s] for s in self.agents}
+        self.reports = reports = {s: m.report(s) for s in self.agents}
+        terminated = {s: r.done for s, r in reports.items()}
         truncated: dict[int, bool] = {s: m.ended and not terminated[s] for s in self.agents}
         if m.ended or all(terminated.values()):
             self.result = m.end()  # the rules' last fouls count in this last reward
-            m.ended = True
-            observations = self._encode(m.world.time)
+            self.reports = reports = {s: m.report(s) for s in self.agents}
+            observations = self._encode(reports[self.agents[0]].time)
         else:
             observations = self._observe()
         rewards: dict[int, float] = {}
         infos: dict[int, dict] = {}
         for slot in self.agents:
-            rewards[slot] = self._reward(slot) + loc.get(slot, 0.0)
-            infos[slot] = {"progress": m.tracker.progress(slot), "time": m.world.time}
+            report = reports[slot]
+            rewards[slot] = self._reward(report, slot) + loc.get(slot, 0.0)
+            infos[slot] = {"progress": report.progress, "time": report.time}
             if self.result is not None:
                 infos[slot]["result"] = self.result
             self.done[slot] = terminated[slot]
@@ -177,49 +180,41 @@ class AgentSession:
         """How many of the first waypoints the robot's true start already lies on: the referee
         counts them reached at the first physics step, whatever the agent does, so they must
         not pay as the first step's reward (reset's potential holds them)."""
-        m = self._live()
-        if m.tracker.kind not in ("waypoints", "race"):
+        if self.level.task.kind not in ("waypoints", "race"):
             return 0
-        targets, start = m.tracker.targets(slot), m.starts[slot]
+        report = self._live().report(slot)
         free = 0
-        while free < len(targets) and math.dist((start.x, start.y), targets[free]) <= self.level.task.radius:
+        while free < len(report.targets) and math.dist(report.start, report.targets[free]) <= self.level.task.radius:
             free += 1
         return free
 
-    def _potential(self, slot: int) -> float:
+    def _potential(self, report: RobotReport, slot: int) -> float:
         """Task points reached so far plus the fraction of the current leg covered (shaping);
         the waypoints the start lies on count as reached from the start."""
-        m = self._live()
-        tracker = m.tracker
-        targets = tracker.targets(slot)
-        if tracker.kind == "localize" or not targets:
+        kind, targets = self.level.task.kind, report.targets
+        if kind == "localize" or not targets:
             return 0.0
-        i = max(tracker.next[slot], self.free[slot])
-        value = TASK_POINTS * tracker.progress(slot)
-        if tracker.kind != "goto":  # the start's own waypoints count from reset, whole
-            value += TASK_POINTS * (i - tracker.next[slot]) / len(targets)
-        if tracker.kind != "goto" and i < len(targets):
-            start = m.starts[slot]
-            prev = targets[i - 1] if i else (start.x, start.y)
+        i = max(report.reached, self.free[slot])
+        value = TASK_POINTS * report.progress
+        if kind != "goto":  # the start's own waypoints count from reset, whole
+            value += TASK_POINTS * (i - report.reached) / len(targets)
+        if kind != "goto" and i < len(targets):
+            prev = targets[i - 1] if i else report.start
             leg = math.dist(prev, targets[i])
-            state = m.world.state  # x, y of the true pose (World.pose, without its heading)
             if leg > 0:
-                here = (state[3 * slot], state[3 * slot + 1])
-                value += TASK_POINTS / len(targets) * min(1.0, max(0.0, 1.0 - math.dist(here, targets[i]) / leg))
+                covered = 1.0 - math.dist(report.position, targets[i]) / leg
+                value += TASK_POINTS / len(targets) * min(1.0, max(0.0, covered))
         return value
 
-    def _reward(self, slot: int) -> float:
-        m = self._live()
-        phi = self._potential(slot)
+    def _reward(self, report: RobotReport, slot: int) -> float:
+        phi = self._potential(report, slot)
         reward = phi - self.potential[slot]
         self.potential[slot] = phi
-        fouls = m.rules.fouls[slot]
-        if len(fouls) > self.fouls[slot]:
-            reward -= sum(f.penalty for f in fouls[self.fouls[slot] :])
-            self.fouls[slot] = len(fouls)
-        finished = m.tracker.finished[slot]
-        if finished is not None and not self.done[slot] and m.tracker.kind != "localize":
-            reward += TIME_POINTS * (1.0 - finished / self.level.time_limit) * m.estimates[slot].quality
+        if len(report.penalties) > self.fouls[slot]:
+            reward -= sum(report.penalties[self.fouls[slot] :])
+            self.fouls[slot] = len(report.penalties)
+        if report.finished is not None and not self.done[slot] and self.level.task.kind != "localize":
+            reward += TIME_POINTS * (1.0 - report.finished / self.level.time_limit) * report.quality
         return float(reward)
 
     def close(self) -> None:

@@ -14,14 +14,14 @@ def frame(session, size: tuple[int, int]) -> np.ndarray:
     level, match = session.level, session.match
     robots = []
     for slot, r in enumerate(level.robots):
-        p = match.world.pose(slot) if match else r.start
-        robots.append(
-            RobotView(
-                slot, p.x, p.y, p.heading, r.model.length, r.model.width, stopped=bool(match and match.stopped[slot])
-            )
-        )
+        if match:
+            now = match.report(slot)
+            (x, y), heading, stopped = now.position, now.heading, now.stopped
+        else:
+            x, y, heading, stopped = r.start.x, r.start.y, r.start.heading, False
+        robots.append(RobotView(slot, x, y, heading, r.model.length, r.model.width, stopped=stopped))
     paths = tuple(((r.start.x, r.start.y), *r.path) if r.path else () for r in level.robots)
-    t = match.world.time if match else 0.0
+    t = match.report(0).time if match else 0.0
     surface = pygame.Surface(size)
     Painter(level, size).draw(surface, Scene(tuple(robots), paths=paths, hud=(f"{level.name}   t = {t:6.2f} s",)))
     return np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)).copy()

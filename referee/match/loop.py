@@ -29,6 +29,7 @@ from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
 from referee.match.faults import fault_record
 from referee.match.fleet import Fleet
+from referee.match.report import RobotReport
 from referee.match.result import match_result, robot_result
 from referee.match.rules import Rules
 from referee.match.tasks import TaskTracker
@@ -128,16 +129,20 @@ class Match:
             out.append(Observation(tick=tick, time=time, events=events, trial=self.trial))
         return out
 
-    def answer(self, slot: int, out: Command | Fault) -> None:
-        """The second half of a control tick for one robot: take its controller's answer."""
+    def answer(self, slot: int, out: Command | Fault) -> float | None:
+        """The second half of a control tick for one robot: take its controller's answer.
+        Returns the tick quality its estimate earned (None without one)."""
         self.deferred.flush()
         time, truth = self.world.time, self.world.pose(slot)
         if isinstance(out, Fault):  # a skipped tick keeps the last command; others stop the robot
             self._fault(slot, out)
             self.estimates[slot].add(truth, None)
-            return
+            return None
         self.world.command(slot, float(out.left), float(out.right))
-        self.estimates[slot].add(truth, out.estimate)
+        stats = self.estimates[slot]
+        before = stats.quality_sum
+        stats.add(truth, out.estimate)
+        earned = None if out.estimate is None else stats.quality_sum - before
         # the drawings that can be drawn, within the budgets; the others are warnings and never
         # reach the replay, render or watch
         tick = self.world.tick // self.level.steps_per_control
@@ -147,6 +152,30 @@ class Match:
                 self.writer.record("est", t=time, r=slot, e=list(out.estimate))
             if drawings:
                 self.writer.record("dbg", t=time, r=slot, d=drawings)
+        return earned
+
+    def play_own(self, slot: int, obs: Observation) -> None:
+        """Robot `slot`'s own controller answers `obs` (a step-wise driver's other slots)."""
+        self.answer(slot, self.fleet.bots[slot].step(obs))
+
+    def report(self, slot: int) -> RobotReport:
+        """Robot `slot`'s standing now, for a step-wise driver (referee.gym)."""
+        tracker, stats, start = self.tracker, self.estimates[slot], self.starts[slot]
+        state = self.world.state
+        return RobotReport(
+            time=self.world.time,
+            progress=tracker.progress(slot),
+            reached=tracker.next[slot],
+            targets=tuple(tracker.targets(slot)),
+            start=(start.x, start.y),
+            finished=tracker.finished[slot],
+            stopped=self.stopped[slot],
+            position=(float(state[3 * slot]), float(state[3 * slot + 1])),
+            heading=self.world.pose(slot).heading,
+            quality_sum=stats.quality_sum,
+            quality=stats.quality,
+            penalties=tuple(f.penalty for f in self.rules.fouls[slot]),
+        )
 
     def _control_tick(self) -> None:
         # every controller gets its observation before any answer is awaited: they compute at
@@ -282,6 +311,7 @@ class Match:
             if stopped:
                 self.estimates[slot].silent_until(self.level.control_ticks)
         self.rules.finish(world)
+        self.ended = True
         result = self._result()
         if self.writer:
             for slot in range(len(self.teams)):
