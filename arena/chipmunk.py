@@ -1,14 +1,17 @@
-"""Direct calls into pymunk's chipmunk library for the hottest per-step operations.
+"""pymunk through one door: every use of pymunk's private parts is in this module.
 
 pymunk's Python wrappers (properties, Vec2d results, the checks of `Space.step`) cost more
 than chipmunk's own work for a small world. The world steps, reads and sets its bodies
 through these few functions instead; they compute the same numbers. Where pymunk's internals
-are not as expected (another major version), `lib` is None and the public API is used.
+are not as expected (another major version), `lib` is None and the public API is used;
+`body_layout` probes a body's memory before the compiled stepping reads it.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
+from collections.abc import Iterator
 
 import numpy as np
 import pymunk
@@ -19,18 +22,47 @@ except ImportError:  # pragma: no cover - a pymunk without the cffi module
     ffi = lib = None
 
 
-def step(space: pymunk.Space, dt: float) -> None:
-    """`space.step(dt)`, through chipmunk directly when nothing is waiting to be added or
-    checked (bodies added since the last step: pymunk's own step handles them)."""
-    if lib is None or space._bodies_to_check or space._add_later:
-        space.step(dt)
-        return
-    space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
+def settled(space: pymunk.Space) -> bool:
+    """Whether nothing waits to be added to `space` or checked (bodies added since its last
+    step, which pymunk's own step handles): chipmunk may then be stepped directly."""
+    return lib is not None and not space._bodies_to_check and not space._add_later
+
+
+@contextlib.contextmanager
+def locked(space: pymunk.Space) -> Iterator[None]:
+    """Steps taken directly in chipmunk: callbacks must not add or remove shapes meanwhile, as
+    in `Space.step`, and shapes removed during them are forgotten after, as it does."""
+    space._locked = True
     try:
-        lib.cpSpaceStep(space._space, dt)
-        space._removed_shapes.clear()
+        yield
     finally:
         space._locked = False
+        space._removed_shapes.clear()
+
+
+def step(space: pymunk.Space, dt: float) -> None:
+    """`space.step(dt)`, through chipmunk directly when the space is `settled`."""
+    if not settled(space):
+        space.step(dt)
+        return
+    with locked(space):
+        lib.cpSpaceStep(space._space, dt)
+
+
+def poses(bodies: list[pymunk.Body]) -> tuple[float, ...]:
+    """Every body's x, y and angle, flat, as pymunk's `position` and `angle` give them."""
+    out: list[float] = []
+    if lib is not None:  # the same numbers, without pymunk's wrappers
+        get_position, get_angle = lib.cpBodyGetPosition, lib.cpBodyGetAngle
+        for body in bodies:
+            c = body._body
+            p = get_position(c)
+            out += (p.x, p.y, get_angle(c))
+        return tuple(out)
+    for body in bodies:
+        p = body.position
+        out += (p.x, p.y, body.angle)
+    return tuple(out)
 
 
 def set_velocity(body: pymunk.Body, vx: float, vy: float) -> None:

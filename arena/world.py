@@ -235,18 +235,7 @@ class World:
         self.drives[slot].command(left, right, self.tick)
 
     def _read_state(self) -> tuple[float, ...]:
-        out: list[float] = []
-        if chipmunk.lib is not None:  # the same numbers, without pymunk's wrappers
-            get_position, get_angle = chipmunk.lib.cpBodyGetPosition, chipmunk.lib.cpBodyGetAngle
-            for body in self.bodies:
-                c = body._body
-                p = get_position(c)
-                out += (p.x, p.y, get_angle(c))
-            return tuple(out)
-        for body in self.bodies:
-            p = body.position
-            out += (p.x, p.y, body.angle)
-        return tuple(out)
+        return chipmunk.poses(self.bodies)
 
     def step(self) -> None:
         """Advance the world one physics step. `state` then holds every robot's
@@ -278,7 +267,7 @@ class World:
                 raise ValueError(f"a watch on robot {slot} of a world of {n}")
         layout = chipmunk.body_layout()
         space = self.space
-        if layout is None or space._bodies_to_check or space._add_later:
+        if layout is None or not chipmunk.settled(space):
             return self._run_stepwise(steps, speeds, watch)
         if self._addresses is None:  # fixed for the world's life: found once
             self._addresses = (
@@ -294,40 +283,38 @@ class World:
         points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
         near = watch.near if watch else 0.0
         done, since = 0, len(self.contacts)
-        space._locked = True  # callbacks must not add or remove shapes meanwhile, as in Space.step
         self._clock[0], self._compiled = self.tick, True
         try:
-            changes = np.array(self._changes(self.tick + steps), float).reshape(-1, 5)
-            table = np.array([drive.numbers() for drive in self.drives])
-            ran = 0
-            try:
-                ran = stepping.run_steps(
-                    function,
-                    space_address,
-                    self.dt,
-                    bodies,
-                    controls,
-                    table,
-                    places,
-                    changes,
-                    self.tick,
-                    self._clock,
-                    points,
-                    near,
-                    states,
-                    velocities,
-                )
-            finally:  # what the steps did stays told, whatever is raised after them
-                done = abs(ran)
-                self.tick += done
-                for drive, row in zip(self.drives, table.tolist()):
-                    drive.set_numbers(row)
-                    drive.take_due(self.tick - 1)  # what the run applied, taken
-            self._raise_deferred()
+            with chipmunk.locked(space):  # callbacks must not add or remove shapes meanwhile
+                changes = np.array(self._changes(self.tick + steps), float).reshape(-1, 5)
+                table = np.array([drive.numbers() for drive in self.drives])
+                ran = 0
+                try:
+                    ran = stepping.run_steps(
+                        function,
+                        space_address,
+                        self.dt,
+                        bodies,
+                        controls,
+                        table,
+                        places,
+                        changes,
+                        self.tick,
+                        self._clock,
+                        points,
+                        near,
+                        states,
+                        velocities,
+                    )
+                finally:  # what the steps did stays told, whatever is raised after them
+                    done = abs(ran)
+                    self.tick += done
+                    for drive, row in zip(self.drives, table.tolist()):
+                        drive.set_numbers(row)
+                        drive.take_due(self.tick - 1)  # what the run applied, taken
+                self._raise_deferred()
         finally:
             self._compiled = False
-            space._locked = False
-            space._removed_shapes.clear()
             self._order_contacts(since)
             if done:
                 self.state = tuple(states[done - 1].tolist())

@@ -242,3 +242,25 @@ def test_contacts_ending_in_one_step_have_one_order(monkeypatch, compiled):
     ends = [known for known, _ in as_reported]
     assert len(as_reported) == 2 and ends[0] == ends[1]  # the case holds: two ends in one step
     assert as_reported[0][1].point < as_reported[1][1].point  # same start, same kind: by place
+
+
+def test_pymunk_private_parts_are_used_in_one_module_only():
+    """Every use of pymunk's private parts (its cffi module, a body's or a space's chipmunk
+    struct, the space's own step bookkeeping) is in arena/chipmunk.py, beside its probe and its
+    public fallback: a pymunk release that changes them is one module's change."""
+    import ast
+    from pathlib import Path
+
+    private = {"_body", "_space", "_bodies_to_check", "_add_later", "_locked", "_removed_shapes", "_chipmunk"}
+    root = Path(chipmunk.__file__).resolve().parent.parent
+    found = []
+    for package in ("levels", "arena", "referee", "robots"):
+        for f in (root / package).rglob("*.py"):
+            if f == Path(chipmunk.__file__).resolve():
+                continue
+            for node in ast.walk(ast.parse(f.read_text())):
+                if isinstance(node, ast.Attribute) and node.attr in private:
+                    found.append(f"{f.relative_to(root)}:{node.lineno} .{node.attr}")
+                if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("pymunk._"):
+                    found.append(f"{f.relative_to(root)}:{node.lineno} {node.module}")
+    assert found == []
