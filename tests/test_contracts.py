@@ -54,7 +54,7 @@ BREAKS = [
     ("robots/api.py", "import referee.version", "robots runs in a team's process: no arena, no referee"),
     ("robots/toolkit/ekf.py", "import yaml", "robots imports no third-party package but numpy and msgspec"),
     ("referee/records/canonical.py", "import referee.match.scoring", "the referee's rooms, top to bottom"),
-    ("referee/sandbox/affinity.py", "import referee.records.canonical", "the referee's rooms, top to bottom"),
+    ("referee/records/canonical.py", "import referee.sandbox.uids", "the referee's rooms, top to bottom"),
     ("referee/media/plot.py", "import referee.contest.ratings", "the referee's rooms, top to bottom"),
     ("referee/newroom/__init__.py", "", "the referee's rooms, top to bottom"),
     ("referee/match/rules.py", "import robots.toolkit.ekf", "the match core runs team code only through the sandbox"),

@@ -9,9 +9,9 @@ from pathlib import Path
 
 from levels.match import ControllerLimits
 from referee.errors import LaserArenaWarning
+from referee.records.results import Fault
 from referee.sandbox import affinity
 from referee.sandbox.bot import Bot
-from referee.sandbox.fault import Fault
 from referee.sandbox.in_process import InProcessBot
 from referee.sandbox.privacy import make_undumpable
 from referee.sandbox.process import ProcessBot, isolation_unavailable

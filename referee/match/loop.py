@@ -27,7 +27,6 @@ from levels.model import Level, Pose
 from referee.match.deferral import Deferral
 from referee.match.drawings import DrawingBudget, Warnings
 from referee.match.estimates import EstimateStats
-from referee.match.faults import fault_record
 from referee.match.fleet import Fleet
 from referee.match.report import RobotReport
 from referee.match.result import match_result, robot_result
@@ -35,9 +34,8 @@ from referee.match.rules import Rules
 from referee.match.tasks import TaskTracker
 from referee.match.views import brief_for, frames, poses, replay_header, to_event
 from referee.records.replay_writer import Recorder, ReplayWriter
-from referee.records.results import MatchResult
+from referee.records.results import Fault, MatchResult
 from referee.sandbox.exchange import exchange
-from referee.sandbox.fault import Fault
 from referee.sandbox.teams import Team
 from robots.api import Command, Observation, SensorEvent
 
@@ -318,7 +316,7 @@ class Match:
                 for foul in self.rules.fouls[slot]:
                     self.writer.record("foul", r=slot, **foul.to_record().to_dict())
                 for fault in self.faults[slot]:
-                    self.writer.record("fault", r=slot, **fault_record(fault).to_dict())
+                    self.writer.record("fault", r=slot, **fault.to_dict())
             self.writer.close(result)
         return result
 

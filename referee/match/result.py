@@ -6,12 +6,10 @@ from __future__ import annotations
 from levels.model import Level, Pose
 from referee.match.drawings import Warnings
 from referee.match.estimates import EstimateStats
-from referee.match.faults import fault_record
 from referee.match.rules import Foul
 from referee.match.scoring import score
 from referee.match.tasks import TaskTracker
-from referee.records.results import RESULT_FORMAT, RESULT_VERSION, LevelRef, MatchResult, RobotResult
-from referee.sandbox.fault import Fault
+from referee.records.results import RESULT_FORMAT, RESULT_VERSION, Fault, LevelRef, MatchResult, RobotResult
 from referee.version import __version__
 
 
@@ -35,7 +33,7 @@ def robot_result(
         task=tracker.summary(slot),
         localization=stats.summary(),
         fouls=[f.to_record() for f in fouls],
-        faults=[fault_record(f) for f in faults],
+        faults=list(faults),
         stopped=stopped,
         final_pose=[pose.x, pose.y, pose.heading],
         **({"warnings": warnings.records()} if warnings.kinds else {}),

@@ -116,15 +116,22 @@ class FoulRecord(Record, frozen=True):
     message: str | UnsetType = UNSET  # controller fouls: the fault's message
 
 
-class FaultRecord(Record, frozen=True):
-    """A controller fault: control tick, time, kind, a one-line message and, when the team's
-    log holds one, the tail of its traceback."""
+class Fault(Record, frozen=True):
+    """A controller fault, one type from the moment the sandbox finds it to the result: control
+    tick, time, kind (docs/results.md lists them), a one-line terminal-safe message and, when
+    the team's log holds one, the tail of its traceback. A skipped tick is the one fault that
+    is not fatal: its robot keeps its last command."""
 
     tick: int
     time: float
     kind: str
     message: str
     traceback: str | UnsetType = UNSET
+
+    @property
+    def fatal(self) -> bool:
+        """Whether it stops the robot (every kind but a skipped tick)."""
+        return self.kind != "skipped_tick"
 
 
 class WarningRecord(Record, frozen=True):
@@ -147,7 +154,7 @@ class RobotResult(Record, frozen=True):
     task: TaskProgress
     localization: Localization
     fouls: list[FoulRecord]
-    faults: list[FaultRecord]
+    faults: list[Fault]
     stopped: bool
     final_pose: list[float]  # [x, y, heading]
     warnings: list[WarningRecord] | UnsetType = UNSET  # left out when there are none

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from referee.records.results import Fault
 from referee.sandbox.channel import Trouble
-from referee.sandbox.fault import Fault
 from robots._host import protocol
 from robots.api import Brief, Command, Observation
 

@@ -8,9 +8,9 @@ import select
 import time
 from collections.abc import Callable, Sequence
 
+from referee.records.results import Fault
 from referee.sandbox.bot import Awaited, Bot, Reply
 from referee.sandbox.channel import Trouble
-from referee.sandbox.fault import Fault
 from robots.api import Command, Observation
 
 

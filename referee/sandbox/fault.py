@@ -1,24 +1,22 @@
-"""A controller's fault, as the sandbox reports it to the match (which records it), and the
-tail of a team's traceback that goes with it."""
+"""A controller's fault as the sandbox finds it (`fault`: the result's own `Fault` record, its
+message made terminal-safe once, here, whatever sent it: a team's own exception text, a
+protocol error naming a team's field), and the tail of a team's traceback that goes with it."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
+from referee.records.results import Fault
+from referee.terminal import safe
 from robots._host.protocol import FaultKind
 
+MESSAGE = 500  # characters of a fault's message kept
 
-@dataclass(frozen=True)
-class Fault:
-    """A controller fault: when it happened, its kind and a one-line message. A fatal fault
-    stops the robot; a skipped tick (`fatal=False`) keeps its last command in force."""
 
-    tick: int
-    time: float
-    kind: FaultKind
-    message: str
-    fatal: bool = True
-    traceback: str | None = None  # the tail of the team's traceback, from its log, when there is one
+def fault(tick: int, time: float, kind: FaultKind, message: str, traceback: str | None = None) -> Fault:
+    """The fault of kind `kind` at control tick `tick` (`time` s): fatal unless a skipped tick."""
+    text = safe(message, MESSAGE)
+    if traceback is None:
+        return Fault(tick=tick, time=time, kind=kind.value, message=text)
+    return Fault(tick=tick, time=time, kind=kind.value, message=text, traceback=traceback)
 
 
 TRACEBACK_LINES, TRACEBACK_BYTES = 12, 8192

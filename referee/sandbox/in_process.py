@@ -7,7 +7,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from referee.sandbox.fault import Fault, traceback_tail
+from referee.records.results import Fault
+from referee.sandbox.fault import fault, traceback_tail
 from referee.sandbox.teams import Team
 from robots._host.loading import LoadError, is_file_spec, load_class
 from robots._host.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
@@ -34,34 +35,34 @@ class InProcessBot:
                     sys.path.insert(0, home)
             cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
         except LoadError as e:
-            return Fault(0, 0.0, FaultKind.LOAD, str(e))
+            return fault(0, 0.0, FaultKind.LOAD, str(e))
         problem = api_problem(getattr(cls, "api_version", API_VERSION))
         if problem:
-            return Fault(0, 0.0, FaultKind.LOAD, problem)
+            return fault(0, 0.0, FaultKind.LOAD, problem)
         try:
             self.controller = controller = cls()
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
             tail = traceback_tail(team_traceback(e))
-            return Fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
+            return fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
         return None
 
     def step(self, obs: Observation) -> Command | Fault:
         if self.controller is None:
-            return Fault(obs.tick, obs.time, FaultKind.PROTOCOL, "a step before the controller's setup")
+            return fault(obs.tick, obs.time, FaultKind.PROTOCOL, "a step before the controller's setup")
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
             tail = traceback_tail(team_traceback(e))
-            return Fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
+            return fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)
         if problem:
-            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
+            return fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
         try:  # the very checks and conversions of the wire (numpy scalars become floats, caps apply)
             return wired(sent)  # type: ignore[arg-type]  # a Command: command_problem said so
         except ProtocolError as e:
-            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
+            return fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, str(e))
 
     def send(self, obs: Observation) -> Command | Fault:
         """In this process the answer comes at once: a step."""

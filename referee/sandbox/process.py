@@ -18,11 +18,12 @@ import time
 from pathlib import Path
 
 from levels.match import ControllerLimits
+from referee.records.results import Fault
 from referee.sandbox import cgroup, forkserver, kernel
 from referee.sandbox.allowance import Allowance
 from referee.sandbox.bot import Reply
 from referee.sandbox.channel import Channel, Trouble
-from referee.sandbox.fault import Fault, traceback_tail
+from referee.sandbox.fault import fault, traceback_tail
 from referee.sandbox.launch import MAX_PROCS, Launched, Plan, launch
 from referee.sandbox.log import TeamLog
 from referee.sandbox.teams import Team
@@ -156,7 +157,7 @@ class ProcessBot:
             problem = protocol.api_problem(reply.api)
             if problem:
                 self.close()
-                return Fault(0, 0.0, FaultKind.LOAD, problem)
+                return fault(0, 0.0, FaultKind.LOAD, problem)
             reply = channel.receive(deadline - time.monotonic())
         if isinstance(reply, Ready) and self.loaded:
             return self._fault(0, 0.0, Trouble.FLOOD, "setup") if self._flooded() else None
@@ -260,7 +261,7 @@ class ProcessBot:
             if not self.allowance.skipped(obs.tick, took):
                 return self._fault(obs.tick, obs.time, Trouble.TIMEOUT, "step")
             message = f"no answer within {self.limits.step_deadline:g} s"
-            return Fault(obs.tick, obs.time, FaultKind.SKIPPED_TICK, message, fatal=False)
+            return fault(obs.tick, obs.time, FaultKind.SKIPPED_TICK, message)
         if not self.allowance.answered(took):
             return self._fault(obs.tick, obs.time, Trouble.TIMEOUT, "step")
         match reply:
@@ -276,7 +277,7 @@ class ProcessBot:
         problem = protocol.command_problem(protocol.sendable(cmd))
         if problem:
             self.close()
-            return Fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
+            return fault(obs.tick, obs.time, FaultKind.BAD_COMMAND, problem)
         return cmd
 
     # ---- the fault rules ----------------------------------------------------------------------
@@ -298,7 +299,7 @@ class ProcessBot:
             kind, message = FaultKind.PROTOCOL, f"in {where}: {self.channel.problem or 'malformed message'}"
         tail = self._traceback()
         self.close()
-        return Fault(tick, t, kind, message, traceback=tail)
+        return fault(tick, t, kind, message, traceback=tail)
 
     def _reported(self, msg: FaultMsg, where: str) -> tuple[FaultKind, str]:
         """The kind and message of a fault the controller reported of itself: a kind it may not
