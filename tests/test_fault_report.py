@@ -76,3 +76,25 @@ def test_a_fault_message_is_recorded_terminal_safe(shared_dir, extra):
     out, fault = run_team(shared_dir, "loud.py", ESCAPES, extra)
     assert fault["message"] == "in step: ValueError: \\x1b[2J\\x1b[31mred\\u202e\\x07"
     assert "\x1b" not in out.stdout and "\u202e" not in out.stdout
+
+
+@pytest.mark.parametrize("forked", [True, False])  # from the template, or spawned as `python -m`
+def test_a_traceback_starts_at_the_teams_own_frame(tmp_path, forked):
+    """Forked from the template or spawned on its own (where the runner runs as `__main__`),
+    the traceback a fault keeps holds the team's frames only: none of the runner's."""
+    from helpers import variant
+
+    from referee.match.loop import Match
+    from referee.sandbox.process import ProcessBot
+    from referee.sandbox.teams import resolve
+
+    (tmp_path / "boom.py").write_text(BOOM)
+    (tmp_path / "boom.py").chmod(0o644)
+    tmp_path.chmod(0o755)
+    level = variant("bac-line", time_limit=2)
+    match = Match(level, [resolve(str(tmp_path / "boom.py"))], seed=1)
+    match.fleet.bots = [ProcessBot(team, level.limits, slot=0, forked=forked) for team in match.teams]
+    fault = match.run().robots[0].faults[0]
+    lines = fault.traceback.splitlines()
+    assert lines[0] == "Traceback (most recent call last):" and lines[1].endswith('boom.py", line 11, in step')
+    assert "_host" not in fault.traceback

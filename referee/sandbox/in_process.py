@@ -43,7 +43,7 @@ class InProcessBot:
             self.controller = controller = cls()
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
-            tail = traceback_tail(team_traceback(e))
+            tail = traceback_tail(team_traceback(e, globals()))
             return fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
         return None
 
@@ -53,7 +53,7 @@ class InProcessBot:
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
-            tail = traceback_tail(team_traceback(e))
+            tail = traceback_tail(team_traceback(e, globals()))
             return fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)

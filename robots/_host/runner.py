@@ -18,7 +18,7 @@ import sys
 from collections.abc import Callable
 from typing import Any, Final
 
-from robots._host import protocol
+from robots._host import loading, protocol
 from robots._host.loading import LoadError, load_class
 from robots._host.tracebacks import team_traceback
 from robots.api import Brief, Observation
@@ -57,7 +57,7 @@ class _Reader:
 
 
 def _fault(out, kind: protocol.FaultKind, where: str, e: BaseException) -> None:
-    sys.stderr.write(team_traceback(e))
+    sys.stderr.write(team_traceback(e, globals(), vars(loading)))
     message = f"in {where}: {protocol.describe(e)}"
     protocol.write(out, protocol.FaultMsg(v=protocol.PROTOCOL_VERSION, kind=kind, message=message))
 

@@ -1,6 +1,7 @@
 """A controller sees its own code, read-only, and a private /tmp: not the other teams' code, the
 replay or journal being written, the level files, the host's /tmp or /dev/shm, nor any network."""
 
+import dataclasses
 import os
 import socket
 import sqlite3
@@ -174,7 +175,8 @@ class Looker(Controller):
         found = sorted({{n for n in NAMES for text in seen if n in text}})
         raise RuntimeError(("contained: " if not found else "LEAK: ") + repr(found))
 """
-    limits = FAST
+    # reading every staged module takes its time (a pyenv's whole library): the tick may take 5 s
+    limits = dataclasses.replace(FAST, step_deadline=5.0, overage_bank=5.0, think_budget=10.0)
     teams = [resolve(team_file(tmp_path, body))] + [resolve(HONEST)] * 3
     match = Match(short_race(), teams, seed=2, limits=limits)
     match.fleet.bots = [ProcessBot(team, limits, slot=i, forked=forked) for i, team in enumerate(match.teams)]
