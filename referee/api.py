@@ -67,11 +67,18 @@ def run_match(
     if len(given) > len(lv.robots):
         raise TeamError(f"{lv.name}: {len(given)} teams for {len(lv.robots)} robot slot(s)")
     given += [lv.default_controller] * (len(lv.robots) - len(given))
-    folder = Path(tempfile.mkdtemp(prefix="laserarena-api-"))
+    folder = None  # where Controller classes are shipped as source, made only for them
     try:
-        folder.chmod(0o755)  # the controller, another user, reads the shipped source
-        ship = isolate and isolation_unavailable() is None  # else the match warns and runs them here
-        resolved = [resolve(t) if isinstance(t, str) else class_team(t, ship, folder) for t in given]
+        resolved = []
+        for t in given:
+            if isinstance(t, str):
+                resolved.append(resolve(t))
+                continue
+            if folder is None:
+                folder = Path(tempfile.mkdtemp(prefix="laserarena-api-"))
+                folder.chmod(0o755)  # the controller, another user, reads the shipped source
+            ship = isolate and isolation_unavailable() is None  # else the match warns and runs them here
+            resolved.append(class_team(t, ship, folder))
         if logs is not None:
             Path(logs).mkdir(parents=True, exist_ok=True)
         return play_match(
@@ -85,7 +92,8 @@ def run_match(
             logs=Path(logs) if logs is not None else None,
         )
     finally:
-        shutil.rmtree(folder, ignore_errors=True)
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def check_seed(seed: object, name: str = "seed") -> None:

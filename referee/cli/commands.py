@@ -140,7 +140,6 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
-
     start = time.perf_counter()
     done = api.tournament(
         args.level,

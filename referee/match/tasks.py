@@ -47,12 +47,13 @@ class TaskTracker:
         # from math.dist by an ulp); what counts as reached is confirmed with math.dist
         self.near = level.task.radius * (1 + 1e-9) + 1e-12
         self.deviation: list[list[float]] = [[] for _ in level.robots]
-        # per robot, per target k, where the task sets an accuracy: its leg's distances from the
-        # path in time order (the samples after the target before it was reached, then the point
-        # where the robot reached it), so that a batch and single steps sum them alike
+        # per robot, per target k, where the task sets an accuracy: the squares of its leg's
+        # distances from the path summed, and their number (the samples after the previous target
+        # before this one was reached; a batch and single steps add them in the same time order),
+        # and the distance at the point where the robot reached it
         self.weighed = self.kind in ("waypoints", "race") and level.task.accuracy > 0
         self.legs: list[list[list[float]]] = [
-            [[] for _ in self.targets(r.slot)] if self.weighed else [] for r in level.robots
+            [[0.0, 0] for _ in self.targets(r.slot)] if self.weighed else [] for r in level.robots
         ]
         self.reach_distance: list[list[float]] = [[] for _ in level.robots]
         # per robot, per target k: at least how far the legs from target k to the last take
@@ -133,14 +134,19 @@ class TaskTracker:
                 self.deviation[slot].extend(distances)
                 if self.weighed:  # a sample at step s is on the leg to the first target not reached by s
                     for j, d in enumerate(distances):
-                        self.legs[slot][base + bisect.bisect_right(reached, start + j * every)].append(d)
+                        self._on_leg(slot, base + bisect.bisect_right(reached, start + j * every), d)
 
     def sample(self, slot: int, distance: float) -> None:
         """One sample of robot `slot`'s distance from its path, taken after this step's
         `update`: as `advance` samples at the record rate (a step-by-step driver's way)."""
         self.deviation[slot].append(distance)
         if self.weighed:
-            self.legs[slot][self.next[slot]].append(distance)
+            self._on_leg(slot, self.next[slot], distance)
+
+    def _on_leg(self, slot: int, target: int, distance: float) -> None:
+        leg = self.legs[slot][target]
+        leg[0] += distance * distance
+        leg[1] += 1
 
     def _off_path(self, slot: int, x: float, y: float) -> float:
         line = self.polyline[slot]
@@ -152,9 +158,9 @@ class TaskTracker:
         if not self.weighed:
             return [1.0] * self.next[slot]
         accuracy, out = self.level.task.accuracy, []
-        for leg, last in zip(self.legs[slot], self.reach_distance[slot]):
-            squares = math.fsum(d * d for d in leg) + last * last
-            out.append(1.0 / (1.0 + math.sqrt(squares / (len(leg) + 1)) / accuracy))
+        for (squares, count), last in zip(self.legs[slot], self.reach_distance[slot]):
+            rms = math.sqrt((squares + last * last) / (count + 1))
+            out.append(1.0 / (1.0 + rms / accuracy))
         return out
 
     def stand(self, slot: int, still: bool, x: float, y: float, time: float) -> None:

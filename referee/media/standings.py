@@ -55,6 +55,12 @@ class Standings:
         frames = self.rep.frames
         return int(min(max(round(t * self.rep.header["record_rate"]), 0), len(frames) - 1))
 
+    def _clock(self, t: float) -> float:
+        """`t`, or at the replay's last frame the match's end: the last frame may come a step or
+        two before it, and there the standing is what the match ended with."""
+        result = self.rep.result
+        return max(t, result.end_time) if result is not None and t >= self.rep.duration - 1e-9 else t
+
     def task_at(self, slot: int, t: float) -> tuple[int, float, float | None]:
         """Robot `slot`'s task at time `t`: targets reached, progress (0..1), finish time."""
         result = self.rep.result
@@ -62,8 +68,7 @@ class Standings:
             reached = self.reached[slot][self._frame(t)]
             targets = len(self.tracker.targets(slot))
             return reached, (reached / targets if targets else 0.0), self.finished[slot]
-        if t >= self.rep.duration - 1e-9:  # the last frame may come a step or two before the end
-            t = max(t, result.end_time)
+        t = self._clock(t)
         robot = result.robots[slot]
         task = robot.task
         if task.kind == "goto":
@@ -80,9 +85,7 @@ class Standings:
     def score(self, slot: int, t: float) -> float:
         """Robot `slot`'s score had the match ended at time `t`."""
         localize = self.level.task.kind == "localize"
-        result = self.rep.result
-        if result is not None and t >= self.rep.duration - 1e-9:  # the end: what the match ended with
-            t = max(t, result.end_time)
+        t = self._clock(t)
         _, progress, finished = self.task_at(slot, t)
         points = 0.0 if localize else TASK_POINTS * progress
         quality = min(1.0, self.errors[slot].quality_sum_until(t) / self.match_ticks(slot))

@@ -128,13 +128,18 @@
       return localization ? localization.ticks : this.geom.control_ticks;
     }
 
+    clock(t) {  // t, or at the last frame the match's end (it may come a step or two before it)
+      const result = this.rep.result;
+      return result && t >= this.duration - 1e-9 ? Math.max(t, result.end_time) : t;
+    }
+
     taskAt(slot, t) {  // [targets reached, progress 0..1, finish time] at t (referee/media/standings.py)
       const result = this.rep.result;
       if (!result) {
         const reached = this.reached[slot][this.frame(t)], targets = this.targets[slot].length;
         return [reached, targets ? reached / targets : 0, this.finished[slot]];
       }
-      if (t >= this.duration - 1e-9) t = Math.max(t, result.end_time);  // the last frame may come a step or two before the end
+      t = this.clock(t);
       const robot = result.robots[slot], task = robot.task;
       if (task.kind === "goto") {
         const arrived = task.finished !== null && task.finished <= t;
@@ -148,7 +153,7 @@
 
     score(slot, t) {  // the points earned by t (docs/rules.md; referee/media/standings.py)
       const localize = this.geom.task.kind === "localize", P = this.P;
-      if (this.rep.result && t >= this.duration - 1e-9) t = Math.max(t, this.rep.result.end_time);  // the end
+      t = this.clock(t);
       const [, progress, finished] = this.taskAt(slot, t);
       let points = localize ? 0 : P.task * progress;
       const track = this.errors[slot], n = bisectRight(track.times, t + 1e-9);
