@@ -62,13 +62,18 @@ def tick_exchange(team: str, scattered: bool, ticks: int = 500) -> float:
             bot.close()
 
 
-class _Sequential(Match):
+def _sequential(level, teams) -> None:
     """The match as it was: each controller spawned in a sandbox of its own, exchanged with in turn."""
-
-    def _control_tick(self) -> None:
-        for slot, obs in enumerate(self.observe()):
-            if obs is not None:
-                self.answer(slot, self.fleet.bots[slot].step(obs))
+    match = Match(level, teams)
+    sim, fleet = match.simulation, match.fleet
+    fleet.bots = [ProcessBot(t, level.limits, slot=i, forked=False) for i, t in enumerate(teams)]
+    try:
+        tick = sim.start(fleet.start([brief_for(level, s) for s in range(len(teams))]))
+        while not tick.ended:
+            tick = sim.step([None if o is None else b.step(o) for b, o in zip(fleet.bots, tick.observations)])
+        sim.end()
+    finally:
+        fleet.close()
 
 
 def match_time(controller: str, mode: str) -> float:
@@ -81,9 +86,7 @@ def match_time(controller: str, mode: str) -> float:
     elif mode == "isolated":
         Match(level, teams).run()
     else:
-        match = _Sequential(level, teams)
-        match.fleet.bots = [ProcessBot(t, level.limits, slot=i, forked=False) for i, t in enumerate(teams)]
-        match.run()
+        _sequential(level, teams)
     return time.perf_counter() - start
 
 

@@ -10,8 +10,10 @@ import pytest
 from helpers import variant
 
 from referee.match.loop import Match
+from referee.match.views import brief_for
 from referee.records.replay_reader import load
 from referee.sandbox import affinity
+from referee.sandbox.exchange import exchange
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
@@ -44,16 +46,16 @@ def test_a_lone_controller_shares_its_referees_cpu(tmp_path, forked):
     match = Match(level, [reporter(tmp_path)], replay=tmp_path / "m.replay")
     match.fleet.bots = [ProcessBot(match.teams[0], level.limits, slot=0, forked=forked)]
     try:
-        match.begin()
-        assert match.fleet.cpu is not None
-        assert os.sched_getaffinity(0) == {match.fleet.cpu.cpu}  # the referee thread, pinned
-        cpu = match.fleet.cpu.cpu
-        while not match.ended:
-            match._control_tick()
-            match.advance()
-        match.end()
+        sim, fleet = match.simulation, match.fleet
+        tick = sim.start(fleet.start([brief_for(level, 0)]))
+        assert fleet.cpu is not None
+        assert os.sched_getaffinity(0) == {fleet.cpu.cpu}  # the referee thread, pinned
+        cpu = fleet.cpu.cpu
+        while not tick.ended:
+            tick = sim.step(exchange(fleet.bots, tick.observations))
+        sim.end()
     finally:
-        match.close()
+        match.fleet.close()
     assert os.sched_getaffinity(0) == before  # given back at the end
     estimates = [tuple(r["e"][:2]) for r in load(tmp_path / "m.replay").estimates]
     assert len(estimates) >= 10 and set(estimates) == {(1.0, float(cpu))}  # the controller: that CPU alone

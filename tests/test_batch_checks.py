@@ -12,6 +12,7 @@ from helpers import MINI_LEVEL, edited, exact_starts, variant
 
 from levels.loader import parse_level
 from referee.match import loop
+from referee.match.simulation import STILL, Simulation
 from referee.sandbox.teams import resolve
 
 CHAOS = """
@@ -36,19 +37,19 @@ OUT_AND_BACK = """
 """
 
 
-class StepByStep(loop.Match):
+class StepByStep(Simulation):
     """After each physics step: sensing stores the poses, each robot's task progress is
     updated (and its distance from the path sampled at the record rate until it finishes),
     the rules look at the world, a frame is recorded at the record rate; then the end test.
     At the control tick, the task hears whether each robot's wheels are still; the end test again."""
 
-    def advance(self):
+    def _advance(self):
         world, level, tracker = self.world, self.level, self.tracker
         every = level.steps_per_record
         for _ in range(level.steps_per_control):
             world.step()
             self.sensing.record()
-            for slot in range(len(self.teams)):
+            for slot in range(len(self.labels)):
                 x, y = world.state[3 * slot], world.state[3 * slot + 1]
                 tracker.update(slot, x, y, world.time)
                 line = tracker.polyline[slot]
@@ -56,7 +57,9 @@ class StepByStep(loop.Match):
                     tracker.sample(slot, line.distances([x], [y])[0])
             self.rules.after_step(world)
             if world.tick % every == 0:
-                self.writer.frame(world.time, [(p.x, p.y, p.heading) for p in map(world.pose, range(len(self.teams)))])
+                self.recorder.frame(
+                    world.time, [(p.x, p.y, p.heading) for p in map(world.pose, range(len(self.labels)))]
+                )
             if self._over():
                 self._end_now()
                 return
@@ -64,7 +67,7 @@ class StepByStep(loop.Match):
                 break
         # at the control tick: each robot's wheels, still or not (a goto robot arrives by standing)
         for slot, drive in enumerate(world.drives):
-            still = max(abs(w) for w in drive.wheels) <= loop.STILL * drive.model.max_wheel_speed
+            still = max(abs(w) for w in drive.wheels) <= STILL * drive.model.max_wheel_speed
             tracker.stand(slot, still, world.state[3 * slot], world.state[3 * slot + 1], world.time)
         if self._over():
             self._end_now()
@@ -72,19 +75,21 @@ class StepByStep(loop.Match):
         self.ended = world.tick >= self.total_steps
 
     def _end_now(self):
-        done = any(map(self.tracker.done, range(len(self.teams))))
+        done = any(map(self.tracker.done, range(len(self.labels))))
         self.end_reason = "task_complete" if done else "all_stopped"
         self.ended = True
 
 
-def play(level, teams, tmp_path, name, match_class):
+def play(level, teams, tmp_path, name, simulation_class):
     replay = tmp_path / f"{name}.replay"
-    result = match_class(level, teams, seed=4, replay=replay, isolate=False).run()
-    return result, replay.read_bytes()
+    match = loop.Match(level, teams, seed=4, replay=replay, isolate=False)
+    labels = [t.label for t in teams]
+    match.simulation = simulation_class(level, labels, 4, recorder=match.recorder, defer=True)
+    return match.run(), replay.read_bytes()
 
 
 def same_both_ways(level, teams, tmp_path, monkeypatch):
-    batched = play(level, teams, tmp_path, "batched", loop.Match)
+    batched = play(level, teams, tmp_path, "batched", Simulation)
     single = play(level, teams, tmp_path, "single", StepByStep)
     assert batched[0] == single[0]
     assert batched[1] == single[1]
@@ -168,7 +173,7 @@ def test_a_robot_with_far_targets_left_is_not_watched():
     level = variant(
         "asabe-race", robots__0__path=[[0.30, 0.25], [1.53, 0.25], [0.30, 0.25]], robots__0__start=[0.30, 0.25, 0]
     )
-    match = loop.Match(level, [resolve("ref:idle")] * 4, isolate=False)
+    match = Simulation(level, ["idle"] * 4)
     tracker = match.tracker
     tracker.update(0, 0.30, 0.25, 0.0)  # the first target, where the robot starts (also its last)
     assert tracker.next[0] == 1

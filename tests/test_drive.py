@@ -12,7 +12,8 @@ from arena.rng import RandomTree
 from arena.world import World
 from levels.loader import parse_level
 from levels.model import DriveErrors, Pose
-from referee.match.loop import Match, play_match
+from referee.match.loop import play_match
+from referee.match.simulation import Simulation
 from referee.sandbox.teams import resolve
 
 BIG = edited(MINI_LEVEL, {"field.size": [4.0, 4.0], "robots.0.start": [2.0, 2.0, 0]})
@@ -320,7 +321,7 @@ def test_ideal_match_drives_perfectly_and_a_real_one_does_not():
     # Match plumbing: ideal gives today's perfect drive (the analytic line of the first test)
     level = parse_level(BIG.encode(), "test.yaml")
     for ideal in (True, False):
-        w = Match(level, [resolve("ref:idle")], seed=7, ideal=ideal, isolate=False).world
+        w = Simulation(level, ["idle"], seed=7, ideal=ideal).world
         m = level.robots[0].model
         v, T = 0.1, 5.0
         w.command(0, v, v)

@@ -13,8 +13,7 @@ from arena.rng import RandomTree
 from arena.world import World
 from levels.loader import parse_level
 from levels.model import Pose
-from referee.match.loop import Match
-from referee.sandbox.teams import resolve
+from referee.match.simulation import Simulation
 
 IN = 0.0254
 
@@ -120,8 +119,8 @@ def test_trials_stand_on_the_drawn_tile_grid_laid_out_from_the_true_start(seed):
     tiles, spread = level.floor.tiles, level.robots[0].placement.position
     ex, ey = grid_by_hand(seed, tiles.spacing_error, tiles.angle_error)
     assert ex != (1.0, 0.0) and ey != (0.0, 1.0)
-    real = Match(level, [resolve("ref:idle")], seed=seed, isolate=False)
-    ideal = Match(level, [resolve("ref:idle")], seed=seed, ideal=True, isolate=False)
+    real = Simulation(level, ["idle"], seed=seed)
+    ideal = Simulation(level, ["idle"], seed=seed, ideal=True)
     (start,) = real.starts
     assert ideal.starts == real.starts  # the hand placement of the start is the task's, kept when ideal
     for (p,), (q,) in zip(real.trial_poses[1:], ideal.trial_poses[1:]):

@@ -241,21 +241,20 @@ def test_the_replay_written_while_controllers_compute_is_the_replay_written_at_o
     driver (as the RL environment) writes each at once. The bytes are the same."""
     from helpers import variant
 
-    from referee.match.loop import Match
+    from referee.match.simulation import Simulation
+    from referee.match.views import brief_for, replay_header
+    from referee.records.replay_writer import ReplayWriter
+    from referee.sandbox.in_process import InProcessBot
 
     lv = variant("asabe-race", time_limit=8)
     teams = [resolve(s) for s in ("ref:bac", "ref:dead-reckoning", "ref:best", "ref:starter")]
     play_match(lv, teams, seed=5, replay=tmp_path / "run.replay", isolate=False)
-    m = Match(lv, teams, seed=5, replay=tmp_path / "stepwise.replay", isolate=False)
-    try:
-        m.begin()
-        while not m.ended:
-            for slot, obs in enumerate(m.observe()):
-                if obs is not None:
-                    m.answer(slot, m.fleet.bots[slot].step(obs))
-            assert m.writer is not None and not m.deferred.pending  # nothing put off in this driver
-            m.advance()
-        m.end()
-    finally:
-        m.close()
+    header = replay_header(lv, teams, 5, False, None)
+    sim = Simulation(lv, [t.label for t in teams], seed=5, recorder=ReplayWriter(tmp_path / "stepwise.replay", header))
+    bots = [InProcessBot(t) for t in teams]
+    tick = sim.start([bot.setup(brief_for(lv, s)) for s, bot in enumerate(bots)])
+    while not tick.ended:
+        assert not sim.deferred.pending  # nothing put off in this driver
+        tick = sim.step([None if obs is None else bot.step(obs) for bot, obs in zip(bots, tick.observations)])
+    sim.end()
     assert (tmp_path / "run.replay").read_bytes() == (tmp_path / "stepwise.replay").read_bytes()

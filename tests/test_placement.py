@@ -15,9 +15,10 @@ from arena.rng import RandomTree
 from levels.checks import footprint
 from levels.loader import load_level, parse_level
 from levels.model import Placement, Pose
-from referee.match.loop import Match
+from referee.match.simulation import Simulation
 from referee.match.views import announced_start, brief_for
 from referee.records.replay_reader import load
+from referee.sandbox.in_process import InProcessBot
 from referee.sandbox.teams import Team
 from robots.api import Command, StartInfo
 
@@ -56,8 +57,8 @@ def test_starts_are_secret_reproducible_and_the_same_when_ideal():
     assert x0 <= one[0].x <= x1 and y0 <= one[0].y <= y1
     # --ideal takes the hardware's errors away, not the task's uncertainty
     ideal, noisy = (
-        Match(level, [Team("i", "i", "h", factory=Idle)], seed=7, isolate=False, ideal=True),
-        Match(level, [Team("i", "i", "h", factory=Idle)], seed=7, isolate=False),
+        Simulation(level, ["i"], seed=7, ideal=True),
+        Simulation(level, ["i"], seed=7),
     )
     assert ideal.starts == noisy.starts == one
     assert (ideal.world.pose(0).x, ideal.world.pose(0).y) == pytest.approx((one[0].x, one[0].y))
@@ -65,7 +66,7 @@ def test_starts_are_secret_reproducible_and_the_same_when_ideal():
 
 def test_the_brief_announces_the_nominal_start_and_its_spread_never_the_truth():
     level = load_level(levels.path("asabe"))
-    m = Match(level, [Team("i", "i", "h", factory=Idle)], seed=2, isolate=False)
+    m = Simulation(level, ["i"], seed=2)
     brief = brief_for(level, 0)
     truth = m.starts[0]
     assert brief.start == StartInfo(0.56, 0.35, math.radians(80.5), 0.01, math.pi, None)
@@ -140,15 +141,15 @@ def test_a_trial_carries_the_robot_to_its_pose_at_rest_and_the_controller_learns
         task={"kind": "localize", "trials": {"count": 4, "positions": [[1.5, 0.5], [0.4, 0.3]], "headings": [90]}},
         time_limit=2,
     )
-    m = Match(level, [Team("t", "t", "h", factory=Trials)], seed=6, isolate=False)
+    m = Simulation(level, ["t"], seed=6)
+    bot = InProcessBot(Team("t", "t", "h", factory=Trials))
     period = level.control_period
     moves = {1: 10, 2: 20, 3: 30}  # 40 control ticks cut in four: moved at the start of these periods
     after_move = {}
-    m.begin()
-    while not m.ended:
-        m._control_tick()
+    step = m.start([bot.setup(brief_for(level, 0))])
+    while not step.ended:
         tick = m.world.tick // level.steps_per_control
-        m.advance()
+        step = m.step([bot.step(step.observations[0])])
         if tick in moves.values():
             after_move[tick] = (m.world.pose(0), m.world.bodies[0].velocity.length)
     result = m.end()

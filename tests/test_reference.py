@@ -48,7 +48,7 @@ def ticks(level, team, ideal=False):
         reply = step(obs)
         began.setdefault(obs.trial, obs.time - m.level.control_period)  # moved at the period's start
         if getattr(reply, "estimate", None):
-            out.append((obs.time, obs.time - began[obs.trial], reply.estimate, m.world.pose(0)))
+            out.append((obs.time, obs.time - began[obs.trial], reply.estimate, m.simulation.world.pose(0)))
         return reply
 
     bot.step = spy

@@ -146,7 +146,7 @@ def test_no_reward_for_the_start():
 
     env = LaserArenaEnv(level=shortened("asabe", 2), ideal=True)
     env.reset(seed=1)
-    start, first = env.session.match.report(0).start, env.session.level.robots[0].path[0]
+    start, first = env.session.sim.report(0).start, env.session.level.robots[0].path[0]
     assert math.dist(start, first) <= env.session.level.task.radius
     rewards, done = [], False
     while not done:

@@ -1,9 +1,9 @@
 """One match driven step by step by learning agents, for the Gymnasium and PettingZoo envs.
 
-The agents ARE the controllers of their slots: the session runs the referee's own `Match`
-(same physics, sensing, rules and task tracking), takes each control tick's observations
-from it, and answers for the agent slots with the agents' actions; other slots run their
-controllers in this process. Rewards are the score of docs/rules.md spread over the ticks,
+The agents ARE the controllers of their slots: the session runs the referee's simulation core
+(`referee.match.simulation`: the same physics, sensing, rules and task tracking as a match),
+reads each control tick's report, and answers for the agent slots with the agents' actions;
+other slots run their controllers in this process. Rewards are the score of docs/rules.md spread over the ticks,
 plus a potential-based shaping term (docs/rl.md).
 """
 
@@ -17,14 +17,15 @@ from typing import NamedTuple
 import numpy as np
 
 from levels.model import Level
-from referee.match.loop import Match
-from referee.match.report import RobotReport
+from referee.match.report import RobotReport, Tick
 from referee.match.scoring import LOCALIZATION_POINTS, LOCALIZE_TASK_POINTS, TASK_POINTS, TIME_POINTS
-from referee.match.views import brief_for
-from referee.records.results import MatchResult
+from referee.match.simulation import Simulation
+from referee.match.views import brief_for, replay_header
+from referee.records.replay_writer import ReplayWriter
+from referee.records.results import Fault, MatchResult
+from referee.sandbox.in_process import InProcessBot
 from referee.sandbox.teams import Team, controller_problem, fill_slots
 from robots.api import Command
-from robots.controllers.idle import Idle
 from robots.toolkit.features import ObservationEncoder
 from robots.toolkit.policy import command
 
@@ -83,7 +84,9 @@ class AgentSession:
         self.briefs = {s: brief_for(self.level, s) for s in self.agents}
         self.encoders = {s: ObservationEncoder(self.briefs[s], samples, goal) for s in self.agents}
         self.total_ticks = self.level.control_ticks
-        self.match: Match | None = None
+        self.sim: Simulation | None = None
+        self.bots: dict[int, InProcessBot] = {}  # the other slots' controllers
+        self.answers: list[Command | Fault | None] = []  # the other slots' answers to the tick's observations
         self.result: MatchResult | None = None
 
     def action_size(self) -> int:
@@ -93,39 +96,46 @@ class AgentSession:
     def reset(self, seed: int) -> dict[int, np.ndarray]:
         """Start a new match with `seed`; return each agent's first observation."""
         self.close()
-        teams = [
-            self.others[s] if s in self.others else Team(f"agent{s}", AGENT_SPEC, AGENT_HASH, factory=Idle)
-            for s in range(len(self.level.robots))
-        ]
-        self.match = Match(self.level, teams, seed=seed, replay=self.replay, ideal=self.ideal, isolate=False)
-        self.match.begin()
+        level, n = self.level, len(self.level.robots)
+        teams = [self.others.get(s) or Team(f"agent{s}", AGENT_SPEC, AGENT_HASH) for s in range(n)]
+        recorder = None
+        if self.replay is not None:
+            recorder = ReplayWriter(self.replay, replay_header(level, teams, seed, self.ideal, None))
+        self.sim = sim = Simulation(level, [t.label for t in teams], seed, self.ideal, recorder=recorder)
+        self.bots = {s: InProcessBot(t) for s, t in self.others.items()}
+        faults: list[Fault | None] = [None] * n
+        for s, bot in self.bots.items():
+            faults[s] = bot.setup(brief_for(level, s))
+        tick = sim.start(faults)
         self.result = None
         self.done = {s: False for s in self.agents}
         for enc in self.encoders.values():
             enc.reset()
         self.free = {s: self._free(s) for s in self.agents}
-        self.reports = {s: self.match.report(s) for s in self.agents}
+        self.reports = {s: sim.report(s) for s in self.agents}
         self.potential = {s: self._potential(self.reports[s], s) for s in self.agents}
         self.fouls = {s: 0 for s in self.agents}
-        return self._observe()
+        return self._observe(tick)
 
-    def _live(self) -> Match:
+    def _live(self) -> Simulation:
         """The match in play (reset() starts one)."""
-        if self.match is None:
+        if self.sim is None:
             raise RuntimeError("no match in play: call reset()")
-        return self.match
+        return self.sim
 
-    def _observe(self) -> dict[int, np.ndarray]:
-        """The control tick's first half: deliver events, let the other slots answer."""
-        m = self._live()
-        for slot, obs in enumerate(m.observe()):
+    def _observe(self, tick: Tick) -> dict[int, np.ndarray]:
+        """The control tick's first half: the other slots answer their observations, the
+        agents' encoders take theirs."""
+        self.answers = [None] * len(self.level.robots)
+        for slot, obs in enumerate(tick.observations):
             if obs is None:
                 continue
-            if slot in self.others:
-                m.play_own(slot, obs)
+            bot = self.bots.get(slot)
+            if bot is not None:
+                self.answers[slot] = bot.step(obs)
             else:
                 self.encoders[slot].take(obs)
-        return self._encode(m.report(self.agents[0]).time)
+        return self._encode(tick.time)
 
     def _encode(self, time: float) -> dict[int, np.ndarray]:
         """Every agent's observation vector at `time` (the encoders are keyed in agent order)."""
@@ -133,37 +143,36 @@ class AgentSession:
 
     def step(self, actions: dict[int, np.ndarray]) -> Step:
         """Apply the agents' actions for one control period and return what follows."""
-        m = self.match
-        if m is None or m.ended:
+        sim = self.sim
+        if sim is None or sim.ended:
             raise RuntimeError("the match has ended: call reset()")
-        loc: dict[int, float] = {}  # each agent's localization points of the tick
+        answers = self.answers
         for slot in self.agents:
             if self.reports[slot].stopped:  # (as the last step left it: only agents' answers stop agents)
                 continue
             if self.done[slot]:  # a finished agent stands still while the others play on
-                m.answer(slot, Command(0.0, 0.0))
+                answers[slot] = Command(0.0, 0.0)
                 continue
             action = actions[slot]
             cmd = command(action if self.report_estimate else action[:2], self.briefs[slot])
-            earned = m.answer(slot, cmd)
-            if earned is not None:  # the tick's quality, as the referee scored it
-                loc[slot] = self._localization(earned)
+            answers[slot] = cmd
             self.encoders[slot].commanded(cmd.left, cmd.right)
-        m.advance()
-        self.reports = reports = {s: m.report(s) for s in self.agents}
+        tick = sim.step(answers)
+        self.reports = reports = {s: sim.report(s) for s in self.agents}
         terminated = {s: r.done for s, r in reports.items()}
-        truncated: dict[int, bool] = {s: m.ended and not terminated[s] for s in self.agents}
-        if m.ended or all(terminated.values()):
-            self.result = m.end()  # the rules' last fouls count in this last reward
-            self.reports = reports = {s: m.report(s) for s in self.agents}
-            observations = self._encode(reports[self.agents[0]].time)
+        truncated: dict[int, bool] = {s: tick.ended and not terminated[s] for s in self.agents}
+        if tick.ended or all(terminated.values()):
+            self.result = sim.end()  # the rules' last fouls count in this last reward
+            self.reports = reports = {s: sim.report(s) for s in self.agents}
+            observations = self._encode(tick.time)
         else:
-            observations = self._observe()
+            observations = self._observe(tick)
         rewards: dict[int, float] = {}
         infos: dict[int, dict] = {}
         for slot in self.agents:
             report = reports[slot]
-            rewards[slot] = self._reward(report, slot) + loc.get(slot, 0.0)
+            earned = tick.earned[slot]  # the tick's quality, as the referee scored it
+            rewards[slot] = self._reward(report, slot) + (0.0 if earned is None else self._localization(earned))
             infos[slot] = {"progress": report.progress, "time": report.time}
             if self.result is not None:
                 infos[slot]["result"] = self.result
@@ -219,8 +228,9 @@ class AgentSession:
 
     def close(self) -> None:
         """End the current match; an episode left before its end still gets its replay, ending there."""
-        if self.match is not None:
-            if self.result is None and self.match.writer is not None:
-                self.result = self.match.end()
-            self.match.close()
-            self.match = None
+        if self.sim is not None:
+            if self.result is None and self.sim.recorder is not None:
+                self.result = self.sim.end()
+            for bot in self.bots.values():
+                bot.close()
+            self.sim, self.bots = None, {}

@@ -11,7 +11,7 @@ def frame(session, size: tuple[int, int]) -> np.ndarray:
     """The session's match now, drawn with the replay renderer's painter: (height, width, 3) uint8."""
     import pygame
 
-    level, match = session.level, session.match
+    level, match = session.level, session.sim
     robots = []
     for slot, r in enumerate(level.robots):
         if match:

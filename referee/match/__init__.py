@@ -1,14 +1,14 @@
-"""The match core: the lockstep loop, the turn pipeline alone (`loop`); its controllers from
-launch to close (`fleet`); what a team is told, the replay's frames and its header (`views`);
-the replay writes put off while controllers compute (`deferral`); the rules that call fouls
-(`rules`, the field's border check compiled), a controller's fault as the result records it
-(`faults`), task progress (`tasks`) along the ideal path (`paths`), localization accuracy
-(`estimates`), the score (`scoring`) and the result assembled from them (`result`);
-re-running a recorded match to check it (`verify`); and the compiled kernels readied at
-install by short matches (`warm`).
+"""The match core.
 
-It may import `arena` (the world it referees), `robots.api` and `robots._host.protocol` (the
-messages a controller exchanges), the sandbox (to run controllers) and records (to write
-replays); nothing from contest, media, gym or cli, and no controller or toolkit code
-(pyproject.toml's contracts hold this).
+- `simulation`: one match's world, sensing, task, rules and score; no processes, no files.
+- `report`: what a control tick did (`Tick`) and a robot's standing (`RobotReport`).
+- `loop`: the match, that simulation played by its controllers (`fleet`) and recorded.
+- `views`: what a team is told, the replay's frames and header; `deferral`: replay writes
+  put off while controllers compute.
+- `rules` (fouls), `tasks` along `paths` (progress), `estimates` (localization), `scoring`,
+  `result`, `drawings` (debug drawing budgets).
+- `verify` re-runs a recorded match; `warm` compiles the kernels at install.
+
+It imports `arena`, `levels`, `robots.api`, the sandbox and records; nothing from contest,
+media, gym or cli, and no controller or toolkit code (the contracts in pyproject.toml).
 """

@@ -1,10 +1,13 @@
-"""What a step-wise driver (the gym, the PettingZoo env) may read of a match after a control
-tick: each robot's standing as the referee counts it, in one frozen record, so no driver
-reaches into the match's own state."""
+"""What a step-wise driver (the match loop, the gym, the PettingZoo env) reads of the
+simulation: what a control tick did (`Tick`) and each robot's standing as the referee counts
+it (`RobotReport`), in frozen records, so no driver reaches into the simulation's own state."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from referee.match.rules import Foul
+from robots.api import Observation
 
 
 @dataclass(frozen=True)
@@ -28,3 +31,15 @@ class RobotReport:
     def done(self) -> bool:
         """Finished its task or stopped."""
         return self.finished is not None or self.stopped
+
+
+@dataclass(frozen=True)
+class Tick:
+    """What one control tick of a `Simulation` did, robot by robot (tuples in slot order)."""
+
+    time: float  # the match's time now (s)
+    observations: tuple[Observation | None, ...]  # each robot's next observation (None: stopped, or ended)
+    earned: tuple[float | None, ...]  # the tick quality each robot's estimate earned (None: no estimate)
+    progress: tuple[float, ...]  # each robot's task progress, 0..1, as the score counts it
+    fouls: tuple[tuple[Foul, ...], ...]  # the fouls called on each robot during this tick
+    ended: bool  # the match has ended: call `end()` for the result
