@@ -22,15 +22,53 @@ import numpy as np
 import pymunk
 
 from arena import chipmunk
+from arena.compiled import compiled
 from arena.rng import RandomTree
 from levels.model import DriveErrors, RobotModel
 
 GRAVITY = 9.81  # m/s^2, for the friction force limits
 
+# a drive's state and constants, in its row (`DiffDrive.row`, a row of `arena.stepping`'s table)
+WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)
+ROW = 11
+RATE_CHANGED, MOTION_CHANGED = 1, 2  # what `advance` tells the control body to take
 
+
+@compiled(inline="always")
 def ramp(current: float, target: float, max_change: float) -> float:
-    """Move `current` towards `target` by at most `max_change`."""
-    return current + max(-max_change, min(max_change, target - current))
+    """Move `current` towards `target` by at most `max_change` (Python's `min` and `max`: the
+    first argument unless the second is smaller, or larger)."""
+    change = target - current
+    low = change if change < max_change else max_change
+    if low > -max_change:
+        return current + low
+    return current + -max_change
+
+
+@compiled(inline="always")
+def advance(d: np.ndarray, heading: float) -> int:
+    """The drive's equations, for one physics step of a robot at `heading`, on its row `d`:
+    the wheels ramp towards their targets at the acceleration limit; the control body turns at
+    (right - left) / track times the turn factor and moves at the wheels' mean speed along the
+    heading (standing or spinning in place: no velocity). Returns which of the control body's
+    rate and motion changed (RATE_CHANGED | MOTION_CHANGED): only those are set again.
+    Compiled, and called both by a compiled run (arena.stepping) and a step in Python."""
+    if d[WHEEL_L] != d[TARGET_L] or d[WHEEL_R] != d[TARGET_R]:
+        dv = d[ACCEL] * d[DT]
+        d[WHEEL_L] = ramp(d[WHEEL_L], d[TARGET_L], dv)
+        d[WHEEL_R] = ramp(d[WHEEL_R], d[TARGET_R], dv)
+    changed = 0
+    rate = (d[WHEEL_R] - d[WHEEL_L]) / d[TRACK] * d[TURN]
+    if rate != d[RATE]:
+        d[RATE] = rate
+        changed |= RATE_CHANGED
+    v = (d[WHEEL_L] + d[WHEEL_R]) / 2
+    h = heading if v != 0.0 else 0.0
+    if v != d[MOTION_V] or h != d[MOTION_H]:
+        d[MOTION_V] = v
+        d[MOTION_H] = h
+        changed |= MOTION_CHANGED
+    return changed
 
 
 def servo_response(command: float, top: float, errors: DriveErrors) -> float:
@@ -57,7 +95,8 @@ def turn_share(left: float, right: float) -> float:
 
 class DiffDrive:
     """Wheel state and the control body that carries it into the physics every `dt` s; with
-    the match's random `tree`, robot `slot`'s drive errors, else a perfect drive."""
+    the match's random `tree`, robot `slot`'s drive errors, else a perfect drive. Its state
+    lives in `row` (a row of the world's drive table, given or its own)."""
 
     def __init__(
         self,
@@ -67,6 +106,7 @@ class DiffDrive:
         dt: float,
         tree: RandomTree | None = None,
         slot: int = 0,
+        row: np.ndarray | None = None,
     ):
         self.model = model
         self.body = body
@@ -95,18 +135,33 @@ class DiffDrive:
             self.track = float(model.track * (1.0 + e.track_sd * z[3]))
             self._turns = tree.stream("robot", slot, "drive", "turn")
             self._link = tree.stream("robot", slot, "drive", "link")
-        self.accel = model.max_wheel_accel * (1.0 - e.accel_slip)
+        self.row = np.zeros(ROW) if row is None else row
+        self.row[:] = 0.0
+        self.row[ACCEL] = model.max_wheel_accel * (1.0 - e.accel_slip)
+        self.row[DT], self.row[TRACK] = dt, self.track
+        self.row[TURN] = 1.0  # share of the wheels' turn rate the ground lets through
+        self.row[MOTION_H] = body.angle  # (the motion last set: none, along the start's heading)
         self.commanded = (0.0, 0.0)  # the last command the wheels took (m/s, nominal)
-        self.target = (0.0, 0.0)  # true wheel speeds that command asks of the servos
-        self.wheels = (0.0, 0.0)
-        self.turn_factor = 1.0  # share of the wheels' turn rate the ground lets through
         # commands on their way, in order: [due tick, left, right, what taking it does (`_effect`)]
         self._queue: deque[list] = deque()
         self._ahead = (0.0, 0.0)  # `commanded` once every command whose effect is worked out is taken
         self._ahead_turn = 1.0  # and `turn_factor` then
         self._due = 0
-        self._rate = 0.0
-        self._motion = (0.0, body.angle)
+
+    @property
+    def wheels(self) -> tuple[float, float]:
+        """The true wheel speeds now (m/s)."""
+        return float(self.row[WHEEL_L]), float(self.row[WHEEL_R])
+
+    @property
+    def target(self) -> tuple[float, float]:
+        """The true wheel speeds the last command taken asks of the servos (m/s)."""
+        return float(self.row[TARGET_L]), float(self.row[TARGET_R])
+
+    @property
+    def turn_factor(self) -> float:
+        """The share of the wheels' turn rate the ground lets through (1: no slip)."""
+        return float(self.row[TURN])
 
     def command(self, left: float, right: float, tick: int) -> None:
         """Send wheel speed targets (m/s, clipped to the model's top speed) at physics tick
@@ -144,15 +199,18 @@ class DiffDrive:
         effect = self._effect(entry)
         self.commanded = (entry[1], entry[2])
         if effect:
-            self.target, self.turn_factor = effect[:2], effect[2]
+            self.row[TARGET_L], self.row[TARGET_R], self.row[TURN] = effect
 
     def halt(self) -> None:
         """Stop at once: wheels and targets at rest, commands on their way dropped, the control
         body still and at the robot's pose (for a robot carried to a new pose)."""
         self._queue.clear()
-        self.commanded = self.target = self.wheels = self._ahead = (0.0, 0.0)
-        self.turn_factor = self._ahead_turn = 1.0
-        self._rate, self._motion = 0.0, (0.0, 0.0)
+        self.commanded = self._ahead = (0.0, 0.0)
+        self._ahead_turn = 1.0
+        row = self.row
+        row[WHEEL_L] = row[WHEEL_R] = row[TARGET_L] = row[TARGET_R] = 0.0
+        row[TURN] = 1.0
+        row[RATE] = row[MOTION_V] = row[MOTION_H] = 0.0
         self.control.position = self.body.position
         self.control.angle = self.body.angle
         self.control.velocity = (0.0, 0.0)
@@ -177,39 +235,17 @@ class DiffDrive:
                 out.append((entry[0], *effect))
         return out
 
-    def numbers(self) -> tuple[float, ...]:
-        """The drive's state and constants, in the order of a row of `arena.stepping`'s table."""
-        return (
-            *self.wheels,
-            *self.target,
-            self.accel,
-            self.dt,
-            self.track,
-            self.turn_factor,
-            self._rate,
-            *self._motion,
-        )
-
-    def set_numbers(self, row: list[float]) -> None:
-        """Take back the state a compiled run left in the drive's row (`numbers`' order)."""
-        self.wheels, self._rate, self._motion = (row[0], row[1]), row[8], (row[9], row[10])
-
     def update(self, heading: float, tick: int) -> None:
-        """Take the commands due at `tick`, ramp the wheels one physics step and set the control
-        body's motion for a robot now at `heading` (pymunk setters are costly: unchanged values
-        are not set again)."""
+        """Take the commands due at `tick`, then one physics step of the drive's equations
+        (`advance`) for a robot now at `heading`; the control body is set only where its rate
+        or motion changed (pymunk setters are costly)."""
         queue = self._queue
         if queue and queue[0][0] <= tick:  # checked here: this runs every step of every drive
             self.take_due(tick)
-        if self.wheels != self.target:
-            dv = self.accel * self.dt
-            self.wheels = (ramp(self.wheels[0], self.target[0], dv), ramp(self.wheels[1], self.target[1], dv))
-        rate = (self.wheels[1] - self.wheels[0]) / self.track * self.turn_factor
-        if rate != self._rate:
-            self._rate = rate
-            chipmunk.set_angular_velocity(self.control, rate)
-        v = (self.wheels[0] + self.wheels[1]) / 2
-        motion = (v, heading if v else 0.0)  # standing or spinning in place: velocity stays 0
-        if motion != self._motion:
-            self._motion = motion
+        row = self.row
+        changed = advance(row, heading)
+        if changed & RATE_CHANGED:
+            chipmunk.set_angular_velocity(self.control, float(row[RATE]))
+        if changed & MOTION_CHANGED:
+            v = float(row[MOTION_V])
             chipmunk.set_velocity(self.control, v * math.cos(heading), v * math.sin(heading))

@@ -15,9 +15,8 @@ from numba import carray, types
 from numba.extending import intrinsic
 
 from arena.compiled import compiled
+from arena.drive import MOTION_CHANGED, MOTION_V, RATE, RATE_CHANGED, TARGET_L, TARGET_R, TURN, advance
 
-# a drive's numbers in its row of the `drives` table
-WHEEL_L, WHEEL_R, TARGET_L, TARGET_R, ACCEL, DT, TRACK, TURN, RATE, MOTION_V, MOTION_H = range(11)
 # a servo change in its row of the `changes` table: when, whose, and its targets and turn factor
 DUE, SLOT, NEW_TARGET_L, NEW_TARGET_R, NEW_TURN = range(5)
 WORDS = 16  # doubles of a cpBody read or written (the layout's places are below 16)
@@ -56,20 +55,6 @@ def _call_at(typingctx, function, space, dt):
 _call_step: Any = intrinsic(_call_at)
 
 
-@compiled(inline="always")
-def _ramp(current: float, target: float, max_change: float) -> float:
-    """`arena.drive.ramp`, with Python's `min` and `max` (the first argument unless the
-    second is smaller, or larger)."""
-    change = target - current
-    if change < max_change:
-        low = change
-    else:
-        low = max_change
-    if low > -max_change:
-        return current + low
-    return current + -max_change
-
-
 @compiled()
 def run_steps(
     step_function: int,
@@ -88,8 +73,8 @@ def run_steps(
     velocities: np.ndarray,
 ) -> int:
     """Up to `len(states)` physics steps from `tick`: the servo changes come due (rows of
-    `changes`, in order of their due ticks), each drive's update (its row of `drives`, updated
-    in place), chipmunk's step, then every robot's x, y and heading into
+    `changes`, in order of their due ticks), each drive's equations (`arena.drive.advance` on
+    its row of `drives`, updated in place), chipmunk's step, then every robot's x, y and heading into
     `states` (and velocity into `velocities`, if it has rows). `clock[0]` holds the tick of
     the step under way, for the collision callbacks. Stops after a step where a robot of
     `watch` (rows of state index, x, y) stands within sqrt(`near`) of its point; returns the
@@ -109,20 +94,12 @@ def run_steps(
             body = carray(_doubles(bodies[r]), WORDS)
             heading = body[a]
             d = drives[r]
-            if d[WHEEL_L] != d[TARGET_L] or d[WHEEL_R] != d[TARGET_R]:
-                dv = d[ACCEL] * d[DT]
-                d[WHEEL_L] = _ramp(d[WHEEL_L], d[TARGET_L], dv)
-                d[WHEEL_R] = _ramp(d[WHEEL_R], d[TARGET_R], dv)
+            changed = advance(d, heading)  # the drive's equations (arena.drive)
             control = carray(_doubles(controls[r]), WORDS)
-            rate = (d[WHEEL_R] - d[WHEEL_L]) / d[TRACK] * d[TURN]
-            if rate != d[RATE]:
-                d[RATE] = rate
-                control[w] = rate
-            v = (d[WHEEL_L] + d[WHEEL_R]) / 2
-            h = heading if v != 0.0 else 0.0
-            if v != d[MOTION_V] or h != d[MOTION_H]:
-                d[MOTION_V] = v
-                d[MOTION_H] = h
+            if changed & RATE_CHANGED:
+                control[w] = d[RATE]
+            if changed & MOTION_CHANGED:
+                v = d[MOTION_V]
                 control[vx] = v * math.cos(heading)
                 control[vx + 1] = v * math.sin(heading)
         clock[0] = tick + k

@@ -17,7 +17,7 @@ import pymunk
 
 from arena import chipmunk, stepping
 from arena.angles import wrap
-from arena.drive import DiffDrive
+from arena.drive import ROW, DiffDrive
 from arena.rng import RandomTree
 from levels.model import Level, Pose
 
@@ -107,6 +107,7 @@ class World:
         self.bodies: list[pymunk.Body] = []
         self.shapes: list[pymunk.Poly] = []
         self.drives: list[DiffDrive] = []
+        self._drive_table = np.zeros((len(level.robots), ROW))  # every drive's row, in slot order
         for r in level.robots:
             m = r.model
             start = r.start if starts is None else starts[r.slot]
@@ -120,7 +121,7 @@ class World:
             self.space.add(body, shape)
             self.bodies.append(body)
             self.shapes.append(shape)
-            self.drives.append(DiffDrive(self.space, body, m, level.dt, rng, r.slot))
+            self.drives.append(DiffDrive(self.space, body, m, level.dt, rng, r.slot, self._drive_table[r.slot]))
             shape.collision_type = 1
             shape.slot = r.slot
         self.state = self._read_state()
@@ -287,7 +288,7 @@ class World:
         try:
             with chipmunk.locked(space):  # callbacks must not add or remove shapes meanwhile
                 changes = np.array(self._changes(self.tick + steps), float).reshape(-1, 5)
-                table = np.array([drive.numbers() for drive in self.drives])
+                table = self._drive_table  # each drive's row: the run updates them in place
                 ran = 0
                 try:
                     ran = stepping.run_steps(
@@ -309,8 +310,7 @@ class World:
                 finally:  # what the steps did stays told, whatever is raised after them
                     done = abs(ran)
                     self.tick += done
-                    for drive, row in zip(self.drives, table.tolist()):
-                        drive.set_numbers(row)
+                    for drive in self.drives:
                         drive.take_due(self.tick - 1)  # what the run applied, taken
                 self._raise_deferred()
         finally:
