@@ -301,7 +301,7 @@ def test_an_interrupt_that_c_code_turns_into_another_error_is_still_the_interrup
 def test_an_interrupt_is_held_back_inside_numba_llvmlite_and_pymunk_only():
     """Where a raised interrupt would be lost or mangled (numba's C dispatcher turns it into a
     SystemError; cffi drops one raised in a pymunk callback) it waits; elsewhere it is raised."""
-    from referee.fragile import fragile
+    from referee.interrupts import fragile
 
     def frame_of(filename: str, name: str = "f"):
         namespace: dict = {}
@@ -333,7 +333,7 @@ def load():
     return True
 '''
 runner._playing = True
-signal.signal(signal.SIGTERM, runner._worker_stop)
+runner.STOP.install()
 namespace = {"os": os, "signal": signal, "time": time}
 exec(compile(LOAD, os.path.join(os.path.dirname(numba.__file__), "core", "caching.py"), "exec"), namespace)
 finished = False
@@ -386,7 +386,7 @@ def test_an_interrupt_inside_a_steady_section_is_taken_once_it_ends():
     """A section that must not be cut short (a process started and not yet recorded for the
     clean-up) finishes; the Ctrl-C that came meanwhile is taken right after it."""
     setup = (
-        "from referee.fragile import steady\n\n\n"
+        "from referee.interrupts import steady\n\n\n"
         "def section():\n"
         "    with steady():\n"
         "        interrupt_here()\n"
@@ -448,8 +448,7 @@ from referee.contest import runner
 
 runner.STOP_GRACE = 1.0
 runner._playing = True
-signal.signal(signal.SIGTERM, runner._worker_stop)
-sys.unraisablehook = runner._dropped
+runner.STOP.install()
 
 
 class Held:

@@ -9,63 +9,18 @@ import os
 import signal
 import sys
 import warnings
-from types import FrameType
 from typing import TextIO
 
 from arena.heap import lasting
 from levels.errors import LaserArenaError
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
-from referee.fragile import fragile, take_again
+from referee.interrupts import Catcher, ignore
 from referee.terminal import safe
 from referee.threads import one_blas_thread
 
-_raised = False  # this command's interrupt is on its way out (`_interrupt`)
-_shown_before = sys.unraisablehook  # what shows a dropped exception that is not our interrupt
-
-
-def _interrupt(signum: int, frame: FrameType | None) -> None:
-    """Ctrl-C (SIGINT) or SIGTERM: unwind the command, closing every controller sandbox and
-    worker on the way out. Once raised, further signals are ignored, so that a second Ctrl-C
-    does not cut that clean-up short (SIGKILL still ends the process).
-
-    Raised at a fragile moment (`referee.fragile`), the interrupt would be lost or mangled and, with
-    further signals ignored, the command left unstoppable: there it is taken again a moment later.
-    Raised where Python drops it all the same (a weakref callback: importlib's module locks
-    have them), it is raised again a moment later (`_unraisable`). Raised where C code turns it into
-    another exception, that one is taken as the interrupt (`main`): an extension module's import
-    does so, as NumPy's does when the interrupt lands in the `datetime` import of its
-    `PyCapsule_Import`."""
-    global _raised
-    if _raised:
-        return
-    if fragile(frame):
-        take_again(signum)
-        return
-    _raised = True
-    raise KeyboardInterrupt
-
-
-def _unraisable(hook: sys.UnraisableHookArgs) -> None:
-    """An exception Python drops (raised in a finalizer or a weakref callback): our interrupt,
-    lost there, is raised again a moment later, once the main thread has left that code (and
-    again, should it land in such code once more); any other goes to the hook that was in
-    place (Python's own, or a test runner's)."""
-    global _raised
-    if _raised and hook.exc_type is KeyboardInterrupt:
-        _raised = False
-        take_again(signal.SIGINT)
-        return
-    _shown_before(hook)
-
-
-def handle_interrupts() -> None:
-    """Make Ctrl-C and SIGTERM this command's interrupt (`_interrupt`), from now on."""
-    global _raised, _shown_before
-    _raised = False
-    signal.signal(signal.SIGINT, _interrupt)
-    signal.signal(signal.SIGTERM, _interrupt)
-    if sys.unraisablehook is not _unraisable:
-        _shown_before, sys.unraisablehook = sys.unraisablehook, _unraisable
+# Ctrl-C or SIGTERM unwinds the command, closing every controller sandbox and worker on the way out
+INTERRUPT = Catcher(KeyboardInterrupt, (signal.SIGINT, signal.SIGTERM))
+handle_interrupts = INTERRUPT.install
 
 
 _python_show_warning = warnings.showwarning
@@ -101,14 +56,14 @@ def main(argv: list[str] | None = None) -> int:
             args = parser().parse_args(argv)
             return int(args.func(args))
         except Exception:
-            if _raised:  # the interrupt, turned into this by the C code it landed in (`_interrupt`)
+            if INTERRUPT.raised:  # the interrupt, turned into another error by the C code it landed in
                 raise KeyboardInterrupt from None
             raise
     except LaserArenaError as e:
         print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return e.exit_code
     except KeyboardInterrupt:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the way out is quiet, whatever comes now
+        ignore()
         print("laserarena: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # the reader went away (`laserarena levels | head -1`): stop quietly
@@ -123,4 +78,4 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         # the interpreter's own shutdown (joining worker pools' threads) follows: a Ctrl-C there
         # would print a traceback after the command's last line
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        ignore()

@@ -21,13 +21,12 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
 from pathlib import Path
-from types import FrameType
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from arena.heap import lasting
 from referee.contest.shipping import arrived
 from referee.errors import SandboxError, UserError
-from referee.fragile import fragile, take_again
+from referee.interrupts import Catcher
 from referee.sandbox import forkserver, kernel
 from referee.sandbox.teams import Team
 from referee.version import __version__
@@ -119,7 +118,7 @@ def play(job: MatchJob) -> Played:
             result = play_match(level, teams, seed=job.seed, replay=replay, ideal=job.ideal, noise_key=job.noise_key)
         finally:
             _playing = False
-            if _stopping:  # the match has stopped its controllers on the way out (a clean-up cut
+            if STOP.raised:  # the match has stopped its controllers on the way out (a clean-up cut
                 os._exit(143)  # short may raise something else); leave now, not back into the
                 # pool's loop, which would wait for work for ever (so too if the stop was lost)
         data = replay.read_bytes()
@@ -170,35 +169,23 @@ def replay_folder(db: Path) -> Path:
 PR_SET_PDEATHSIG = 1
 STOP_GRACE = 10.0  # seconds a stopped worker's match has to end its controllers; then it leaves regardless
 _playing = False  # a pool worker is inside a match
-_stopping = False  # told to stop: whatever the match's clean-up raises, the worker leaves
 
 
 class _Stopped(BaseException):
     """A pool worker was told to stop (SIGTERM) in the middle of a match."""
 
 
-def _worker_stop(signum: int, frame: FrameType | None) -> None:
-    global _stopping
-    if _playing:
-        if fragile(frame):  # raised here, the stop would be lost (numba loading a match's kernels)
-            take_again(signum)
-            return
-        if not _stopping:  # a clean-up that hangs must not keep the worker: it leaves in STOP_GRACE
-            _stopping = True
-            leave = threading.Timer(STOP_GRACE, os._exit, (143,))
-            leave.daemon = True
-            leave.start()
-        raise _Stopped  # unwinds the match, which ends its controllers; `play` then exits
-    os._exit(143)
+def _stopping() -> None:
+    """A pool worker told to stop: out of a match, it leaves at once; in one, it leaves within
+    STOP_GRACE seconds whatever the match's clean-up does (which `_Stopped` starts)."""
+    if not _playing:
+        os._exit(143)
+    leave = threading.Timer(STOP_GRACE, os._exit, (143,))
+    leave.daemon = True
+    leave.start()
 
 
-def _dropped(hook: sys.UnraisableHookArgs) -> None:
-    """A stop that Python dropped (raised in a weakref callback or a finalizer, where it is
-    printed and forgotten) is taken again a moment later; any other goes to Python's hook."""
-    if hook.exc_type is _Stopped:
-        take_again(signal.SIGTERM)
-        return
-    sys.__unraisablehook__(hook)
+STOP = Catcher(_Stopped, (signal.SIGTERM,), before=_stopping)  # installed in each pool worker
 
 
 def die_with_parent(parent: int) -> None:
@@ -219,8 +206,7 @@ def _worker_init(parent: int) -> None:
     (No parent-death signal outside Linux: there the pool's own shutdown ends the workers.)
     Then import what its matches need, once, out of the collector's way (arena.heap)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, _worker_stop)
-    sys.unraisablehook = _dropped
+    STOP.install()
     die_with_parent(parent)
     with lasting():
         import referee.match.loop  # noqa: F401

@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import IO
 
-from referee.fragile import steady
+from referee.interrupts import steady
 from referee.sandbox import cgroup, kernel
 from referee.sandbox.privacy import switches_users
 from referee.sandbox.uids import slot_uid
