@@ -1,5 +1,11 @@
-"""The physical world: physics, drive, the lasers and detectors (`sensing/`), where robots are
-set down, drawing; loops compiled with NumPy's bits (`compiled`).
+"""The physical world: physics, drive, lasers and detectors, placement, drawing.
 
-Reads levels through the level model below it (`levels`); knows nothing of teams or scores.
+- `world`: the pymunk space and its robots; `chipmunk`: pymunk's private parts, in one place;
+  `stepping`: a run of physics steps in one compiled loop; `drive`: the drive and its errors.
+- `sensing`: the lasers against the beacons; `floor`: the tiles a trial is set down on;
+  `placement`: where robots really start; `rng`: the match's random tree; `angles`.
+- `draw`: one moment of a match, drawn; `compiled`: loops compiled with NumPy's bits;
+  `heap`: what a process keeps, out of the collector's way.
+
+Imports: `levels`; nothing of teams or scores.
 """

@@ -1,7 +1,14 @@
-"""The level: its model (`model`, `match`), its YAML reading (`loader`), checks and schema, and
-the built-in levels, shipped as package data so a non-editable install finds them.
+"""The level: its model, its YAML reading and checks, its schema, and the built-in levels.
 
-The bottom of the product: it imports nothing of `arena`, `robots` or `referee`.
+- `model`: the level's frozen dataclasses; `match`: the referee's side of it (clocks,
+  controller limits, rules).
+- `loader` reads a level file (over `yaml_reader`, a section a private module: `_beacons`,
+  `_geometry`, `_robots`, `_task`); `checks` refuses what cannot be played; `schema` and
+  `schema_file`: its JSON Schema.
+- `robot_models`, `units`, `errors` (the product's one error base); `_frozen`: frozen values.
+- The built-in levels are package data (`names`, `path`), so a non-editable install finds them.
+
+Imports: nothing of the product (the bottom).
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
 """The authority: it runs matches, keeps team code in sandboxes, scores, records and shows.
 
-Rooms, each a subpackage whose `__init__` says what it holds and may import:
-`match` (the lockstep loop, rules, tasks, scoring), `sandbox` (team specs and controller
-processes), `records` (results, replays), `contest` (grading), `media` (video, viewer, plots,
-maps), `gym` (RL environments, optional) and `cli` (the `laserarena` command). docs/architecture.md
-draws the rooms and what flows between them.
+- `api`: the Python API (`referee.run_match`, `grade`, `tournament`, loaded on first use);
+- rooms, each a subpackage whose `__init__` says what it holds: `match`, `sandbox`,
+  `records`, `contest`, `media`, `gym`, `cli`;
+- at the bottom: `errors`, `interrupts`, `terminal`, `threads`, `version`.
+
+Imports: `levels`, `arena`, `robots` (docs/architecture.md; the contracts in pyproject.toml).
 """
 
 from referee.version import __version__

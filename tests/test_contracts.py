@@ -2,6 +2,7 @@
 contract is shown failing on a copy of the tree given one import that breaks it, and the rules
 agree with the project's dependencies and with docs/architecture.md."""
 
+import ast
 import re
 import shutil
 import subprocess
@@ -118,15 +119,40 @@ def test_the_team_side_may_import_what_its_sandbox_holds_and_nothing_else():
     assert forbidden == installed - set(STANDARD_VIEW)
 
 
-def test_the_architecture_page_names_every_room_in_its_layer():
+PAGE = (ROOT / "docs" / "architecture.md").read_text()
+PACKAGES = ["levels", "arena", "arena/sensing", "robots", "robots/_host", "referee"]
+ROOMS = sorted(p.parent.name for p in (ROOT / "referee").glob("*/__init__.py"))
+
+
+def docstring(package: str) -> str:
+    return ast.get_docstring(ast.parse((ROOT / package / "__init__.py").read_text())) or ""
+
+
+def test_the_architecture_page_gives_each_rooms_own_first_line():
+    """The page's tables quote each package's and room's `__init__` (its first line), so the
+    two cannot drift; every room has its row."""
+    rows = dict(re.findall(r"^\| `([\w/]+)/` \| (.*) \|$", PAGE, re.M))
+    expected = [p for p in PACKAGES if "/" not in p] + [f"referee/{room}" for room in ROOMS]
+    assert sorted(rows) == sorted(expected)
+    for package, holds in rows.items():
+        assert holds == docstring(package).splitlines()[0], package
+
+
+def test_the_architecture_page_gives_the_layers_and_contracts_as_pyproject_does():
     layers = CONTRACTS["the referee's rooms, top to bottom"]["layers"]
-    rooms = [set(layer.replace(" ", "").split("|")) for layer in layers]
-    packages = {p.parent.name for p in (ROOT / "referee").glob("*/__init__.py")}
-    text = (ROOT / "docs" / "architecture.md").read_text()
-    table = {m.group(1): m.group(2) for m in re.finditer(r"^\| `referee/(\w+)/` \|.*\| (.*) \|$", text, re.M)}
-    assert set(table) == packages  # every room has its row
-    for room, may in table.items():
-        level = next(i for i, layer in enumerate(rooms) if room in layer)
-        named = {w for w in re.findall(r"(?<![.\w])(\w+)", may) if any(w in layer for layer in rooms)} - {room}
-        above = {r for layer in rooms[: level + 1] for r in layer}
-        assert not (named & above) or room == "cli", (room, named & above)
+    line = " > ".join(" | ".join(f"`{room.strip()}`" for room in layer.split("|")) for layer in layers)
+    assert f"\n{line}\n" in PAGE
+    listed = re.findall(r"^- (.+)$", PAGE.split("## Borders", 1)[1].split("\n## ", 1)[0], re.M)
+    assert listed == list(CONTRACTS)
+
+
+@pytest.mark.parametrize("package", PACKAGES + [f"referee/{room}" for room in ROOMS])
+def test_each_package_names_every_module_it_holds(package):
+    """A package's `__init__` says what it holds, module by module: every module and
+    subpackage in it is named there."""
+    folder = ROOT / package
+    held = {p.stem for p in folder.glob("*.py") if p.stem not in ("__init__", "__main__")}
+    held |= {p.parent.name for p in folder.glob("*/__init__.py")}
+    text = docstring(package)
+    named = set(re.findall(r"`(\w+)`", text))
+    assert held <= named, f"{package}/__init__.py does not name {sorted(held - named)}"

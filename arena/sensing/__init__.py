@@ -7,8 +7,9 @@ part computes.
   `sensor_array`, `flash_detector`, `light`; what the finite-beam kinds share (`optics`), what
   every kind's electronics read (`readout`, and `pulses`, the compiled reading of a batch),
   and the level's hardware by kind (`hardware`: ideal parameters, bearing noise, dispatch);
+- a batch's hits in two compiled calls (`sweep`), each robot's normal draws in blocks (`normals`);
 - the events a controller gets (`events`), and the pipeline that calls each part once per
   control tick, in order (`pipeline`: `Sensing`).
 
-It may import the rest of `arena` (the world it senses), nothing of teams or scores.
+Imports: the rest of `arena` and `levels`; nothing of teams or scores.
 """

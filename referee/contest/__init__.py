@@ -1,15 +1,13 @@
-"""Many matches: grading teams x levels x seeds and its leaderboard (`grading`), tournaments of
-teams racing in heats with their ratings and report (`tournaments`, `schedule`, `ratings`,
-`report`), all into one resumable journal (`journal`), played as self-contained jobs
-(`runner`, `shipping`) on this process, a local pool or a Dask cluster (`dispatch` says
-which), their noise drawn from a
-run's secret (`noise_secret`, judged by `secret_strength`).
+"""Many matches: grading, tournaments, and the journal that makes them resumable.
 
-A Dask cluster is named and checked by `cluster` (TLS with the organizer's keys from
-`cluster_keys`, or an insecure `tcp://` the organizer accepted); its client lives in a process
-of its own (`courier`, spoken to over `courier_link`), so the organizer's process never loads
-what a worker sends; `remote` checks each result against its job (`received`) and audits each
-worker by playing a share of its matches again here (`audit`).
+- `grading` (and its leaderboard), `tournaments` (heats from `schedule`, `ratings`, the
+  published `report`), both into the SQLite `journal`;
+- matches as self-contained jobs (`runner`, team code as bytes in `shipping`) on this
+  process, a local pool or Dask (`dispatch`); noise from a run's secret (`noise_secret`,
+  judged by `secret_strength`);
+- a Dask cluster named and checked (`cluster`, TLS keys `cluster_keys`), its client in a
+  process of its own (`courier`, `courier_link`; started as `nobody` by `courier_box`), each result checked (`received`) and each
+  worker audited (`audit`) by `remote`.
 
-How it works, in detail: docs/internals.md, `referee/contest/__init__.py`.
+Imports: match, sandbox, records, `arena`, `levels`; never `robots` (team code travels as bytes).
 """

@@ -1,14 +1,14 @@
-"""A Gymnasium environment: one robot of a level, driven by an agent's actions.
+"""Gymnasium and PettingZoo environments over the simulation core.
 
     import gymnasium
     env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
 
-Importing this module registers `LaserArena-v0` with Gymnasium (that is how `make`'s
-"module:EnvName" form finds it); `gymnasium.make_vec` steps several, in this process ("sync")
-or a process each ("async"). Observations, actions, rewards and vector envs: docs/rl.md. Needs
-the `rl` extra (`pip install 'laserarena[rl]'`).
+- this module: `LaserArenaEnv`, one robot driven by an agent (registered as `LaserArena-v0`;
+  `gymnasium.make_vec` steps several); `parallel`: every robot an agent (PettingZoo);
+- `session`: the simulation, its agents and other slots' controllers; `view`: `render()`.
 
-How it works, in detail: docs/internals.md, `referee/gym/__init__.py`.
+Imports: match, sandbox, records, `arena`, `levels`, `robots` (the API, the toolkit's features
+and policy); `gymnasium` and `pettingzoo` only here (the `rl` extra). docs/rl.md.
 """
 
 from __future__ import annotations

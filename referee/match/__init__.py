@@ -1,4 +1,4 @@
-"""The match core.
+"""The match core: one match simulated, played by its controllers and recorded.
 
 - `simulation`: one match's world, sensing, task, rules and score; no processes, no files.
 - `report`: what a control tick did (`Tick`) and a robot's standing (`RobotReport`).
@@ -9,6 +9,6 @@
   `result`, `drawings` (debug drawing budgets).
 - `verify` re-runs a recorded match; `warm` compiles the kernels at install.
 
-It imports `arena`, `levels`, `robots.api`, the sandbox and records; nothing from contest,
-media, gym or cli, and no controller or toolkit code (the contracts in pyproject.toml).
+Imports: sandbox, records, `arena`, `levels`, `robots.api` and `robots._host.protocol`;
+never a controller or the toolkit.
 """
