@@ -63,8 +63,9 @@ def test_the_indexes_list_every_page_and_every_record():
     assert files == listed, (
         f"records not indexed: {sorted(files - listed)}; indexed, not there: {sorted(listed - files)}"
     )
-    assert all(line.rstrip().endswith("?") for line in records.splitlines() if line.startswith("- ")), (
-        "each record's line ends with the question it answers"
+    numbered = re.compile(r"- (\d{4}) \[[^\]]+\]\(\1-[\w-]+\.md\)$")
+    assert all(numbered.match(line.rstrip()) for line in records.splitlines() if line.startswith("- ")), (
+        "each record's line is its number and its linked title"
     )
 
 
