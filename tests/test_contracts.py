@@ -156,3 +156,14 @@ def test_each_package_names_every_module_it_holds(package):
     text = docstring(package)
     named = set(re.findall(r"`(\w+)`", text))
     assert held <= named, f"{package}/__init__.py does not name {sorted(held - named)}"
+
+
+def test_no_module_docstring_runs_past_fifteen_lines():
+    """A module's docstring says what and why in a few lines; algorithms and quotes go to docs/."""
+    long = {}
+    for package in ("levels", "arena", "robots", "referee"):
+        for path in (ROOT / package).rglob("*.py"):
+            text = ast.get_docstring(ast.parse(path.read_text()), clean=False)
+            if text and len(text.strip("\n").splitlines()) > 15:
+                long[str(path.relative_to(ROOT))] = len(text.strip("\n").splitlines())
+    assert not long
