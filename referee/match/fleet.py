@@ -53,11 +53,11 @@ class Fleet:
     def start(self, briefs: list[Brief]) -> list[Fault | None]:
         """Launch every controller (a lone process on the referee's CPU), then set each up
         with its brief: each slot's setup fault, or None."""
-        processes = [bot for bot in self.bots if isinstance(bot, ProcessBot)]
+        processes = [bot for bot in self.bots if bot.isolated]
         if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
             self.cpu = affinity.claim()
             if self.cpu is not None:
-                processes[0].cpus = [self.cpu.cpu]
+                processes[0].pin([self.cpu.cpu])
         for bot in self.bots:
             bot.launch()
         return [bot.setup(brief) for bot, brief in zip(self.bots, briefs)]

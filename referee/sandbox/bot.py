@@ -53,6 +53,11 @@ class Awaited(Protocol):
 class Bot(Protocol):
     """A team's controller as the match drives it: launched, set up, stepped, ended."""
 
+    isolated: bool  # its controller runs in a process of its own
+
+    def pin(self, cpus: list[int]) -> None:
+        """Before `launch`: run its controller's process on `cpus` only (nothing in this process)."""
+
     def launch(self) -> None:
         """Start the controller (every bot is launched before any is set up: start-ups overlap)."""
 

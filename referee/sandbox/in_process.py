@@ -22,6 +22,10 @@ class InProcessBot:
     def __init__(self, team: Team):
         self.team = team
         self.controller: Controller | None = None
+        self.isolated = False
+
+    def pin(self, cpus: list[int]) -> None:
+        """Nothing to pin: the controller runs on the referee's own thread."""
 
     def launch(self) -> None:
         """Nothing to start: the controller lives in this process."""

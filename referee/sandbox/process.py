@@ -97,6 +97,7 @@ class ProcessBot:
         self.team, self.limits, self.log, self.slot = team, limits, log, slot
         self.sandboxed, self.forked = sandboxed, forked
         self.cpus: list[int] | None = None  # the CPUs the controller may run on (None: the referee's)
+        self.isolated = True
         self.allowance = Allowance(limits)
         self.started: Launched | None = None  # the process, once launched
         self._pipes: Channel | None = None  # its stdin and stdout, once launched
@@ -122,6 +123,10 @@ class ProcessBot:
         if self._pipes is None:
             raise RuntimeError("the controller process has not been launched")
         return self._pipes
+
+    def pin(self, cpus: list[int]) -> None:
+        """Before `launch`: the controller's process runs on `cpus` only."""
+        self.cpus = list(cpus)
 
     def launch(self) -> None:
         """Start the process (all bots are launched before any is set up: start-ups overlap)."""
