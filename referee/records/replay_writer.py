@@ -3,8 +3,8 @@ its own) or into a `Replay` in memory for live viewing (`MemoryRecorder`), both 
 
 Replays are organizer files (0600): a graded one holds the match's noise key. What a match
 writes is bounded by its level (frames, sensor events, one estimate a tick), by the drawing
-budgets (referee.match.drawings) and by one record per foul and fault; docs/replay.md gives
-the sum, far below `MAX_REPLAY` for the built-in levels.
+budgets (referee.match.drawings) and by one record per foul and fault: far below
+`MAX_REPLAY` for the built-in levels.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ read-only access by the result JSON's own field names for scripts written agains
 `referee.records.canonical.dumps`, which writes the same bytes as always. Fields that exist
 only for some task kinds or foul kinds are `UNSET` when absent and left out of the JSON.
 `referee.records.result_schema` publishes the JSON Schema generated from these types in
-docs/schema/; docs/results.md describes each field.
+docs/schema/ (each field); docs/results.md describes the result.
 """
 
 from __future__ import annotations
