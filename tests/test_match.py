@@ -208,7 +208,7 @@ def test_team_specs(tmp_path):
     assert load_class(team.spec).__name__ == "Two"
     with pytest.raises(TeamError, match="no such file"):
         resolve(str(tmp_path / "missing.py"))
-    with pytest.raises(TeamError, match="cannot find module 'no.such.module'"):
+    with pytest.raises(TeamError, match="no such folder or module 'no.such.module'; a team is ref:NAME"):
         resolve("no.such.module:X")
     idle = resolve("robots.controllers.idle:Idle")
     assert idle.files == () and idle.entry == "robots.controllers.idle:Idle"  # robots is in every sandbox
@@ -227,8 +227,11 @@ def test_loading_problems_are_load_faults_of_their_slot(tmp_path):
     broken = team_file(tmp_path, "import no_such_module_here\n", "broken.py")
     for isolate in (True, False):
         for spec, words in (
-            (two, "found 2 Controller classes: One, Two"),
-            (two + ":Three", "Three is not a Controller"),
+            (
+                two,
+                "team.py has 2 Controller classes (One, Two); name the one to run after the team's name, as TEAM:One",
+            ),
+            (two + ":Three", "team.py has no class Three (its Controller classes: One, Two)"),
             (broken, "broken.py failed to load: ModuleNotFoundError"),
         ):
             result = play_match(level(), [resolve(spec)], isolate=isolate)

@@ -43,12 +43,13 @@ python test_controller.py
 
 ## Submit it
 
-Hand in `controller.py`: it ships alone, so it may import the standard library, `robots`,
-numpy and msgspec, nothing else. To split it into modules (or bring data files or a
-pure-Python library of your own), make this folder a package: add an `__init__.py` that
-imports your Controller, and hand in the folder (`--team myteam/`). The grader runs exactly
-what `laserarena run` runs here: your controller in its own process, with the level's time
-and memory limits, seeing only sensor events.
+Hand in this folder (`laserarena run bac-line --team {name}` from the folder above runs it
+so): `controller.py` runs, and the `.py` files beside it ship with it, so it may import them
+by name as well as the standard library, `robots`, numpy and msgspec, nothing else. To bring
+data files or a pure-Python library of your own, make this folder a package: add an
+`__init__.py` that imports your Controller. The grader runs exactly what `laserarena run`
+runs here: your controller in its own process, with the level's time and memory limits,
+seeing only sensor events.
 """
 
 TEST = '''"""Runs the controller on a level, as the grader would, and checks that it scores."""

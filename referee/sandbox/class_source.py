@@ -158,4 +158,5 @@ def class_team(cls: type, isolate: bool, folder: Path) -> Team:
         "sha256:" + digest,
         ((path.name, source.encode()),),
         f"{path.name}:{cls.__name__}",
+        home=str(folder),
     )

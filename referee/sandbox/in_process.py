@@ -1,15 +1,18 @@
 """A controller in the referee's own process (`--in-process`, for a debugger: the team's code
 runs with the referee's rights, never for grading), with the `Bot` interface. Its commands
-take the very checks and conversions of the wire."""
+take the very checks and conversions of the wire. The team's output goes to the referee's,
+and so does each fault's whole traceback: this terminal is the team's log."""
 
 from __future__ import annotations
 
 import sys
+import traceback
 from pathlib import Path
 
 from referee.records.results import Fault
 from referee.sandbox.fault import fault, traceback_tail
 from referee.sandbox.teams import Team
+from robots._host import loading
 from robots._host.loading import LoadError, is_file_spec, load_class
 from robots._host.protocol import FaultKind, ProtocolError, api_problem, command_problem, describe, sendable, wired
 from robots._host.tracebacks import team_traceback
@@ -32,14 +35,12 @@ class InProcessBot:
 
     def setup(self, brief: Brief) -> Fault | None:
         try:  # the one place a team's code is imported into the referee
-            folder = Path(self.team.spec.rpartition(":")[0])
-            if self.team.files and not is_file_spec(self.team.entry) and folder.is_absolute():
-                home = str(folder.parent)  # a package team: import it from its folder (not the bytes shipped)
-                if home not in sys.path:
-                    sys.path.insert(0, home)
-            cls = self.team.factory or load_class(self.team.spec if is_file_spec(self.team.spec) else self.team.entry)
-        except LoadError as e:
-            return fault(0, 0.0, FaultKind.LOAD, str(e))
+            cls = self.team.factory or load_class(self._spec())
+        except LoadError as e:  # named as the team was given, not by where its file is
+            message = str(e).replace(f"team {self._spec()}:", f"team {self.team.label}:", 1)
+            if e.__cause__ is not None:  # the team's code raised as it loaded
+                return self._fault(0, 0.0, FaultKind.LOAD, message, e.__cause__)
+            return fault(0, 0.0, FaultKind.LOAD, message)
         problem = api_problem(getattr(cls, "api_version", API_VERSION))
         if problem:
             return fault(0, 0.0, FaultKind.LOAD, problem)
@@ -47,9 +48,28 @@ class InProcessBot:
             self.controller = controller = cls()
             controller.setup(brief)
         except Exception as e:  # a team's bug must not stop the match
-            tail = traceback_tail(team_traceback(e, globals()))
-            return fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", traceback=tail)
+            return self._fault(0, 0.0, FaultKind.EXCEPTION, f"in setup: {describe(e)}", e)
         return None
+
+    def _spec(self) -> str:
+        """The spec that loads the team's class from where its files are on this machine
+        (`Team.home`): a file by its path, a folder team's modules and a package from their
+        folder, which goes on the import path."""
+        home, entry = self.team.home, self.team.entry
+        if not home or not self.team.files:  # a module of the installed product (ref:NAME)
+            return entry
+        if (not is_file_spec(entry) or len(self.team.files) > 1) and home not in sys.path:
+            sys.path.insert(0, home)  # a package, or a folder team's modules importing each other
+        return str(Path(home) / entry) if is_file_spec(entry) else entry
+
+    def _fault(self, tick: int, time: float, kind: FaultKind, message: str, e: BaseException) -> Fault:
+        """The fault of the team's exception `e`: its whole traceback printed here, its tail
+        (from the team's first frame, paths relative to the team's folder) in the record."""
+        sys.stderr.write("".join(traceback.format_exception(e)))
+        tail = traceback_tail(team_traceback(e, globals(), vars(loading)))
+        if tail is not None and self.team.home:
+            tail = tail.replace(str(Path(self.team.home)) + "/", "")
+        return fault(tick, time, kind, message, traceback=tail)
 
     def step(self, obs: Observation) -> Command | Fault:
         if self.controller is None:
@@ -57,8 +77,7 @@ class InProcessBot:
         try:
             cmd = self.controller.step(obs)
         except Exception as e:
-            tail = traceback_tail(team_traceback(e, globals()))
-            return fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", traceback=tail)
+            return self._fault(obs.tick, obs.time, FaultKind.EXCEPTION, f"in step: {describe(e)}", e)
         sent = sendable(cmd)  # drawings that cannot be drawn become warnings, as over the wire
         problem = command_problem(sent)
         if problem:

@@ -6,7 +6,8 @@ refused) and O_NONBLOCK (a fifo cannot stall the referee), then checked on that 
 (fstat): a regular file with one hard link only, so a link to /etc/shadow or to a journal is
 refused, with no window between the check and the read. As root, a file must also be readable
 by the team folder's owner or by anyone (docs/security.md says why). A package is walked
-depth-first with bounded depth, entries and bytes, and refused as soon as one bound is passed.
+depth-first with bounded depth, entries and bytes, and refused as soon as one bound is passed;
+a folder team without `__init__.py` ships the Python files at its top alone.
 """
 
 from __future__ import annotations
@@ -110,10 +111,13 @@ def _names(walk: _Walk, folder: int, shown: Path) -> list[os.DirEntry]:
     return sorted(entries, key=lambda e: e.name)
 
 
-def _walk(walk: _Walk, folder: int, shown: Path, rel: str, depth: int) -> None:
-    """Read every file below the opened folder `folder` into `walk.found`."""
+def _walk(walk: _Walk, folder: int, shown: Path, rel: str, depth: int | None) -> None:
+    """Read every file below the opened folder `folder` into `walk.found`; with `depth` None,
+    its Python files alone (`*.py`, not below it), named without a folder."""
     for entry in _names(walk, folder, shown):
-        where, inner = shown / entry.name, f"{rel}/{entry.name}"
+        if depth is None and not entry.name.endswith(".py"):
+            continue  # a folder team's other files and folders stay home, unread
+        where, inner = shown / entry.name, f"{rel}/{entry.name}" if rel else entry.name
         if entry.is_symlink():
             raise walk.refuse(where, LINK)
         if not (entry.is_file(follow_symlinks=False) or entry.is_dir(follow_symlinks=False)):
@@ -121,6 +125,8 @@ def _walk(walk: _Walk, folder: int, shown: Path, rel: str, depth: int) -> None:
         fd, st = _open(walk, entry.name, where, folder)
         try:
             if stat.S_ISDIR(st.st_mode):
+                if depth is None:
+                    continue
                 if depth >= MAX_DEPTH:
                     raise walk.refuse(where, f"more than {MAX_DEPTH} folders deep")
                 walk.spend(where)
@@ -131,17 +137,29 @@ def _walk(walk: _Walk, folder: int, shown: Path, rel: str, depth: int) -> None:
             os.close(fd)
 
 
-def read_package(root: Path, team: str) -> tuple[tuple[str, bytes], ...]:
-    """Every file of the package folder `root` (its own name not a link), as (path relative to
-    its parent, bytes) in path order; TeamError in one line on a link, a special file, a file
-    with other hard links or one closed to the folder's owner, or past a bound."""
+def _read_folder(root: Path, team: str, rel: str, depth: int | None) -> tuple[tuple[str, bytes], ...]:
+    """The files `_walk` finds below the folder `root` (its own name not a link), in path order."""
     walk = _Walk(team, -1)
     fd, st = _open(walk, str(root), root, None)
     try:
         if not stat.S_ISDIR(st.st_mode):
             raise walk.refuse(root, "not a folder")
         walk.owner = st.st_uid
-        _walk(walk, fd, root, root.name, 0)
+        _walk(walk, fd, root, rel, depth)
     finally:
         os.close(fd)
     return tuple(sorted(walk.found))
+
+
+def read_package(root: Path, team: str) -> tuple[tuple[str, bytes], ...]:
+    """Every file of the package folder `root` (its own name not a link), as (path relative to
+    its parent, bytes) in path order; TeamError in one line on a link, a special file, a file
+    with other hard links or one closed to the folder's owner, or past a bound."""
+    return _read_folder(root, team, root.name, 0)
+
+
+def read_modules(root: Path, team: str) -> tuple[tuple[str, bytes], ...]:
+    """The Python files at the top of the folder `root` (a folder team without `__init__.py`),
+    as (file name, bytes) in name order: its modules import each other by name; its other files
+    and folders are not shipped. TeamError in one line as `read_package`."""
+    return _read_folder(root, team, "", None)

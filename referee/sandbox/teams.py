@@ -1,16 +1,17 @@
 """Resolve a team spec from the command line into a `Team` the match can run, WITHOUT running it.
 
-A spec is `ref:NAME` (a reference controller), `path/team.py` or `path/team.py:Class`
-(a file: that one file is shipped, docs/controllers.md), `path/DIR` or `path/DIR:Class` (a
-folder holding a Python package: all of it is shipped, its data files too, and its `__init__`
-exports the Controller or the class is named), `package.module:Class` (anything on the path)
-or NAME (an installed controller's entry point). Resolving finds the files only: nothing of the team's is imported or executed in
-the referee. The controller's own (sandboxed) process loads the code; a failure to load comes
+A spec is `ref:NAME` (a reference controller), `path/team.py[:Class]` (a file: that one file
+is shipped, docs/controllers.md), `path/DIR[:Class]` (a folder: with `__init__.py` a package,
+shipped whole, data files too; else its controller file is `controller.py` or its one other
+`.py` file besides tests, and its `.py` files ship beside it), `package.module:Class` (anything
+on the path) or NAME (an installed controller's entry point). Resolving finds the files only:
+nothing of the team's is imported or executed in the referee. The controller's own (sandboxed) process loads the code; a failure to load comes
 back from there as a `load` fault for that slot. Only `--in-process` imports a team here.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import hashlib
 import importlib.machinery
 import sys
@@ -20,9 +21,17 @@ from pathlib import Path
 
 from levels.model import Level
 from referee.errors import TeamError
-from referee.sandbox.team_files import read_file, read_package
+from referee.sandbox.team_files import read_file, read_modules, read_package
 from referee.terminal import safe
-from robots._host.loading import LoadError, SpecKind, TeamSpec, entry_point, parse_spec, unknown_reference
+from robots._host.loading import (
+    TEAM_FORMS,
+    LoadError,
+    SpecKind,
+    TeamSpec,
+    entry_point,
+    parse_spec,
+    unknown_reference,
+)
 from robots.api import Controller
 from robots.controllers import REFERENCE
 
@@ -39,8 +48,10 @@ class Team:
     that runs (see `code_hash`); `files`: (path inside the slot's code folder, bytes) for each
     file shipped into the controller's sandbox, read once (referee.sandbox.team_files): what
     was hashed is what is shipped; `entry`: the spec the controller process
-    loads, with file paths relative to that folder. `factory` makes a controller from Python
-    objects instead, for in-process matches of a library user (never from a spec)."""
+    loads, with file paths relative to that folder; `home`: the folder on this machine the
+    files' paths are relative to (an in-process match imports them from there). `factory` makes
+    a controller from Python objects instead, for in-process matches of a library user (never
+    from a spec)."""
 
     label: str
     spec: str
@@ -48,6 +59,7 @@ class Team:
     files: tuple[tuple[str, bytes], ...] = ()
     entry: str = ""
     factory: Callable[[], Controller] | None = None
+    home: str = ""
 
 
 def file_hash(data: bytes) -> str:
@@ -79,14 +91,48 @@ def _file_team(label: str, spec: str, path: Path, entry: str) -> Team:
     """A team of one module file: its bytes read once, hashed and shipped."""
     _importable_name(label, path.stem)
     data = read_file(path, label)
-    return Team(label, spec, file_hash(data), ((path.name, data),), entry)
+    return Team(label, spec, file_hash(data), ((path.name, data),), entry, home=str(path.parent))
 
 
 def _package_team(label: str, spec: str, root: Path, entry: str) -> Team:
     """A team of one package folder: every file's bytes read once, hashed and shipped."""
     _importable_name(label, root.name)
     files = read_package(root, label)
-    return Team(label, spec, tree_hash(files), files, entry)
+    return Team(label, spec, tree_hash(files), files, entry, home=str(root.parent))
+
+
+TESTS = ("test_*.py", "*_test.py", "conftest.py")  # never a folder team's controller file
+
+
+def controller_file(names: list[str]) -> str | None:
+    """Which of a folder's `.py` files (`names`, no `__init__.py` among them) is its controller:
+    `controller.py` (the name `laserarena new` writes), else the one file that is not a test;
+    None when there is no such file or more than one."""
+    if "controller.py" in names:
+        return "controller.py"
+    own = [n for n in names if not any(fnmatch.fnmatchcase(n, t) for t in TESTS)]
+    return own[0] if len(own) == 1 else None
+
+
+def not_a_team(folder: Path, names: list[str]) -> str:
+    """Why the folder `folder`, holding the `.py` files `names`, is no team (one line, with
+    what makes a folder a team and every form a team takes)."""
+    found = f"{len(names)}: {', '.join(names[:5])}{', ...' if len(names) > 5 else ''}" if names else "none"
+    return f"the folder {safe(str(folder), 200)} is not a team (.py files: {found}); {TEAM_FORMS}"
+
+
+def _folder_team(label: str, spec: TeamSpec, root: Path) -> Team:
+    """A team of one folder without `__init__.py`: its Python files read once, hashed and
+    shipped side by side; its controller file (`controller_file`) is the one loaded."""
+    files = read_modules(root, label)
+    names = [name for name, _ in files]
+    chosen = controller_file(names)
+    if chosen is None:
+        raise TeamError(f"team {safe(spec.text)}: {not_a_team(Path(spec.target), names)}")
+    cls = spec.cls
+    for name in names:
+        _importable_name(label, name.removesuffix(".py"))
+    return Team(label, f"{root}:{cls}", tree_hash(files), files, chosen + (f":{cls}" if cls else ""), home=str(root))
 
 
 def find_module(name: str) -> importlib.machinery.ModuleSpec | None:
@@ -119,7 +165,7 @@ def _module_team(label: str, spec: str, target: str) -> Team:
     module = target.partition(":")[0]
     found = find_module(module) if module else None
     if found is None:
-        raise TeamError(f"team {label}: cannot find module {module!r} on the path")
+        raise TeamError(f"team {label}: no such folder or module {module!r}; {TEAM_FORMS}")
     source = Path(found.origin) if found.origin and Path(found.origin).is_file() else None
     top = module.split(".")[0]
     if top == BUILT_IN:  # our own installed code, never a team's: its hash names the version that runs
@@ -144,9 +190,10 @@ def label_of(path: Path) -> str:
     """A team's name in tables and replays: its path relative to the current folder when it
     lies under it, else its last part (never a machine's absolute path)."""
     try:
-        return path.resolve().relative_to(Path.cwd().resolve()).as_posix()
+        inside = path.resolve().relative_to(Path.cwd().resolve()).as_posix()
     except ValueError:
         return path.name
+    return path.resolve().name if inside == "." else inside
 
 
 def _unlinked(path: Path) -> Path:
@@ -157,20 +204,23 @@ def _unlinked(path: Path) -> Path:
     return path.parent.resolve() / path.name
 
 
-def _package_dir(spec: TeamSpec, base: Path | None = None) -> Path | None:
-    """The folder of a `DIR` or `DIR:Class` spec when it holds a Python package (relative to
-    `base` if given and the folder is relative), else None."""
-    if spec.kind not in (SpecKind.NAME, SpecKind.MODULE):
+def _team_folder(spec: TeamSpec, base: Path | None = None) -> tuple[Path, bool] | None:
+    """The folder of a `DIR` or `DIR:Class` spec (relative to `base` if given and the folder is
+    relative) and whether it holds a Python package (`__init__.py`), or None if the spec names
+    no folder. TeamError for a package whose folder's name is not a Python name."""
+    if spec.kind not in (SpecKind.NAME, SpecKind.MODULE) or not spec.target:
         return None
     path = Path(spec.target)
     if base is not None and not path.is_absolute():
         path = base / path
-    if not path.is_dir() or not (path / "__init__.py").is_file():
+    if not path.is_dir():
         return None
+    if not (path / "__init__.py").is_file():
+        return path, False
     name = _unlinked(path).name
     if not name.isidentifier():
         raise TeamError(f"team {spec.text}: the package folder's name {name!r} is not a Python name")
-    return path
+    return path, True
 
 
 def controller_problem(text: str, base: Path) -> tuple[str, str | None]:
@@ -189,10 +239,14 @@ def controller_problem(text: str, base: Path) -> tuple[str, str | None]:
             return text, f"no such file {file} (a controller file is found relative to the level file)"
         return str(file.resolve()) + spec.tail, None
     try:
-        folder = _package_dir(spec, base)
+        found = _team_folder(spec, base)
     except TeamError as e:
         return text, str(e).removeprefix(f"team {text}: ")
-    if folder is not None:
+    if found is not None:
+        folder, package = found
+        names = sorted(p.name for p in folder.glob("*.py"))
+        if not package and controller_file(names) is None:
+            return text, not_a_team(folder, names)
         return str(folder.resolve()) + spec.tail, None
     if spec.kind is SpecKind.NAME:
         try:
@@ -201,7 +255,8 @@ def controller_problem(text: str, base: Path) -> tuple[str, str | None]:
             return text, str(e).removeprefix(f"team {text}: ")
         return text, None
     if not spec.cls or not spec.target or not _importable(spec.target):
-        return text, f"no importable module {spec.target!r}" if spec.target else "expected module:Class"
+        problem = f"no importable module {spec.target!r}" if spec.target else "expected module:Class"
+        return text, f"{problem}; {TEAM_FORMS}"
     return text, None
 
 
@@ -225,14 +280,16 @@ def resolve(text: str) -> Team:
     if spec.kind is SpecKind.FILE:
         source = Path(spec.target)
         if not source.is_file() and not source.is_symlink():
-            raise TeamError(f"team {text}: no such file {source}")
+            raise TeamError(f"team {text}: no such file {source}; {TEAM_FORMS}")
         placed = _unlinked(source)
         return _file_team(label_of(placed) + spec.tail, str(placed) + spec.tail, placed, source.name + spec.tail)
-    folder = _package_dir(spec)
-    if folder:  # the package is imported by its folder's name: `pkg:Class`, or `pkg:` to find the class
-        root = _unlinked(folder)
+    found = _team_folder(spec)
+    if found:  # recorded as `DIR:Class`, or `DIR:` to find the class
+        root = _unlinked(found[0])
         label = label_of(root) + (f":{spec.cls}" if spec.cls else "")
-        return _package_team(label, f"{root}:{spec.cls}", root, f"{root.name}:{spec.cls}")
+        if found[1]:  # a package is imported by its folder's name
+            return _package_team(label, f"{root}:{spec.cls}", root, f"{root.name}:{spec.cls}")
+        return _folder_team(label, spec, root)
     if spec.kind is SpecKind.NAME:
         return _module_team(text, text, _entry_point(text))
     return _module_team(text, text, text)

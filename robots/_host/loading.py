@@ -1,5 +1,5 @@
 """A team spec's grammar (`TeamSpec`, `parse_spec`) and finding the Controller class it names:
-`ref:NAME`, `FILE.py[:Class]`, `DIR[:Class]` (a package folder), `module:Class`, or the NAME of
+`ref:NAME`, `FILE.py[:Class]`, `DIR[:Class]` (a team folder), `module:Class`, or the NAME of
 an installed package's controller (entry point group `laserarena.controllers`).
 
 Lives in `robots` because the controller's own process uses it to load the team's code; the
@@ -22,6 +22,12 @@ from robots.api import Controller
 from robots.controllers import REFERENCE
 
 STANDARD_VIEW = ("numpy", "msgspec")  # what a sandboxed controller may import besides the standard library and robots
+ENTRY_POINT_GROUP = "laserarena.controllers"
+FOLDER_TEAM = "a folder with __init__.py, or with controller.py or a single other .py file besides tests"
+TEAM_FORMS = (
+    f"a team is ref:NAME, FILE.py[:Class], DIR[:Class] ({FOLDER_TEAM}), module:Class, "
+    f"or the NAME of an installed controller (entry point group {ENTRY_POINT_GROUP})"
+)
 
 
 class LoadError(Exception):
@@ -91,9 +97,6 @@ def load_class(spec: str) -> type[Controller]:
     return _from_module(spec, spec)
 
 
-ENTRY_POINT_GROUP = "laserarena.controllers"
-
-
 def entry_point(name: str) -> str:
     """`module:Class` of an installed package's controller, declared in its entry points (read
     from the package's metadata: nothing is imported); LoadError if there is none. Its module
@@ -103,10 +106,7 @@ def entry_point(name: str) -> str:
 
     found = [ep for ep in metadata.entry_points(group=ENTRY_POINT_GROUP) if ep.name == name]
     if not found:
-        raise LoadError(
-            f"team {name}: expected ref:NAME, FILE.py[:Class], module:Class or the name of "
-            f"an installed controller (entry point group {ENTRY_POINT_GROUP})"
-        )
+        raise LoadError(f"team {name}: no such file, folder or installed controller; {TEAM_FORMS}")
     return found[0].value
 
 
@@ -121,7 +121,7 @@ def import_hint(e: ImportError, alone: bool) -> str:
     if not isinstance(e, ModuleNotFoundError) or not top or top in sys.stdlib_module_names or top in STANDARD_VIEW:
         return ""
     own = (
-        "; a module of your own ships in a package team: a folder with __init__.py, given as --team DIR"
+        "; a module of your own ships beside it when the folder is the team, given as --team DIR"
         if alone
         else ""
     )
@@ -137,8 +137,8 @@ def _from_module(target: str, spec: str) -> type[Controller]:
         module = importlib.import_module(module_name)
     except (Exception, SystemExit) as e:  # the team's import failed (or exited): report it in one line
         hint = import_hint(e, alone=False) if isinstance(e, ImportError) else ""
-        raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}{hint}") from None
-    return _pick(module, cls, spec)
+        raise LoadError(f"team {spec}: cannot import {module_name}: {type(e).__name__}: {e}{hint}") from e
+    return _pick(module, cls, spec, module_name)
 
 
 def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
@@ -147,7 +147,7 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
     digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
     name = f"laserarena_team_{path.stem}_{digest}"
     if name in sys.modules:
-        return _pick(sys.modules[name], cls, spec)
+        return _pick(sys.modules[name], cls, spec, path.name)
     module_spec = importlib.util.spec_from_file_location(name, path)
     if module_spec is None or module_spec.loader is None:
         raise LoadError(f"team {spec}: {path.name} cannot be imported as a Python module")
@@ -158,28 +158,53 @@ def _from_file(path: Path, cls: str, spec: str) -> type[Controller]:
     except (Exception, SystemExit) as e:  # a SystemExit at import must not end the loader
         del sys.modules[name]
         hint = import_hint(e, alone=True) if isinstance(e, ImportError) else ""
-        raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}{hint}") from None
-    return _pick(module, cls, spec)
+        raise LoadError(f"team {spec}: {path.name} failed to load: {type(e).__name__}: {e}{hint}") from e
+    return _pick(module, cls, spec, path.name)
 
 
-def _pick(module: ModuleType, cls: str, spec: str) -> type[Controller]:
-    if cls:
-        found = getattr(module, cls, None)
-        if not (inspect.isclass(found) and issubclass(found, Controller)):
-            raise LoadError(f"team {spec}: {cls} is not a Controller class in {module.__name__}")
-        return found
+SUBCLASS = (
+    "a controller is a class that subclasses Controller: `class MyBot(Controller):` "
+    "after `from robots.api import Controller` (docs/api.md)"
+)
+
+
+def _pick(module: ModuleType, cls: str, spec: str, where: str) -> type[Controller]:
+    """The Controller class `cls` of `module` (shown as `where`: the team's file or module),
+    or its one Controller class when none is named; LoadError in the team's words otherwise."""
     inside = module.__name__ + "."  # a package's __init__ exports the class of one of its modules
-    own = [
+    mine = [
         c
         for _, c in inspect.getmembers(module, inspect.isclass)
-        if issubclass(c, Controller)
-        and c is not Controller
-        and (c.__module__ == module.__name__ or hasattr(module, "__path__") and c.__module__.startswith(inside))
+        if c.__module__ == module.__name__ or hasattr(module, "__path__") and c.__module__.startswith(inside)
     ]
-    if len(own) != 1:
-        names = ", ".join(c.__name__ for c in own) or "none"
+    own = [c for c in mine if issubclass(c, Controller) and c is not Controller]
+    if cls:
+        found = getattr(module, cls, None)
+        if found is None:
+            have = ", ".join(c.__name__ for c in own) or "none"
+            raise LoadError(f"team {spec}: {where} has no class {cls} (its Controller classes: {have})")
+        if not (inspect.isclass(found) and issubclass(found, Controller)):
+            raise LoadError(f"team {spec}: {cls} in {where} does not subclass Controller; {SUBCLASS}")
+        return found
+    if len(own) == 1:
+        return own[0]
+    if own:
+        names = ", ".join(c.__name__ for c in own)
         raise LoadError(
-            f"team {spec}: name the class as {spec.rpartition(':')[0] or spec}:Class "
-            f"(found {len(own)} Controller classes: {names})"
+            f"team {spec}: {where} has {len(own)} Controller classes ({names}); "
+            f"name the one to run after the team's name, as TEAM:{own[0].__name__}"
         )
-    return own[0]
+    imported = [
+        n
+        for n, c in inspect.getmembers(module, inspect.isclass)
+        if issubclass(c, Controller) and c is not Controller and c not in mine
+    ]
+    if imported:  # a controller of another module's, under the name it has here
+        raise LoadError(
+            f"team {spec}: {where} defines no Controller class of its own (it imports {', '.join(imported)}); "
+            f"subclass one, or name it after the team's name, as TEAM:{imported[0]}"
+        )
+    if mine:
+        names = ", ".join(c.__name__ for c in mine)
+        raise LoadError(f"team {spec}: no class in {where} subclasses Controller (found {names}); {SUBCLASS}")
+    raise LoadError(f"team {spec}: {where} defines no class; {SUBCLASS}")

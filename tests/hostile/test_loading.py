@@ -73,8 +73,9 @@ class Subvert(Controller):
         ("sys.exit()\n", "SystemExit"),
         ("def broken(:\n", "SyntaxError"),
         ("import no_such_module_anywhere\n", "ModuleNotFoundError"),
-        ("X = 1\n", "found 0 Controller classes"),
-        ("class A(Controller): pass\nclass B(Controller): pass\n", "found 2 Controller classes: A, B"),
+        ("X = 1\n", "hostile.py defines no class; a controller is a class that subclasses Controller"),
+        ("class A: pass\n", "no class in hostile.py subclasses Controller (found A)"),
+        ("class A(Controller): pass\nclass B(Controller): pass\n", "hostile.py has 2 Controller classes (A, B)"),
     ],
 )
 def test_a_team_that_cannot_load_is_a_load_fault_of_its_slot(tmp_path, body, words):
