@@ -80,7 +80,9 @@ def test_infinite_loop_times_out(tmp_path):
     # skipped at the deadline, then disqualified when the overage bank ran dry
     check_contained(result, "skipped_tick", "timeout")
     assert [f["tick"] for f in result["robots"][0]["faults"]] == [5, 6]
-    assert "overage bank exhausted" in result["robots"][0]["faults"][1]["message"]
+    skipped, stopped = result["robots"][0]["faults"]
+    assert skipped["message"].startswith("no answer within step_deadline (0.25 s): tick skipped")
+    assert stopped["message"].startswith("in step: step() did not return within step_deadline (0.25 s), nor before")
 
 
 def test_slow_steps_draw_on_the_bank_without_skipping(tmp_path):
@@ -97,6 +99,25 @@ def test_slow_steps_draw_on_the_bank_without_skipping(tmp_path):
     )
     bad = result["robots"][0]
     assert bad["faults"] == [] and bad["localization"]["fraction"] == 1.0
+
+
+def test_slow_steps_that_empty_the_bank_are_told_in_the_limits_names(tmp_path):
+    result = hostile_match(
+        tmp_path,
+        """
+        import time
+        class Slow(Controller):
+            def step(self, obs):
+                time.sleep(0.15)  # 0.1 s over step_time 0.05 every tick, under the 0.25 s deadline
+                return Command(0.05, 0.05, estimate=(0, 0, 0))
+    """,
+    )
+    check_contained(result, "timeout")
+    (fault,) = result["robots"][0]["faults"]
+    assert fault["message"] == (
+        "in step: steps over step_time (0.05 s) used up the overage_bank (1 s of excess a match); make step() faster"
+    )
+    assert 8 <= fault["tick"] <= 11  # 1 s of 0.1 s excesses: the 10th or so
 
 
 def test_late_answers_are_skipped_ticks_and_the_robot_goes_on(tmp_path):
@@ -133,7 +154,9 @@ def test_too_many_skips_in_a_row_disqualify(tmp_path):
     """,
     )
     check_contained(result, "skipped_tick", "skipped_tick", "timeout")
-    assert "3 skipped ticks in a row" in result["robots"][0]["faults"][-1]["message"]
+    assert result["robots"][0]["faults"][-1]["message"].startswith(
+        "in step: 3 ticks in a row without an answer within step_deadline (0.25 s, max_skips 3)"
+    )
 
 
 def test_exit_is_a_crash(tmp_path):

@@ -58,14 +58,29 @@ class Allowance:
         self.thinking += seconds
 
     def broken(self, where: str) -> str:
-        """The message of a `timeout` fault in `where` (setup or step): the rule it broke."""
-        if self.skips >= self.limits.max_skips:
-            return f"in {where}: {self.skips} skipped ticks in a row"
+        """The message of a `timeout` fault in `where` (setup or step): which limit it broke,
+        by the limits' names in the level file (docs/security.md), and what to do."""
+        lim = self.limits
+        if self.skips >= lim.max_skips:
+            return (
+                f"in {where}: {self.skips} ticks in a row without an answer within step_deadline "
+                f"({lim.step_deadline:g} s, max_skips {lim.max_skips}); keep step() within step_time ({lim.step_time:g} s)"
+            )
         if self.thinking > self.think_limit:
             return (
-                f"in {where}: think budget of {self.think_limit:g} s used up "
-                f"({self.limits.think_budget:g} s per simulated second)"
+                f"in {where}: think budget used up: answers took over the {self.think_limit:g} s this match allows "
+                f"(think_budget {lim.think_budget:g} s per simulated second); make step() faster"
+            )
+        if where == "step" and self.pending is not None:
+            return (
+                f"in step: step() did not return within step_deadline ({lim.step_deadline:g} s), nor before the "
+                f"overage_bank ({lim.overage_bank:g} s a match) ran out: a step that loops or waits never answers"
             )
         if where == "step":
-            return f"in {where}: overage bank exhausted"
-        return f"in {where}: no answer within {self.limits.setup_time:g} s"
+            return (
+                f"in step: steps over step_time ({lim.step_time:g} s) used up the overage_bank "
+                f"({lim.overage_bank:g} s of excess a match); make step() faster"
+            )
+        return (
+            f"in {where}: no answer within setup_time ({lim.setup_time:g} s): loading and setup() must finish within it"
+        )

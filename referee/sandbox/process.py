@@ -265,7 +265,10 @@ class ProcessBot:
         if reply is Trouble.TIMEOUT:
             if not self.allowance.skipped(obs.tick, took):
                 return self._fault(obs.tick, obs.time, Trouble.TIMEOUT, "step")
-            message = f"no answer within {self.limits.step_deadline:g} s"
+            message = (
+                f"no answer within step_deadline ({self.limits.step_deadline:g} s): tick skipped, the robot kept "
+                f"its last command; keep step() within step_time ({self.limits.step_time:g} s)"
+            )
             return fault(obs.tick, obs.time, FaultKind.SKIPPED_TICK, message)
         if not self.allowance.answered(took):
             return self._fault(obs.tick, obs.time, Trouble.TIMEOUT, "step")
