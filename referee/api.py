@@ -114,7 +114,9 @@ CLASS_TEAMS = "class-teams"  # beside a journal: the source each Controller clas
 class LeaderboardRow:
     """A team's line on one level of a grade: matches, mean score with the half-width of its
     95 % interval, mean task progress, mean position RMS (m, None without estimates), fouls
-    and faults. The fields are leaderboard.csv's columns."""
+    and faults, and the faults told by kind (each kind's count, first message and the team's
+    file and line: "1 exception: in step: KeyError: 'pose' (bot.py:12)"; "" for none). The
+    fields are leaderboard.csv's columns."""
 
     team: str
     level: str
@@ -125,6 +127,7 @@ class LeaderboardRow:
     position_rms: float | None
     fouls: int
     faults: int
+    fault_summary: str = ""
 
 
 @dataclass(frozen=True)
@@ -141,7 +144,8 @@ class LevelFigure:
 @dataclass(frozen=True)
 class StandingRow:
     """A team's line in a tournament's standings (standings.csv): rank, name, rating (mu - 3
-    sigma), mu, sigma, heats played, mean score over them, and its figures per level."""
+    sigma), mu, sigma, heats played, mean score over them, its figures per level, and its
+    faults told by kind, with each kind's first message and the team's file and line ("" for none)."""
 
     rank: int
     team: str
@@ -151,6 +155,7 @@ class StandingRow:
     heats: int
     mean_score: float
     levels: tuple[LevelFigure, ...]
+    faults: str = ""
 
 
 @dataclass(frozen=True)
@@ -453,6 +458,7 @@ def tournament(
             s.heats,
             s.mean_score,
             tuple(LevelFigure(level, *figures) for level, figures in s.levels.items()),
+            s.faults,
         )
         for s in outcome.standings
     )

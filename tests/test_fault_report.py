@@ -1,13 +1,16 @@
-"""A team can act on its faults: the console shows each fault's message and, with --logs, where
-the failed slot's log is kept (without it nothing is written); the result JSON has the
-traceback's tail."""
+"""A team can act on its faults: the console shows each fault's message with the team's file
+and line where it raised and, with --logs, where the failed slot's log is kept (without it
+nothing is written); the result JSON has the traceback's tail; `--in-process` prints the whole
+traceback. `grade`'s leaderboard and the tournament's standings tell each team's faults by
+kind, first message and line; limits and a class that is no controller are told in the
+words of the docs."""
 
 from __future__ import annotations
 
 import json
 
 import pytest
-from helpers import MINI_LEVEL, run_cli
+from helpers import MINI_LEVEL, run_cli, secret_file
 
 BOOM = """from robots.api import Command, Controller
 
@@ -44,10 +47,15 @@ def test_fault_message_log_and_traceback(shared_dir, extra):
     tb = fault["traceback"].splitlines()
     assert tb[0] == "Traceback (most recent call last):" and tb[-1] == "ZeroDivisionError: division by zero"
     assert tb[1].endswith('boom.py", line 11, in step') and tb[3].endswith('boom.py", line 5, in deep')
-    assert "slot 0 exception at 0.15 s: in step: ZeroDivisionError: division by zero" in out.stdout
+    # the last frame in the team's own file: `return 1 / n`, line 5
+    assert "slot 0 exception at 0.15 s: in step: ZeroDivisionError: division by zero (boom.py:5)" in out.stdout
     assert not (shared_dir / "laserarena-logs").exists()  # no folder nobody asked for
-    if extra:  # in-process: the team's output went to the referee's own stderr
+    if extra:  # in-process: the team's output went to the referee's own stderr, the whole traceback too
         assert "slot 0 log:" not in out.stdout and "--logs DIR" not in out.stdout
+        assert "Traceback (most recent call last):" in out.stderr
+        assert "in_process.py" in out.stderr  # the referee's frame that called the team's: all of it
+        assert f'{shared_dir / "boom.py"}", line 11, in step' in out.stderr
+        assert f'{shared_dir / "boom.py"}", line 5, in deep' in out.stderr
     else:
         assert "slot 0 log:" not in out.stdout and "--logs DIR keeps each controller's output" in out.stdout
         kept = run_cli("run", "level.yaml", "--team", "boom.py", "--logs", "logs", cwd=shared_dir)
@@ -98,3 +106,159 @@ def test_a_traceback_starts_at_the_teams_own_frame(tmp_path, forked):
     lines = fault.traceback.splitlines()
     assert lines[0] == "Traceback (most recent call last):" and lines[1].endswith('boom.py", line 11, in step')
     assert "_host" not in fault.traceback
+
+
+def line_of(source: str, code: str) -> int:
+    """The line number of `code` in `source`: where a traceback must point."""
+    return [line.strip() for line in source.splitlines()].index(code) + 1
+
+
+BOOM_LINE = line_of(BOOM, "return 1 / n")
+MATHS = "def boom():\n    return {}['pose']\n"
+MATHS_LINE = line_of(MATHS, "return {}['pose']")
+BOT = """from robots.api import Command, Controller
+
+from .maths import boom
+
+
+class Bot(Controller):
+    def step(self, obs):
+        if obs.tick == 2:
+            boom()
+        return Command(0.0, 0.0)
+"""
+
+
+def _teams(shared_dir) -> None:
+    """A file team that divides by zero and a package team whose module raises KeyError 'pose'."""
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / "boom.py").write_text(BOOM)
+    pkg = shared_dir / "mybot"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("from .bot import Bot\n")
+    (pkg / "bot.py").write_text(BOT)
+    (pkg / "maths.py").write_text(MATHS)
+    for p in [shared_dir / "boom.py", pkg, *pkg.iterdir()]:
+        p.chmod(0o755 if p.is_dir() else 0o644)
+
+
+def test_grade_and_tournament_name_each_teams_faults_and_lines(shared_dir):
+    _teams(shared_dir)
+    boom = f"1 exception: in step: ZeroDivisionError: division by zero (boom.py:{BOOM_LINE})"
+    pose = f"1 exception: in step: KeyError: 'pose' (mybot/maths.py:{MATHS_LINE})"
+    graded = run_cli(
+        "grade", "level.yaml", "--team", "boom.py", "--team", "mybot", "--team", "ref:idle", "--seeds", "1",
+        "--workers", "1", "--db", "g.sqlite", "--out", "lb.csv", "--secret-file", secret_file("faults"),
+        cwd=shared_dir,
+    )  # fmt: skip
+    assert graded.returncode == 0, graded.stderr
+    rows = {r["team"]: r for r in json.loads((shared_dir / "lb.json").read_text())}
+    assert (rows["boom.py"]["faults"], rows["boom.py"]["fault_summary"]) == (1, boom)
+    assert (rows["mybot"]["faults"], rows["mybot"]["fault_summary"]) == (1, pose)
+    assert (rows["ref:idle"]["faults"], rows["ref:idle"]["fault_summary"]) == (0, "")
+    board = {line.split(" | ")[1]: line.split(" | ")[-1] for line in graded.stdout.splitlines()[2:] if line}
+    assert board["boom.py"] == boom + " |" and board["ref:idle"] == "0 |"  # what grade prints: the faults column
+    assert board["mybot"] == pose + " |"
+    csv = (shared_dir / "lb.csv").read_text()
+    assert csv.splitlines()[0].endswith(",faults,fault_summary") and f",1,{boom}\n" in csv
+
+    played = run_cli(
+        "tournament", "level.yaml", "--team", "boom.py", "--team", "mybot", "--team", "ref:idle", "--workers", "1",
+        "--db", "t.sqlite", "--out", "site", "--secret-file", secret_file("faults"), cwd=shared_dir,
+    )  # fmt: skip
+    assert played.returncode == 0, played.stderr
+    heats = {
+        s["team"]: s["heats"] for s in json.loads((shared_dir / "site" / "standings.json").read_text())["standings"]
+    }
+    told = {
+        s["team"]: s["faults"] for s in json.loads((shared_dir / "site" / "standings.json").read_text())["standings"]
+    }
+    assert told == {"boom.py": boom.replace("1 ", f"{heats['boom.py']} ", 1),
+                    "mybot": pose.replace("1 ", f"{heats['mybot']} ", 1), "ref:idle": ""}  # fmt: skip
+    assert f"faults of boom.py: {told['boom.py']}" in played.stdout.splitlines()
+    assert f"faults of mybot: {told['mybot']}" in played.stdout.splitlines()
+    assert "faults of ref:idle" not in played.stdout
+    assert told["boom.py"] in (shared_dir / "site" / "standings.csv").read_text()
+    assert told["boom.py"] in (shared_dir / "site" / "index.html").read_text()
+
+
+def test_a_team_that_raises_as_it_loads_is_told_its_line(shared_dir):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    source = "from robots.api import Controller\n\nGAIN = undefined_gain * 2\n"
+    (shared_dir / "early.py").write_text(source)
+    (shared_dir / "early.py").chmod(0o644)
+    for extra in ([], ["--in-process"]):
+        out = run_cli("run", "level.yaml", "--team", "early.py", *extra, cwd=shared_dir)
+        assert out.returncode == 2 and out.stdout == "", out.stderr
+        assert out.stderr.splitlines()[-1] == (
+            "laserarena: team early.py: early.py failed to load: NameError: name 'undefined_gain' is not defined "
+            f"(early.py:{line_of(source, 'GAIN = undefined_gain * 2')})"
+        ), extra
+
+
+SUBCLASS = "a controller is a class that subclasses Controller: `class MyBot(Controller):`"
+
+
+@pytest.mark.parametrize(
+    "source, spec, told",
+    [
+        ("X = 1\n", "mine.py", "mine.py defines no class; " + SUBCLASS),
+        ("class Bot:\n    pass\n", "mine.py", "no class in mine.py subclasses Controller (found Bot); " + SUBCLASS),
+        ("class Bot:\n    pass\n", "mine.py:Bot", "Bot in mine.py does not subclass Controller; " + SUBCLASS),
+    ],
+)
+def test_a_file_with_no_controller_class_is_told_what_a_controller_is(shared_dir, source, spec, told):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL)
+    (shared_dir / "mine.py").write_text(source)
+    (shared_dir / "mine.py").chmod(0o644)
+    for extra in ([], ["--in-process"]):
+        out = run_cli("run", "level.yaml", "--team", spec, *extra, cwd=shared_dir)
+        assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+        assert out.stderr.startswith(f"laserarena: team {spec}: {told}"), (extra, out.stderr)
+        assert "laserarena_team" not in out.stderr  # no module name of the loader's own
+
+
+SLEEPER = """import time
+
+from robots.api import Command, Controller
+
+
+class Sleeper(Controller):
+    def step(self, obs):
+        time.sleep({seconds})
+        return Command(0.0, 0.0)
+"""
+
+
+@pytest.mark.parametrize(
+    "limits, seconds, told",
+    [
+        (  # a step that never returns: skipped at the deadline, then waited for until the bank ran out
+            "{step_deadline: 0.2, overage_bank: 0.3}",
+            "3600",
+            "in step: step() did not return within step_deadline (0.2 s), nor before the overage_bank (0.3 s a match) "
+            "ran out: a step that loops or waits never answers",
+        ),
+        (  # every step 0.03 s or more over step_time: the 0.1 s bank lasts 4 steps at most
+            "{step_time: 0.02, step_deadline: 2, overage_bank: 0.1}",
+            "0.05",
+            "in step: steps over step_time (0.02 s) used up the overage_bank (0.1 s of excess a match); "
+            "make step() faster",
+        ),
+        (  # 0.03 s a step within step_time, but the match's 4 s x 0.02 = 0.08 s of thinking last 3 steps at most
+            "{think_budget: 0.02}",
+            "0.03",
+            "in step: think budget used up: answers took over the 0.08 s this match allows "
+            "(think_budget 0.02 s per simulated second); make step() faster",
+        ),
+    ],
+)
+def test_a_broken_time_limit_is_told_by_its_name(shared_dir, limits, seconds, told):
+    (shared_dir / "level.yaml").write_text(MINI_LEVEL + f"limits: {limits}\n")
+    (shared_dir / "slow.py").write_text(SLEEPER.format(seconds=seconds))
+    (shared_dir / "slow.py").chmod(0o644)
+    out = run_cli("run", "level.yaml", "--team", "slow.py", "--json", "r.json", cwd=shared_dir)
+    assert out.returncode == 0, out.stderr
+    faults = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"]
+    assert faults[-1]["kind"] == "timeout" and faults[-1]["message"] == told, faults
+    assert f"timeout at {faults[-1]['time']:.2f} s: {told}" in out.stdout

@@ -17,6 +17,14 @@ from referee.terminal import markdown_text, safe
 
 HOSTILE_TEAM = "<img src=x onerror=alert(1)>|**bold**|[x](javascript:alert(1))"
 HOSTILE_LEVEL = "<b>lvl</b>|`x`_&amp;"
+LOUD = """from robots.api import Controller
+
+
+class Loud(Controller):
+    def step(self, obs):
+        raise ValueError("<b>|**x**|</b>")
+"""
+LOUD_FAULT = "1 exception: in step: ValueError: <b>|**x**|</b> (loud.py:6)"  # the raise is line 6
 TABLE_TAGS = {"table", "thead", "tbody", "tr", "th", "td", "h1", "p", "a"}  # `a`: GitHub's autolinks only
 
 
@@ -75,28 +83,36 @@ def test_a_paragraph_renders_as_itself_too():
 def test_a_hostile_team_and_level_in_graded_and_tournament_markdown(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL.replace("name: mini", f"name: {json.dumps(HOSTILE_LEVEL)}"))
     (shared_dir / f"{HOSTILE_TEAM}.py").write_text("from robots.controllers.dead_reckoning import DeadReckoning as B\n")
+    (shared_dir / "loud.py").write_text(LOUD)  # a fault whose message is hostile text: its cell is that text
     for p in shared_dir.iterdir():
         p.chmod(0o755)
     refused = "ref:<i>nobody</i>"  # a team refused: its note is escaped too
     graded = run_cli(
-        "grade", "level.yaml", "--team", f"{HOSTILE_TEAM}.py", "--team", refused, "--seeds", "1", "--workers", "1",
-        "--db", "g.sqlite", "--out", "lb.csv", "--secret-file", secret_file("markdown"),
+        "grade", "level.yaml", "--team", f"{HOSTILE_TEAM}.py", "--team", "loud.py", "--team", refused, "--seeds", "1",
+        "--workers", "1", "--db", "g.sqlite", "--out", "lb.csv", "--secret-file", secret_file("markdown"),
         cwd=shared_dir,
     )  # fmt: skip
     assert graded.returncode == 0, graded.stderr
     board = (shared_dir / "lb.md").read_text()
     assert graded.stdout == board  # what grade prints is the file
-    header, row = check_table(board, 8)
-    assert header[:2] == ["level", "team"] and row[:2] == [HOSTILE_LEVEL, f"{HOSTILE_TEAM}.py"]
+    header, *rows = check_table(board, 8)
+    rows = {r[1]: r for r in rows}
+    assert header[:2] == ["level", "team"] and rows[f"{HOSTILE_TEAM}.py"][0] == HOSTILE_LEVEL
+    assert header[-1] == "faults" and rows["loud.py"][-1] == LOUD_FAULT
+    assert rows[f"{HOSTILE_TEAM}.py"][-1].startswith(f"1 load: {HOSTILE_TEAM}.py defines no ")  # its load fault
     assert "Note: refused team ref:<i>nobody</i>" in html.unescape(render(board))
 
     played = run_cli(
-        "tournament", "level.yaml", "--team", f"{HOSTILE_TEAM}.py", "--team", "ref:idle", "--workers", "1",
+        "tournament", "level.yaml", "--team", f"{HOSTILE_TEAM}.py", "--team", "loud.py", "--team", "ref:idle",
+        "--workers", "1",
         "--db", "t.sqlite", "--out", "site", "--secret-file", secret_file("markdown"),
         cwd=shared_dir,
     )  # fmt: skip
     assert played.returncode == 0, played.stderr
     standings = (shared_dir / "site" / "standings.md").read_text()
     header, *teams = check_table(standings, 7)
-    assert header[:2] == ["rank", "team"] and sorted(t[1] for t in teams) == sorted([f"{HOSTILE_TEAM}.py", "ref:idle"])
+    assert header[:2] == ["rank", "team"]
+    assert sorted(t[1] for t in teams) == sorted([f"{HOSTILE_TEAM}.py", "loud.py", "ref:idle"])
+    heats = next(int(t[5]) for t in teams if t[1] == "loud.py")
+    assert f"Faults of loud.py: {LOUD_FAULT.replace('1 ', f'{heats} ', 1)}" in html.unescape(render(standings))
     assert f"<h1>Tournament: {html.escape(HOSTILE_LEVEL, quote=False)}</h1>" in render(standings)

@@ -24,6 +24,7 @@ from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
 from referee.records.canonical import dumps
+from referee.records.faults import located
 from referee.sandbox import forkserver
 from referee.sandbox.teams import controller_problem
 from referee.terminal import safe
@@ -78,7 +79,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     logs = {slot: str(Path(args.logs) / f"slot{slot}.log") for slot in failed} if args.logs else None
     logs = {} if args.in_process and not args.logs else logs
     given = result["robots"][: len(args.team)] if args.team else result["robots"]  # else the level's own
-    unloadable = [r["faults"][0]["message"] for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
+    unloadable = [located(r["faults"][0]) for r in given if r["faults"] and r["faults"][0]["kind"] == "load"]
     if given and len(unloadable) == len(given):  # nothing the user asked for (or the level named) could run
         raise UserError("; ".join(unloadable))
     if args.json == "-":  # the JSON is the output; the table goes to stderr
@@ -155,6 +156,9 @@ def cmd_tournament(args: argparse.Namespace) -> int:
             print(f"{s.rank:>4}  {s.rating:7.2f}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
         for note in done.notes:
             print(f"Note: {safe(note, 500)}")
+        for s in done.standings:
+            if s.faults:
+                print(f"faults of {safe(s.team)}: {safe(s.faults, 500)}")
         heats = len({h.heat for h in done.heats})
         print(
             f"{heats} heats ({done.ran} run now) in the journal {args.db}; report {Path(args.out) / 'index.html'}; "

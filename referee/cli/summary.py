@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from referee.records.faults import told
 from referee.records.results import MatchResult
 from referee.terminal import safe
 
@@ -25,12 +26,13 @@ def _progress(task: dict) -> str:
     return text + (f" in {task['finished']:.2f} s" if task["finished"] is not None else "")
 
 
-FAULT_WIDTH = 100  # a fault's message under the table, cut to this many characters
+FAULT_WIDTH = 200  # a fault's message under the table, cut to this many characters
 
 
 def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
     """A fixed-width table: one row per robot with score, progress and localization error;
-    under it each fault's message on one line, and where the faulted slot's log is (`logs`:
+    under it each fault's message on one line, with the team's file and line where it raised,
+    and where the faulted slot's log is (`logs`:
     None when no log is kept, which a line then says how to get)."""
     head = (
         f"{safe(result['level']['name'])}  seed {result['seed']}  ended at {result['end_time']:.3f} s "
@@ -76,7 +78,7 @@ def table(result: MatchResult, logs: dict[int, str] | None = None) -> str:
     for r in result["robots"]:
         for f in r["faults"]:
             lines.append(
-                f"slot {r['slot']} {safe(f['kind'], 20)} at {f['time']:.2f} s: {safe(f['message'], FAULT_WIDTH)}"
+                f"slot {r['slot']} {safe(f['kind'], 20)} at {f['time']:.2f} s: {safe(told(f, FAULT_WIDTH), 400)}"
             )
         if r["faults"] and logs and r["slot"] in logs:
             lines.append(f"slot {r['slot']} log: {safe(logs[r['slot']], 200)}")

@@ -26,6 +26,7 @@ from referee.contest.journal import Journal
 from referee.contest.noise_secret import noise_key, secret_id
 from referee.contest.runner import MatchJob, file_part, replay_folder, write_replay
 from referee.errors import UserError
+from referee.records.faults import summary
 from referee.sandbox.teams import Team, resolve
 from referee.terminal import Progress, csv_text, markdown_text, safe
 
@@ -199,7 +200,8 @@ def interval(values: list[float]) -> tuple[float, float]:
 
 
 def leaderboard_rows(journal: Journal, jobs: list[Job]) -> list[dict]:
-    """One row per (team, level): mean score over seeds with its 95 % interval, and more."""
+    """One row per (team, level): mean score over seeds with its 95 % interval, and more;
+    `fault_summary` tells its faults by kind, each kind's first message and line of code."""
     groups: dict[tuple[str, str], list[dict]] = {}
     for job, result in journal.results(jobs):
         groups.setdefault((job.team, job.level), []).append(result["robots"][0])
@@ -218,6 +220,7 @@ def leaderboard_rows(journal: Journal, jobs: list[Job]) -> list[dict]:
                 "position_rms": round(sum(rms) / len(rms), 6) if rms else None,
                 "fouls": sum(len(r["fouls"]) for r in robots),
                 "faults": sum(len(r["faults"]) for r in robots),
+                "fault_summary": summary(f for r in robots for f in r["faults"]),
             }
         )
     rows.sort(key=lambda r: (r["level"], -r["score_mean"], r["team"]))
@@ -235,8 +238,9 @@ def write_leaderboard(rows: list[dict], out: Path, notes: Sequence[str] = ()) ->
 
 
 def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
-    """The leaderboard as a Markdown table (what `laserarena grade` prints), then each of
-    `notes` (a team refused, matches played without a sandbox) on a line of its own."""
+    """The leaderboard as a Markdown table (what `laserarena grade` prints; its faults column
+    tells them by kind), then each of `notes` (a team refused, matches played without a
+    sandbox) on a line of its own."""
     md = [
         "| level | team | matches | score (mean ± 95 %) | task | position RMS mm | fouls | faults |",
         "|---|---|---|---|---|---|---|---|",
@@ -246,7 +250,7 @@ def markdown(rows: list[dict], notes: Sequence[str] = ()) -> str:
         md.append(
             f"| {markdown_text(r['level'])} | {markdown_text(r['team'])} | {r['matches']} "
             f"| {r['score_mean']:.1f} ± {r['score_ci95']:.1f} "
-            f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {r['faults']} |"
+            f"| {r['task_mean']:.1f} | {rms} | {r['fouls']} | {markdown_text(r['fault_summary'], 400) or 0} |"
         )
     md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
     return "\n".join(md) + "\n"

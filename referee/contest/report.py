@@ -59,6 +59,7 @@ def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
                 "sigma": round(s.rating.sigma, 4),
                 "heats": s.heats,
                 "mean_score": s.mean_score,
+                "faults": s.faults,
                 "levels": {
                     level: {"heats": n, "mean_score": mean, "ci95": [low, high]}
                     for level, (n, mean, low, high) in s.levels.items()
@@ -72,8 +73,9 @@ def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
 
 
 def standings_markdown(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
-    """standings.md: the title, the standings as a Markdown table and each of `notes` on a
-    line of its own (team names and notes escaped: they render as themselves)."""
+    """standings.md: the title, the standings as a Markdown table, each of `notes` and each
+    team's faults on a line of its own (team names, notes and faults escaped: they render as
+    themselves)."""
     md = [
         f"# {markdown_text(title)}",
         "",
@@ -86,6 +88,9 @@ def standings_markdown(outcome: Outcome, title: str, notes: Sequence[str] = ()) 
         for s in outcome.standings
     ]
     md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
+    md += [
+        f"\nFaults of {markdown_text(s.team)}: {markdown_text(s.faults, 500)}" for s in outcome.standings if s.faults
+    ]
     return "\n".join(md) + "\n"
 
 
@@ -107,8 +112,10 @@ def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) ->
         ]
         for s in outcome.standings
     ]
+    for row, s in zip(rows, outcome.standings):
+        row.append(s.faults)
     (out / "standings.csv").write_text(
-        csv_text(["rank", "team", "rating", "mu", "sigma", "heats", "mean_score"], rows), encoding="utf-8"
+        csv_text(["rank", "team", "rating", "mu", "sigma", "heats", "mean_score", "faults"], rows), encoding="utf-8"
     )
     (out / "standings.json").write_text(
         json.dumps(standings_data(outcome, notes), indent=2, sort_keys=True) + "\n", encoding="utf-8"
@@ -209,6 +216,7 @@ def page(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
             f'<td class="n">{s.heats}</td><td class="n">{s.mean_score:.1f}</td></tr>'
         )
     out.append("</table>")
+    out += [f"<p>Faults of {_e(s.team)}: {_e(s.faults)}</p>" for s in outcome.standings if s.faults]
     out += ["<h2>Rating over the heats</h2>", rating_plot(outcome)]
     for level in dict.fromkeys(h.heat.level for h in outcome.heats):
         out.append(f"<h2>Level {_e(level)}</h2>")

@@ -26,6 +26,7 @@ from referee.contest.ratings import Placing, Rating, bootstrap, ranks, rate
 from referee.contest.runner import MatchJob, file_part, replay_folder, write_replay
 from referee.contest.schedule import schedule
 from referee.errors import UserError
+from referee.records.faults import summary
 from referee.sandbox.teams import Team, resolve
 from referee.terminal import Progress, safe
 
@@ -204,7 +205,8 @@ class HeatResult:
 @dataclass(frozen=True)
 class Standing:
     """A team's line in the standings: rank, name, rating, heats played, mean score over them,
-    and per level (name -> (heats, mean, low, high) with the 95 % bootstrap interval)."""
+    per level (name -> (heats, mean, low, high) with the 95 % bootstrap interval), and its
+    faults told by kind (referee.records.faults.summary; "" for none)."""
 
     rank: int
     team: str
@@ -212,6 +214,7 @@ class Standing:
     heats: int
     mean_score: float
     levels: dict[str, tuple[int, float, float, float]]
+    faults: str = ""
 
 
 @dataclass(frozen=True)
@@ -228,12 +231,16 @@ class Outcome:
 def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcome:
     """The standings from the journal's results of `heats` (all of which must have run)."""
     played = []
+    faults: dict[int, list] = {}  # each team's faults, heat by heat
     for heat in heats:
         found = journal.heat(heat.key())
         if found is None:
             raise UserError(f"{journal.path}: heat {heat.number} has not run; run the tournament again")
         result, replay, wall = found
         robots = sorted(result["robots"], key=lambda r: r["slot"])
+        for team, robot in zip(heat.teams, robots):
+            if team is not None:
+                faults.setdefault(team, []).extend(robot["faults"])
         scores = [float(r["score"]["total"]) for r in robots]
         placings = tuple(Placing(t, s, k) for t, s, k in zip(heat.teams, scores, ranks(scores)))
         played.append(HeatResult(heat, placings, replay, wall))
@@ -248,10 +255,12 @@ def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcom
             mean, low, high = bootstrap(scores, f"{level}\0{entrant.team.spec}")
             per_level[level] = (len(scores), round(mean, 3), round(low, 3), round(high, 3))
         mean_all = round(sum(s for _, s in mine) / len(mine), 3) if mine else 0.0
-        rows.append((entrant.name, final[t] if final else None, len(mine), mean_all, per_level))
+        rows.append(
+            (entrant.name, final[t] if final else None, len(mine), mean_all, per_level, summary(faults.get(t, [])))
+        )
     rows.sort(key=lambda r: (-(r[1].ordinal if r[1] else 0.0), r[0]))
     standings = [
-        Standing(i + 1, name, rating or Rating(0.0, 0.0), n, mean, per_level)
-        for i, (name, rating, n, mean, per_level) in enumerate(rows)
+        Standing(i + 1, name, rating or Rating(0.0, 0.0), n, mean, per_level, told)
+        for i, (name, rating, n, mean, per_level, told) in enumerate(rows)
     ]
     return Outcome(teams, standings, played, history)

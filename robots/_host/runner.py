@@ -163,6 +163,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         cls = load_class(spec)
     except LoadError as e:
+        if e.__cause__ is not None:  # the team's code raised as it loaded: its traceback names the line
+            sys.stderr.write(team_traceback(e.__cause__, globals(), vars(loading)))
         protocol.write(out, protocol.FaultMsg(v=v, kind=protocol.FaultKind.LOAD, message=str(e)))
         return 1
     except BaseException as e:  # anything else the team's module does while it loads
