@@ -5,6 +5,7 @@ and so does each fault's whole traceback: this terminal is the team's log."""
 
 from __future__ import annotations
 
+import os
 import sys
 import traceback
 from pathlib import Path
@@ -68,7 +69,7 @@ class InProcessBot:
         sys.stderr.write("".join(traceback.format_exception(e)))
         tail = traceback_tail(team_traceback(e, globals(), vars(loading)))
         if tail is not None and self.team.home:
-            tail = tail.replace(str(Path(self.team.home)) + "/", "")
+            tail = tail.replace(os.path.join(self.team.home, ""), "")
         return fault(tick, time, kind, message, traceback=tail)
 
     def step(self, obs: Observation) -> Command | Fault:

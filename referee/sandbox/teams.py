@@ -5,8 +5,9 @@ is shipped, docs/controllers.md), `path/DIR[:Class]` (a folder: with `__init__.p
 shipped whole, data files too; else its controller file is `controller.py` or its one other
 `.py` file besides tests, and its `.py` files ship beside it), `package.module:Class` (anything
 on the path) or NAME (an installed controller's entry point). Resolving finds the files only:
-nothing of the team's is imported or executed in the referee. The controller's own (sandboxed) process loads the code; a failure to load comes
-back from there as a `load` fault for that slot. Only `--in-process` imports a team here.
+nothing of the team's is imported or executed in the referee. The controller's own
+(sandboxed) process loads the code; a failure to load comes back from there as a `load`
+fault for that slot. Only `--in-process` imports a team here.
 """
 
 from __future__ import annotations

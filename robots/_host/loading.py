@@ -120,11 +120,7 @@ def import_hint(e: ImportError, alone: bool) -> str:
         return " (what robots' modules provide: docs/api.md and docs/toolkit.md)"
     if not isinstance(e, ModuleNotFoundError) or not top or top in sys.stdlib_module_names or top in STANDARD_VIEW:
         return ""
-    own = (
-        "; a module of your own ships beside it when the folder is the team, given as --team DIR"
-        if alone
-        else ""
-    )
+    own = "; a module of your own ships beside it when the folder is the team, given as --team DIR" if alone else ""
     return (
         f" (a sandboxed controller imports the standard library, robots, {', '.join(STANDARD_VIEW)} and its own "
         f"modules{own}; docs/controllers.md)"
