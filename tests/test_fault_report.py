@@ -262,3 +262,32 @@ def test_a_broken_time_limit_is_told_by_its_name(shared_dir, limits, seconds, to
     faults = json.loads((shared_dir / "r.json").read_text())["robots"][0]["faults"]
     assert faults[-1]["kind"] == "timeout" and faults[-1]["message"] == told, faults
     assert f"timeout at {faults[-1]['time']:.2f} s: {told}" in out.stdout
+
+
+DEEP = """import json
+
+from robots.api import Command, Controller
+
+
+def settings(text):
+    return json.loads(text, object_hook=dict)
+
+
+class Deep(Controller):
+    def step(self, obs):
+        if obs.tick == 2:
+            settings('{"gain": }')
+        return Command(0.0, 0.0)
+"""
+
+
+@pytest.mark.parametrize("extra", [[], ["--in-process"]])
+def test_an_error_deep_in_a_library_still_points_at_the_teams_line(shared_dir, extra):
+    # three frames of the json module under the team's: more than the traceback's tail holds
+    out, fault = run_team(shared_dir, "deep.py", DEEP, extra)
+    line = line_of(DEEP, "return json.loads(text, object_hook=dict)")
+    assert fault["message"].startswith("in step: JSONDecodeError: Expecting value")
+    assert f"JSONDecodeError: Expecting value: line 1 column 10 (char 9) (deep.py:{line})" in out.stdout
+    tb = fault["traceback"].splitlines()
+    assert len(tb) <= 12 and tb[1] == f'  File "deep.py", line {line}, in settings' and "  ..." in tb
+    assert tb[-1] == "json.decoder.JSONDecodeError: Expecting value: line 1 column 10 (char 9)"

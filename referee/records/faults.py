@@ -19,14 +19,16 @@ TEAM_PREFIX = re.compile(r"^team .*?: ")  # a load fault's message names the tea
 MESSAGE = 80  # characters of a fault's message in a table cell
 
 
+def own_file(path: str) -> bool:
+    """Whether a traceback's file is one of the team's own (named relative), not Python's,
+    a library's or `robots`' (absolute, or `<frozen ...>`)."""
+    return not (path.startswith("<") or posixpath.isabs(path) or ntpath.isabs(path))
+
+
 def site(traceback: str | None) -> tuple[str, int] | None:
     """The file and line of the last frame of a traceback tail that lies in the team's own
     files, or None."""
-    found = [
-        (path, int(line))
-        for path, line in FRAME.findall(traceback or "")
-        if not (path.startswith("<") or posixpath.isabs(path) or ntpath.isabs(path))
-    ]
+    found = [(path, int(line)) for path, line in FRAME.findall(traceback or "") if own_file(path)]
     return found[-1] if found else None
 
 

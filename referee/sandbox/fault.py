@@ -4,6 +4,7 @@ protocol error naming a team's field), and the tail of a team's traceback that g
 
 from __future__ import annotations
 
+from referee.records.faults import FRAME, own_file
 from referee.records.results import Fault
 from referee.terminal import safe
 from robots._host.protocol import FaultKind
@@ -22,14 +23,34 @@ def fault(tick: int, time: float, kind: FaultKind, message: str, traceback: str 
 TRACEBACK_LINES, TRACEBACK_BYTES = 12, 8192
 
 
+def _frames(body: list[str]) -> list[str]:
+    """`body` from a frame's first line, not the middle of one (unless it holds no frame)."""
+    while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
+        body = body[1:]
+    return body
+
+
+def _own(line: str) -> bool:
+    """Whether a traceback line is the first line of a frame in the team's own files."""
+    found = FRAME.match(line)
+    return found is not None and own_file(found.group(1))
+
+
 def traceback_tail(log: str) -> str | None:
     """The last traceback in a team's log (printed from the team's own first frame, by
-    robots._host.tracebacks), cut to its last TRACEBACK_LINES lines, or None."""
+    robots._host.tracebacks, the team's files named relative), cut to its last
+    TRACEBACK_LINES lines, or None. Where those hold none of the team's frames (an error deep
+    in a library), its last frame comes first, then `...` and the last lines that fit: the
+    tail always shows where the team's code was."""
     start = log.rfind("Traceback (most recent call last):")
     if start < 0:
         return None
     lines = log[start:].rstrip().splitlines()
-    body = lines[1:][-(TRACEBACK_LINES - 1) :]
-    while body and not body[0].startswith("  File ") and any(b.startswith("  File ") for b in body):
-        body = body[1:]  # from a frame's first line, not the middle of one
-    return "\n".join(lines[:1] + body)
+    body = lines[1:]
+    tail = _frames(body[-(TRACEBACK_LINES - 1) :])
+    own = [i for i, line in enumerate(body) if _own(line)]
+    if own and not any(_own(line) for line in tail):
+        end = next((j for j in range(own[-1] + 1, len(body)) if body[j].startswith("  File ")), len(body))
+        frame = body[own[-1] : end][:4]  # its file line, its code and the markers under it
+        tail = frame + ["  ..."] + _frames(body[-(TRACEBACK_LINES - 2 - len(frame)) :])
+    return "\n".join(lines[:1] + tail)

@@ -67,10 +67,10 @@ class InProcessBot:
         """The fault of the team's exception `e`: its whole traceback printed here, its tail
         (from the team's first frame, paths relative to the team's folder) in the record."""
         sys.stderr.write("".join(traceback.format_exception(e)))
-        tail = traceback_tail(team_traceback(e, globals(), vars(loading)))
-        if tail is not None and self.team.home:
-            tail = tail.replace(os.path.join(self.team.home, ""), "")
-        return fault(tick, time, kind, message, traceback=tail)
+        told = team_traceback(e, globals(), vars(loading))
+        if self.team.home:
+            told = told.replace(os.path.join(self.team.home, ""), "")
+        return fault(tick, time, kind, message, traceback=traceback_tail(told))
 
     def step(self, obs: Observation) -> Command | Fault:
         if self.controller is None:
