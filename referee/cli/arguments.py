@@ -78,7 +78,8 @@ def _run(sub: Commands) -> None:
         "--team",
         action="append",
         metavar="T",
-        help="controller for the next robot slot: ref:NAME, FILE.py[:Class] or module:Class",
+        help="controller for the next robot slot: ref:NAME, FILE.py[:Class], DIR[:Class] (a team folder), "
+        "module:Class or an installed controller's NAME",
     )
     s.add_argument("--seed", type=int, help="match seed (default: the level's)")
     s.add_argument(
@@ -94,7 +95,8 @@ def _run(sub: Commands) -> None:
         "--in-process",
         action="store_true",
         help="run the controllers inside this process, for a debugger: UNSAFE, the team's code "
-        "runs with the referee's rights (never for grading); same results within budget",
+        "runs with the referee's rights (never for grading); same results within budget; a fault "
+        "prints its whole traceback",
     )
     s.add_argument(
         "--logs",
