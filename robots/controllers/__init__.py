@@ -4,7 +4,7 @@ REFERENCE: dict[str, str] = {
     "idle": "robots.controllers.idle:Idle",
     "sensorless": "robots.controllers.sensorless:Sensorless",
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
-    "starter": "robots.controllers.starter:Starter",
+    "starter": "robots.controllers.starter:MyBot",
     "best": "robots.controllers.best:Best",
     "bac": "robots.controllers.bac:Bac",
     "bac-seed": "robots.controllers.bac:BacSeed",
