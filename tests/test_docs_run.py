@@ -7,7 +7,8 @@
 - `<!-- run: notebook -->`: a cell of the doc's notebook; its cells run in order in one
   process, each known to `linecache` under a cell name, as Jupyter runs them;
 - `<!-- quickstart -->`: the README's quickstart, followed on a fresh copy by test_quickstart.py;
-- ```text: an output sample;
+- ```text: an output sample; `<!-- output: COMMAND -->` before it: what COMMAND prints, run
+  here in a fresh folder and compared with the block, character for character;
 - `<!-- fragment: WHY -->`: a part of something larger, saying why it does not run alone.
 
 A block that is none of these fails `test_every_block_runs_or_says_why`. The controllers
@@ -70,6 +71,8 @@ def _kind(block: Block) -> str | None:
         return "save"
     if block.lang == "text" and not block.marker:
         return "output"
+    if block.lang == "text" and block.marker.startswith("output:") and block.marker.partition(":")[2].strip():
+        return "checked output"
     if block.marker.startswith("fragment:") and block.marker.partition(":")[2].strip():
         return "fragment"
     return None
@@ -127,6 +130,20 @@ def test_block_runs(block):
         # a line that shows a failure handles it itself (`|| echo`)
         cmd = [sys.executable, "block.py"] if block.lang == "python" else ["bash", "-eu", "-c", block.code]
         _run(block, cmd, Path(d))
+
+
+CHECKED = [b for doc in DOCS for b in _blocks(doc) if _kind(b) == "checked output"]
+
+
+@pytest.mark.parametrize("block", CHECKED, ids=[b.name for b in CHECKED])
+def test_output_is_what_the_command_prints(block):
+    command = block.marker.partition(":")[2].strip()
+    with _folder() as d:
+        out = subprocess.run(
+            ["bash", "-eu", "-c", command], capture_output=True, text=True, cwd=d, env=_env(), timeout=TIMEOUT
+        )
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout == block.code, f"{block.name}: `{command}` prints\n{out.stdout}"
 
 
 NOTEBOOK = """
