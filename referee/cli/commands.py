@@ -30,11 +30,18 @@ from referee.terminal import safe
 
 
 def cmd_levels(args: argparse.Namespace) -> int:
-    for name in levels.names():
-        lv = load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controller_problem)
+    found = {
+        name: load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controller_problem)
+        for name in levels.names()
+    }
+    # columns as wide as their widest entry: the names and controllers are the levels' own
+    names = max(map(len, found))
+    robots = max(len(str(len(lv.robots))) for lv in found.values())
+    defaults = max(len(lv.default_controller) for lv in found.values())
+    for name, lv in found.items():
         print(
-            f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
-            f"default {lv.default_controller:<20} {lv.description}"
+            f"{name:<{names}}  {len(lv.robots):>{robots}} robot{'s' if len(lv.robots) > 1 else ' '}  "
+            f"default {lv.default_controller:<{defaults}}  {lv.description}"
         )
     return 0
 
