@@ -28,6 +28,28 @@ from referee.sandbox import forkserver
 from referee.sandbox.teams import controller_problem
 from referee.terminal import safe
 
+# s: about what a first match after installing spends compiling the kernels (the `first-run`
+# row of docs/performance.json; tests/test_warm.py holds the two together)
+COMPILING_S = 25
+
+
+def announce_compiling(quiet: bool) -> None:
+    """Say, in one line on stderr, that this command's first match compiles the kernels and
+    how long that takes: numba's cache holds nothing for the loop every match steps (a fresh
+    install that `referee.match.warm` has not warmed). Nothing with --quiet."""
+    if quiet:
+        return
+    with lasting():  # numba's objects live as long as the process (arena.heap)
+        from arena.compiled import cached
+        from arena.stepping import run_steps
+
+    if cached(run_steps) is False:
+        print(
+            f"laserarena: compiling the simulator's kernels, once after installing: about {COMPILING_S} s",
+            file=sys.stderr,
+            flush=True,
+        )
+
 
 def cmd_levels(args: argparse.Namespace) -> int:
     found = {
@@ -70,6 +92,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         forkserver.start()
     with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
         import referee.match.loop  # noqa: F401
+    announce_compiling(args.quiet)
     result = api.run_match(
         level,
         args.team,
@@ -125,6 +148,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
+    if not args.scheduler:  # a cluster's workers compile on their own machines
+        announce_compiling(args.quiet)
     start = time.perf_counter()
     board = api.leaderboard(
         args.level,
@@ -147,6 +172,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
+    if not args.scheduler:  # a cluster's workers compile on their own machines
+        announce_compiling(args.quiet)
     start = time.perf_counter()
     done = api.tournament(
         args.level,
@@ -191,6 +218,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
     with lasting():  # numba's objects live as long as the process (arena.heap)
         from referee.match.verify import verify
+    announce_compiling(False)
 
     secret = _secret(args)
     if args.db:
@@ -266,6 +294,7 @@ def cmd_watch(args: argparse.Namespace) -> int:
     if problem:
         raise UserError(f"watch: {problem}; {ELSEWHERE}")
     print(KEYS_HELP)
+    announce_compiling(False)
     watch(args.target, args.team, args.seed, (w, h), args.speed, args.frames)
     return 0
 
