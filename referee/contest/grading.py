@@ -116,11 +116,12 @@ def grade_jobs(
     unsandboxed: bool = False,
 ) -> int:
     """Run every job not yet in `journal`, on `workers` local processes or on `cluster`, and
-    return how many ran now; replays go to the journal's folder/replays. Workers return each match's result and replay;
-    only this process writes them. `teams`: the jobs' teams as resolved when they were made
-    (any other is resolved here); `unsandboxed`: the organizer allows matches without a kernel
-    sandbox (the journal then records it, as it records an insecure cluster). A worker that
-    fails its audit: its results of this run are removed again, and AuditFailed goes on up."""
+    return how many ran now; replays go to the journal's folder/replays. Workers return each
+    match's result and replay; only this process writes them. `teams`: the jobs' teams as
+    resolved when they were made (any other is resolved here); `unsandboxed`: the organizer
+    allows matches without a kernel sandbox (the journal then records it, as it records an
+    insecure cluster). A worker that fails its audit: its results of this run are removed
+    again, and AuditFailed goes on up."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]

@@ -136,9 +136,8 @@ def _e(text: object) -> str:
 
 
 def rating_plot(outcome: Outcome, width: int = 720, height: int = 300) -> str:
-    """Each team's rating (mu - 3 sigma) after each heat, as an inline SVG line chart (none
-    where no rating could be formed)."""
-    if not outcome.history or outcome.unrated:
+    """Each team's rating (mu - 3 sigma) after each heat, as an inline SVG line chart."""
+    if not outcome.history:
         return ""
     from openskill.models import PlackettLuce
 
@@ -216,7 +215,7 @@ def page(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
             f'<td class="n">{s.heats}</td><td class="n">{s.mean_score:.1f}</td></tr>'
         )
     out.append("</table>")
-    if not outcome.unrated:
+    if not outcome.unrated:  # no chart of ratings that were never formed
         out += ["<h2>Rating over the heats</h2>", rating_plot(outcome)]
     for level in dict.fromkeys(h.heat.level for h in outcome.heats):
         out.append(f"<h2>Level {_e(level)}</h2>")

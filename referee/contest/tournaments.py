@@ -263,7 +263,10 @@ def why_unrated(teams: int, added: list[list[Placing]]) -> str | None:
         return None
     if teams == 1 and all(len(heat) < 2 for heat in added):
         return "no rating: one team alone, with no other to compare it with on the same seeds"
-    return "no rating: every heat was a tie (on a one-robot level: all teams scored alike on every seed); ranked by mean score, then name"
+    return (
+        "no rating: every heat was a tie (on a one-robot level: all teams scored alike on every seed); "
+        "ranked by mean score, then name"
+    )
 
 
 def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcome:
