@@ -73,9 +73,10 @@ def report(f: dict, repeat: int) -> dict:
         "fixed_cpu_s": c["fixed_cpu_s"],
         "match_cpu_ms": 1000 * c["match_cpu_per_s"],
     }
-    out["run-command"] = {
-        k: sp["command_line_run"][k] for k in ("wall_s", "simulated_s", "bare_wall_s", "ratio", "cpu_ratio")
-    }
+    keys = ("wall_s", "simulated_s", "bare_wall_s", "ratio", "cpu_ratio")
+    out["run-command"] = {k: sp["command_line_run"][k] for k in keys}
+    out["run-command.bac"] = {k: sp["command_line_run_bac"][k] for k in keys}
+    out["run-fixed"] = dict(sp["command_line_fixed"])
     out["solvers"] = {
         "total_scalar_us": s["total_scalar_us"],
         "total_heading_us": s["total_heading_us"],

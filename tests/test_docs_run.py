@@ -186,11 +186,11 @@ def _tutorial_robot() -> str:
     return steps[-1].code
 
 
-def test_the_tutorials_last_step_is_the_starter():
-    """`laserarena new` writes the starter's source: the page and the kit cannot drift apart."""
-    import robots.controllers.starter as starter
+def test_the_tutorials_last_step_is_the_starter_kits_robot():
+    """`laserarena new` writes the tutorial robot's source: the page and the kit cannot drift apart."""
+    import robots.controllers.tutorial as tutorial
 
-    assert _tutorial_robot() == Path(starter.__file__).read_text(encoding="utf-8")
+    assert _tutorial_robot() == Path(tutorial.__file__).read_text(encoding="utf-8")
 
 
 ASABE_WAYPOINTS = len(yaml.safe_load((ROOT / "levels" / "asabe.yaml").read_text())["task"]["path"])

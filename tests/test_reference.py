@@ -212,8 +212,7 @@ def test_best_practice_controller_beats_the_simple_ones():
     for level in ("asabe", "bac-line"):
         best = run(level, "ref:best")
         assert best["task"]["finished"] is not None
-        # (ref:starter is not among them: it steers by the same tracker, as the tutorial teaches)
-        for other in ("ref:bac-seed", "ref:dead-reckoning"):
+        for other in ("ref:bac-seed", "ref:starter", "ref:dead-reckoning"):
             r = run(level, other)
             assert best["localization"]["position_rms"] < r["localization"]["position_rms"], (level, other)
 

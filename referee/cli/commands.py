@@ -145,6 +145,7 @@ def _contest_options(args: argparse.Namespace) -> dict:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     from referee.contest.grading import markdown
+    from referee.contest.journal import account
 
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
@@ -162,9 +163,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
         api.warn(board.notes)
     else:
         print(markdown([asdict(r) for r in rows], board.notes), end="")
-        matches = sum(r.matches for r in rows)
         print(
-            f"{matches} matches in the journal {args.db}; leaderboard {args.out} (.json, .md); "
+            f"{account(board.matches, 'match', board.ran, args.db)}; leaderboard {args.out} (.json, .md); "
             f"{time.perf_counter() - start:.1f} s",
             file=sys.stderr,
         )
@@ -172,6 +172,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
+    from referee.contest.journal import account
+
     if not args.scheduler:  # a cluster's workers compile on their own machines
         announce_compiling(args.quiet)
     start = time.perf_counter()
@@ -186,12 +188,13 @@ def cmd_tournament(args: argparse.Namespace) -> int:
     else:
         print(f"{'rank':>4}  {'rating':>7}  {'heats':>5}  {'mean':>7}  team")
         for s in done.standings:
-            print(f"{s.rank:>4}  {s.rating:7.2f}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
+            rating = "-" if s.rating is None else f"{s.rating:.2f}"
+            print(f"{s.rank:>4}  {rating:>7}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
         for note in done.notes:
             print(f"Note: {safe(note, 500)}")
         heats = len({h.heat for h in done.heats})
         print(
-            f"{heats} heats ({done.ran} run now) in the journal {args.db}; report {Path(args.out) / 'index.html'}; "
+            f"{account(heats, 'heat', done.ran, args.db)}; report {Path(args.out) / 'index.html'}; "
             f"{time.perf_counter() - start:.1f} s. Heats' own time {done.heat_seconds:.1f} s; scheduling and rating "
             f"{1000 * done.overhead_seconds:.1f} ms ({1000 * done.overhead_seconds / heats:.2f} ms per heat); "
             f"report and viewer pages {done.report_seconds:.1f} s",

@@ -18,7 +18,7 @@ from typing import Any
 from referee.records.results import MatchResult
 
 FORMAT, VERSION = "laserarena-replay", 1
-BEHAVIOUR = 14  # bump when a change alters simulation results (the golden-replay test says so)
+BEHAVIOUR = 13  # bump when a change alters simulation results (the golden-replay test says so)
 MAX_RECORD = 1 << 23  # bytes in one record line: a header with a 1 MiB level, or a result, fit
 MAX_REPLAY = 64 << 20  # bytes of a whole replay, decompressed (and its file): what readers accept
 
