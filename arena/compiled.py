@@ -57,6 +57,18 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
         return cache._load_overload(sig, target_context)
 
 
+def cached(kernel: Any) -> bool | None:
+    """Whether numba's cache holds machine code of `kernel` (a `compiled` function) for its
+    source as installed: False where its first call compiles it, None where that cannot be
+    told (no cache, or a numba whose cache is laid out otherwise)."""
+    cache: Any = getattr(kernel, "_cache", None)
+    index: Any = getattr(cache, "_cache_file", None)
+    if not hasattr(index, "_load_index") or not hasattr(cache, "_guard_against_spurious_io_errors"):
+        return None
+    with cache._guard_against_spurious_io_errors():
+        return bool(index._load_index())  # empty when missing, of another numba, or of another source
+
+
 @compiled(inline="always")
 def maximum(a: float, b: float) -> float:
     """np.maximum of two floats: a NaN in either wins."""

@@ -22,6 +22,8 @@ BEACON = {
 }
 HUD_HEIGHT = 56  # the least: a title line, one line per robot, the timeline
 HUD_TEXT, OVERLAY, OVERLAY_TEXT = (235, 235, 235), (16, 18, 24), (250, 250, 250)
+# a beacon's name: dark on a white plate, legible on the field and on the dark margin alike
+LABEL, LABEL_PLATE = (20, 20, 24), (255, 255, 255)
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,7 @@ class Painter:
         pygame.font.init()
         self.font = pygame.font.Font(None, max(16, h // 36))
         self.small = pygame.font.Font(None, max(13, h // 48))
+        self.tag = pygame.font.Font(None, max(20, h // 28))  # a beacon's name
         self.line = self.font.get_linesize() + 2
         self.hud_height = max(HUD_HEIGHT, 6 + (1 + len(level.robots)) * self.line + 14)
         margin = max(12, min(w, h) // 30)
@@ -143,8 +146,17 @@ class Painter:
                         (cx + fy * r - fx * r * 0.6, cy - fx * r - fy * r * 0.6),
                     ],
                 )
-            label = self.small.render(b.id, True, (40, 40, 40))
-            surface.blit(label, (cx + r + 2, cy - r - 2))
+            self._label(surface, b.id, cx + r + 2, cy - r - 2)
+
+    def _label(self, surface: pygame.Surface, text: str, x: int, bottom: int) -> None:
+        """A beacon's name on a plate whose bottom-left corner is at (x, bottom), moved into
+        the frame (below the HUD) where it would leave it."""
+        label = self.tag.render(text, True, LABEL)
+        w, h = label.get_width() + 6, label.get_height() + 2
+        x, y = min(x, self.size[0] - w - 2), max(bottom - h, self.hud_height + 2)
+        pygame.draw.rect(surface, LABEL_PLATE, (x, y, w, h))
+        pygame.draw.rect(surface, LABEL, (x, y, w, h), 1)
+        surface.blit(label, (x + 3, y + 1))
 
     def _box(self, x: float, y: float, h: float, length: float, width: float) -> list[tuple[int, int]]:
         c, s = math.cos(h), math.sin(h)

@@ -6,7 +6,8 @@
 (d) grading throughput; (e) the learning envs beside bare stepping (benchmarks/env.py); (f) how a
 match's cost grows with robots and beacons (benchmarks/scaling.py); (g) a controller's start,
 forked from the sandbox's template (benchmarks/sandbox.py); (h) what the slot's boundary costs
-per slot and per answer (benchmarks/boundary.py). Prints
+per slot and per answer (benchmarks/boundary.py); (i) the first run after an install, its
+kernels compiled, beside the next (benchmarks/first_run.py). Prints
 a table and writes the figures as JSON (--json): to docs/performance.json by default, the
 committed report the docs quote (benchmarks/quoted.py's `<!--p:KEY:STAT-->` markers, set here
 and held to it by tests/test_docs_figures.py), where each figure is in the unit the docs show
@@ -27,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 import boundary
 import env
+import first_run
 import grading
 import quoted
 import render
@@ -71,9 +73,10 @@ def report(f: dict, repeat: int) -> dict:
         "fixed_cpu_s": c["fixed_cpu_s"],
         "match_cpu_ms": 1000 * c["match_cpu_per_s"],
     }
-    out["run-command"] = {
-        k: sp["command_line_run"][k] for k in ("wall_s", "simulated_s", "bare_wall_s", "ratio", "cpu_ratio")
-    }
+    keys = ("wall_s", "simulated_s", "bare_wall_s", "ratio", "cpu_ratio")
+    out["run-command"] = {k: sp["command_line_run"][k] for k in keys}
+    out["run-command.bac"] = {k: sp["command_line_run_bac"][k] for k in keys}
+    out["run-fixed"] = dict(sp["command_line_fixed"])
     out["solvers"] = {
         "total_scalar_us": s["total_scalar_us"],
         "total_heading_us": s["total_heading_us"],
@@ -92,6 +95,7 @@ def report(f: dict, repeat: int) -> dict:
     if f["start"]:
         out["start"] = dict(f["start"])
     out["boundary"] = dict(f["boundary"])
+    out["first-run"] = dict(f["first_run"])
     out["env"] = dict(f["env"])  # microseconds per step, steps per second, ratios to bare: as env.py gives them
     for what in ("robots", "beacons"):
         for n, fig in f["scaling"][what].items():
@@ -129,6 +133,7 @@ def main() -> None:
     if figures["start"]:
         figures["start"].update(sandbox.floor(30))
     figures["boundary"] = boundary.measure()
+    figures["first_run"] = first_run.measure(args.repeat)
     s, r, g = figures["solvers"], figures["render"], figures["grading"]
     rows = [(f"(a) {a.strip()}", b, c) for a, b, c in speed.table(figures["speed"])]
     rows += [
@@ -176,6 +181,14 @@ def main() -> None:
             "(h) the largest legal answer",
             f"{b['largest_answer_ms']:.0f} ms once",
             f"{b['largest_answer_twice_ms']:.0f} ms as before; its sender's budget pays",
+        )
+    )
+    fr = figures["first_run"]
+    rows.append(
+        (
+            "(i) the first run after an install",
+            f"{fr['cold_wall_s']:.1f} s ({fr['cold_cpu_s']:.1f} s CPU)",
+            f"laserarena run asabe compiling its kernels; {fr['warm_wall_s']:.1f} s the next time",
         )
     )
     width = max(len(a) for a, _, _ in rows)

@@ -10,12 +10,13 @@ Each check returns a `Problem` (the dotted key it concerns and a one-line messag
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import yaml
 
 from levels.model import Level, Obstacle, Pose, RobotModel
+from levels.yaml_reader import SAFE_LOADER
 
 MAX_BYTES = 1 << 20  # a level is a page of YAML; a megabyte is already absurd
 MAX_DEPTH = 16  # nested mappings and lists; the deepest built-in level nests 4
@@ -44,24 +45,34 @@ def text_problem(data: bytes) -> Problem | None:
     lines of nested aliases ("billion laughs") would expand into millions of values."""
     if len(data) > MAX_BYTES:
         return Problem("(file)", f"{len(data)} bytes; a level file may have at most {MAX_BYTES}")
-    depth = values = 0
+    text = data.decode("utf-8", errors="replace")
     try:
-        for event in yaml.parse(data.decode("utf-8", errors="replace"), Loader=yaml.SafeLoader):
-            line = event.start_mark.line + 1 if event.start_mark else None  # the parser marks every event
-            if isinstance(event, yaml.AliasEvent):
-                return Problem("(yaml)", f"aliases (*{event.anchor}) are not allowed in levels", line)
-            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
-                depth += 1
-                if depth > MAX_DEPTH:
-                    return Problem("(yaml)", f"nested deeper than {MAX_DEPTH} levels", line)
-            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-                depth -= 1
-            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent, yaml.ScalarEvent)):
-                values += 1
-                if values > MAX_NODES:
-                    return Problem("(yaml)", f"more than {MAX_NODES} values", line)
+        return _stream_problem(yaml.parse(text, Loader=SAFE_LOADER))
+    except yaml.YAMLError:  # libyaml stops early at its own limits: PyYAML's own parser says why
+        pass
+    try:
+        return _stream_problem(yaml.parse(text, Loader=yaml.SafeLoader))
     except yaml.YAMLError:
         return None  # malformed YAML: the loader's composer reports it with its line
+
+
+def _stream_problem(events: Iterable[yaml.Event]) -> Problem | None:
+    """The first alias, or nesting or count past the limits, in a YAML event stream."""
+    depth = values = 0
+    for event in events:
+        line = event.start_mark.line + 1 if event.start_mark else None  # the parser marks every event
+        if isinstance(event, yaml.AliasEvent):
+            return Problem("(yaml)", f"aliases (*{event.anchor}) are not allowed in levels", line)
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > MAX_DEPTH:
+                return Problem("(yaml)", f"nested deeper than {MAX_DEPTH} levels", line)
+        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+        if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent, yaml.ScalarEvent)):
+            values += 1
+            if values > MAX_NODES:
+                return Problem("(yaml)", f"more than {MAX_NODES} values", line)
     return None
 
 

@@ -145,13 +145,15 @@ class LevelFigure:
 class StandingRow:
     """A team's line in a tournament's standings (standings.csv): rank, name, rating (mu - 3
     sigma), mu, sigma, heats played, mean score over them, its figures per level, and its
-    faults told by kind, with each kind's first message and the team's file and line ("" for none)."""
+    faults told by kind, with each kind's first message and the team's file and line ("" for
+    none). Where no rating can be formed (one team alone, or every heat a tie: the result's
+    notes say which) rating, mu and sigma are None and the teams are ranked by mean score."""
 
     rank: int
     team: str
-    rating: float
-    mu: float
-    sigma: float
+    rating: float | None
+    mu: float | None
+    sigma: float | None
     heats: int
     mean_score: float
     levels: tuple[LevelFigure, ...]
@@ -178,7 +180,8 @@ class TournamentResult:
     """A tournament's standings (best first) and every robot of every heat (heat and slot
     order); `ran` heats were played by this call, the others came from the journal. Times in
     seconds: the heats' own, scheduling and rating, and writing the report. `notes`: what the
-    report says beside the standings (teams refused, heats played without a kernel sandbox)."""
+    report says beside the standings (teams refused, heats played without a kernel sandbox,
+    why no rating could be formed)."""
 
     standings: tuple[StandingRow, ...]
     heats: tuple[HeatRow, ...]
@@ -297,10 +300,13 @@ def _secret(secret: str | None) -> str | None:
 @dataclass(frozen=True)
 class Leaderboard:
     """A grade's leaderboard rows and the notes a published leaderboard carries (teams
-    refused, matches played without a kernel sandbox)."""
+    refused, matches played without a kernel sandbox); its `matches`, of which `ran` were
+    played by this call (the others came from the journal)."""
 
     rows: tuple[LeaderboardRow, ...]
     notes: tuple[str, ...]
+    matches: int
+    ran: int
 
 
 def grade(
@@ -381,14 +387,15 @@ def leaderboard(
     names = dict(zip((t.spec for t in resolved), tournament_names(resolved)))  # the journal keeps specs
     with g.Journal(db) as journal:
         jobs = g.make_jobs(found, [(t.spec, t.code_hash) for t in resolved], seeds, journal.secret(given), __version__)
-        g.grade_jobs(
-            jobs, journal, workers=workers, cluster=where, quiet=quiet, teams=resolved, unsandboxed=unsandboxed
-        )
+        with journal.keeping([j.key() for j in jobs], "match"):
+            ran = g.grade_jobs(
+                jobs, journal, workers=workers, cluster=where, quiet=quiet, teams=resolved, unsandboxed=unsandboxed
+            )
         rows = [dict(r, team=names.get(r["team"], r["team"])) for r in g.leaderboard_rows(journal, jobs)]
         notes = _notes(journal, refused)
     if board is not None:
         g.write_leaderboard(rows, board, notes)
-    return Leaderboard(tuple(LeaderboardRow(**r) for r in rows), notes)
+    return Leaderboard(tuple(LeaderboardRow(**r) for r in rows), notes, len(jobs), ran)
 
 
 def tournament(
@@ -437,36 +444,28 @@ def tournament(
         heats = t.plan(found, entrants, rounds, journal.secret(given), __version__)
         planned = time.perf_counter()
         read = [e.team for e in entrants]  # their files read once, when resolved
-        ran = t.play_heats(
-            heats, found, journal, workers=workers, cluster=where, quiet=quiet, teams=read, unsandboxed=unsandboxed
-        )
+        with journal.keeping([h.key() for h in heats], "heat", heats=True):
+            ran = t.play_heats(
+                heats, found, journal, workers=workers, cluster=where, quiet=quiet, teams=read, unsandboxed=unsandboxed
+            )
         played = time.perf_counter()
         outcome = t.outcome(heats, entrants, journal)
         rated = time.perf_counter()
-        notes = _notes(journal, refused)
+        notes = _notes(journal, refused) + ((outcome.unrated,) if outcome.unrated else ())
     if folder is not None:
         report.write(outcome, folder, f"Tournament: {', '.join(lv.name for lv, _ in found)}", notes)
         for heat in outcome.heats:
             write_viewer(folder / report.replay_file(heat), folder / report.viewer_file(heat))
-    standings = tuple(
-        StandingRow(
-            s.rank,
-            s.team,
-            s.rating.ordinal,
-            s.rating.mu,
-            s.rating.sigma,
-            s.heats,
-            s.mean_score,
-            tuple(LevelFigure(level, *figures) for level, figures in s.levels.items()),
-            s.faults,
-        )
-        for s in outcome.standings
-    )
+    standings = []
+    for s in outcome.standings:
+        rating, mu, sigma = report.rating_figures(s.rating, float)
+        per_level = tuple(LevelFigure(level, *figures) for level, figures in s.levels.items())
+        standings.append(StandingRow(s.rank, s.team, rating, mu, sigma, s.heats, s.mean_score, per_level, s.faults))
     rows = tuple(
         HeatRow(**dict(zip(report.HEAT_COLUMNS, row), filler=bool(row[-1]))) for row in report.heat_rows(outcome)
     )
     return TournamentResult(
-        standings,
+        tuple(standings),
         rows,
         ran,
         sum(h.wall for h in outcome.heats),

@@ -9,6 +9,7 @@ result lost (docs/cli.md). Imports almost nothing: the console script loads it f
   clean-up).
 - `finish(code)`: the process ends with the command's code, its output flushed, without
   tearing its modules down (docs/decisions/0044).
+- `Interrupted`: the interrupt, saying what a contest's journal kept.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from types import FrameType
 
 from referee.errors import EXIT_INTERRUPTED, EXIT_PIPE
 
-__all__ = ["Catcher", "finish", "first", "fragile", "ignore", "steady", "take_again"]
+__all__ = ["Catcher", "Interrupted", "finish", "first", "fragile", "ignore", "steady", "take_again"]
 
 RETRY = 0.02  # seconds before a signal that came at a fragile moment is taken again
 # packages whose code, when an exception is raised inside it, loses it or turns it into another
@@ -30,6 +31,11 @@ FRAGILE = ("numba", "llvmlite", "pymunk")
 LOSES_EXCEPTIONS = ("__del__", "__set_name__")  # functions whose raised exception Python drops or wraps
 _steady = 0  # `steady()` sections under way
 _code: int | None = None  # the command's exit code, once it has returned one
+
+
+class Interrupted(KeyboardInterrupt):
+    """A Ctrl-C (or SIGTERM) that ended a grade or tournament; its message says what the
+    journal kept, and the command line prints it after `laserarena: interrupted; `."""
 
 
 def _early(signum: int, frame: object) -> None:

@@ -22,6 +22,20 @@ def test_closed_pipe_ends_quietly():
     assert err == b"" and proc.returncode == EXIT_PIPE
 
 
+def test_levels_columns_align():
+    import levels
+    from levels.loader import load_level
+
+    out = run_cli("levels")
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    found = [load_level(levels.path(name)) for name in levels.names()]
+    assert [line.split()[0] for line in lines] == [lv.name for lv in found]
+    for column in (" robot", " default "):  # each line's first: a description comes after them
+        assert len({line.index(column) for line in lines}) == 1, out.stdout
+    assert len({line.index(lv.description) for line, lv in zip(lines, found)}) == 1, out.stdout
+
+
 def test_json_to_stdout_table_to_stderr(shared_dir):
     (shared_dir / "level.yaml").write_text(MINI_LEVEL)
     out = run_cli("run", "level.yaml", "--json", "-", "--team", "ref:idle", cwd=shared_dir)

@@ -2,18 +2,22 @@
 
 - `<!-- run -->` before a ```sh or ```python block: run here, in a fresh folder with the
   venv's `laserarena` and `python` first on PATH, with a bound on its time (any doc);
+- `<!-- save: FILE -->` before a ```python block: a whole file the reader saves as FILE; the
+  doc's run blocks after it find it in their folder, as its last saved version;
 - `<!-- run: notebook -->`: a cell of the doc's notebook; its cells run in order in one
   process, each known to `linecache` under a cell name, as Jupyter runs them;
 - `<!-- quickstart -->`: the README's quickstart, followed on a fresh copy by test_quickstart.py;
-- ```text: an output sample;
+- ```text: an output sample; `<!-- output: COMMAND -->` before it: what COMMAND prints, run
+  here in a fresh folder and compared with the block, character for character;
 - `<!-- fragment: WHY -->`: a part of something larger, saying why it does not run alone.
 
 A block that is none of these fails `test_every_block_runs_or_says_why`. The controllers
-tutorial's steps are fragments of one file, mybot.py: put together as the tutorial says, they
-run, and the tutorial's commands run against it."""
+tutorial saves mybot.py step by step, each step run by the commands under it; its last step is
+the starter controller, word for word, and finishes the 'ASABE' letters."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -23,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -62,8 +67,12 @@ def _kind(block: Block) -> str | None:
         return block.marker
     if block.marker == "quickstart" and block.lang == "sh":
         return "quickstart"
+    if block.marker.startswith("save:") and block.lang == "python" and block.marker.partition(":")[2].strip():
+        return "save"
     if block.lang == "text" and not block.marker:
         return "output"
+    if block.lang == "text" and block.marker.startswith("output:") and block.marker.partition(":")[2].strip():
+        return "checked output"
     if block.marker.startswith("fragment:") and block.marker.partition(":")[2].strip():
         return "fragment"
     return None
@@ -98,27 +107,15 @@ def _folder() -> tempfile.TemporaryDirectory:
     return d
 
 
-def _fenced(text: str, heading: str) -> str:
-    """The first ```python block after a heading."""
-    part = text[text.index(heading) :]
-    return re.search(r"```python\n(.*?)```", part, re.S).group(1)
-
-
-def mybot() -> str:
-    """The controllers tutorial's mybot.py, put together as it says: steps 1 and 2 as written,
-    step 3 at the top of `step()`."""
-    text = (ROOT / "docs" / "controllers.md").read_text(encoding="utf-8")
-    step1, step2, step3 = (_fenced(text, h) for h in ("## 1.", "## 2.", "## 3."))
-    head, _, ret = step1.rpartition("        return")
-    return "import math\n" + head + step3 + "        return" + ret + step2
-
-
-SETUP = {"controllers.md": {"mybot.py": mybot}}  # files a doc's commands expect the reader to have made
+def _saved(block: Block) -> dict[str, str]:
+    """The files a reader has saved when reaching `block`: each file's last `save:` block before it."""
+    doc = next(d for d in DOCS if d.name == block.doc)
+    return {b.marker.partition(":")[2].strip(): b.code for b in _blocks(doc)[: block.index] if _kind(b) == "save"}
 
 
 def _run(block: Block, cmd: list[str], folder: Path) -> None:
-    for name, make in SETUP.get(block.doc, {}).items():
-        (folder / name).write_text(make(), encoding="utf-8")
+    for name, code in _saved(block).items():
+        (folder / name).write_text(code, encoding="utf-8")
         (folder / name).chmod(0o644)
     out = subprocess.run(cmd, capture_output=True, text=True, cwd=folder, env=_env(), timeout=TIMEOUT)
     assert out.returncode == 0, f"{block.name}:\n{out.stdout[-2000:]}\n{out.stderr[-3000:]}"
@@ -133,6 +130,20 @@ def test_block_runs(block):
         # a line that shows a failure handles it itself (`|| echo`)
         cmd = [sys.executable, "block.py"] if block.lang == "python" else ["bash", "-eu", "-c", block.code]
         _run(block, cmd, Path(d))
+
+
+CHECKED = [b for doc in DOCS for b in _blocks(doc) if _kind(b) == "checked output"]
+
+
+@pytest.mark.parametrize("block", CHECKED, ids=[b.name for b in CHECKED])
+def test_output_is_what_the_command_prints(block):
+    command = block.marker.partition(":")[2].strip()
+    with _folder() as d:
+        out = subprocess.run(
+            ["bash", "-eu", "-c", command], capture_output=True, text=True, cwd=d, env=_env(), timeout=TIMEOUT
+        )
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout == block.code, f"{block.name}: `{command}` prints\n{out.stdout}"
 
 
 NOTEBOOK = """
@@ -157,26 +168,48 @@ def test_notebook_runs(doc):
         _run(Block(doc, 0, "python", "run: notebook", ""), [sys.executable, "notebook.py"], Path(d))
 
 
-def test_controllers_tutorial_put_together_runs(shared_dir):
-    (shared_dir / "mybot.py").write_text(mybot())
+def test_each_saved_file_is_run_before_it_changes():
+    """A step's file is run by a command under it, before the next step saves it again."""
+    for doc in DOCS:
+        blocks = _blocks(doc)
+        for b in blocks:
+            if _kind(b) != "save":
+                continue
+            later = blocks[b.index + 1 :]
+            nxt = next((c.index for c in later if c.marker == b.marker), len(blocks))
+            assert any(_kind(c) == "run" for c in blocks[b.index + 1 : nxt]), f"{b.name} saves a file no command runs"
+
+
+def _tutorial_robot() -> str:
+    steps = [b for b in _blocks(ROOT / "docs" / "controllers.md") if b.marker == "save: mybot.py"]
+    assert len(steps) >= 5
+    return steps[-1].code
+
+
+def test_the_tutorials_last_step_is_the_starter_kits_robot():
+    """`laserarena new` writes the tutorial robot's source: the page and the kit cannot drift apart."""
+    import robots.controllers.tutorial as tutorial
+
+    assert _tutorial_robot() == Path(tutorial.__file__).read_text(encoding="utf-8")
+
+
+ASABE_WAYPOINTS = len(yaml.safe_load((ROOT / "levels" / "asabe.yaml").read_text())["task"]["path"])
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_tutorials_robot_finishes_the_letters(shared_dir, seed):
+    (shared_dir / "mybot.py").write_text(_tutorial_robot())
     (shared_dir / "mybot.py").chmod(0o644)
     out = subprocess.run(
-        [sys.executable, "-m", "referee", "run", "bac-line", "--team", "mybot.py", "--ideal", "--json", "-", "--quiet"],
+        ["laserarena", "run", "asabe", "--team", "mybot.py", "--seed", str(seed), "--json", "-", "--quiet"],
         capture_output=True,
         text=True,
         cwd=shared_dir,
+        env=_env(),
         timeout=TIMEOUT,
     )
     assert out.returncode == 0, out.stderr
-    assert '"faults":[]' in out.stdout.replace(" ", "")
-
-
-def test_controllers_tutorial_step_6_is_the_starters_return():
-    """Step 6 shows the end of the starter's `step()`: its lines are there, in that order."""
-    import robots.controllers.starter as starter
-
-    text = (ROOT / "docs" / "controllers.md").read_text(encoding="utf-8")
-    shown = [line.split("#")[0].strip() for line in _fenced(text, "## 6.").splitlines()]
-    source = [line.split("#")[0].strip() for line in Path(starter.__file__).read_text(encoding="utf-8").splitlines()]
-    at = source.index(shown[0])
-    assert source[at : at + len(shown)] == shown
+    robot = json.loads(out.stdout)["robots"][0]
+    assert robot["faults"] == []
+    assert robot["task"]["reached"] == robot["task"]["total"] == ASABE_WAYPOINTS == 33
+    assert robot["task"]["finished"] is not None

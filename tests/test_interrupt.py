@@ -1,8 +1,8 @@
 """Ctrl-C at a terminal: SIGINT to the whole foreground process group (the command, its pool
 workers, their controllers and sandboxes, as a terminal sends it). `run`, `grade` and
 `tournament` then exit 130 with at most one line on stderr and no traceback, leave no process
-of theirs running, and a grade or tournament keeps every finished match in its journal and
-resumes from it (docs/cli.md)."""
+of theirs running, and a grade or tournament keeps every finished match in its journal, says
+how many, and resumes from it, saying how many it resumed and how many it ran (docs/cli.md)."""
 
 from __future__ import annotations
 
@@ -153,12 +153,21 @@ def test_grade_keeps_finished_matches_and_resumes(slow):
     _quiet_exit(proc, err, below)
     kept = _rows(slow / "g.sqlite", "matches")
     assert 1 <= len(kept) < 4
-    rerun = subprocess.run(
-        [sys.executable, "-m", "referee", *args], cwd=slow, capture_output=True, text=True, timeout=300
+    assert (
+        err
+        == f"laserarena: interrupted; {_kept(len(kept), 'match')} in the journal g.sqlite; the same command resumes\n"
+    )
+    rerun = subprocess.run(  # not --quiet: it says what it resumed and what it ran
+        [sys.executable, "-m", "referee", *[a for a in args if a != "--quiet"]],
+        cwd=slow,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert rerun.returncode == 0, rerun.stderr
     after = _rows(slow / "g.sqlite", "matches")
     assert len(after) == 4 and set(kept) <= set(after)  # the finished rows untouched, not run again
+    assert f"4 matches in the journal g.sqlite ({len(kept)} resumed, {4 - len(kept)} run now);" in rerun.stderr
     with open(slow / "lb.csv") as f:
         assert f.read().splitlines()[1].split(",")[2] == "4"  # 4 matches on the leaderboard
 
@@ -189,6 +198,10 @@ def test_tournament_keeps_finished_heats_and_resumes(slow):
     _quiet_exit(proc, err, below)
     kept = _rows(slow / "t.sqlite", "heats")
     assert 1 <= len(kept) < 4
+    assert (
+        err
+        == f"laserarena: interrupted; {_kept(len(kept), 'heat')} in the journal t.sqlite; the same command resumes\n"
+    )
     rerun = subprocess.run(
         [sys.executable, "-m", "referee", *args], cwd=slow, capture_output=True, text=True, timeout=300
     )
@@ -196,6 +209,11 @@ def test_tournament_keeps_finished_heats_and_resumes(slow):
     after = _rows(slow / "t.sqlite", "heats")
     assert len(after) == 4 and set(kept) <= set(after)
     assert len((slow / "site" / "heats.csv").read_text().splitlines()) == 1 + 4 * 4
+
+
+def _kept(n: int, noun: str) -> str:
+    """`1 finished match kept`, `3 finished heats kept`."""
+    return f"{n} finished {noun}{'' if n == 1 else 'es' if noun == 'match' else 's'} kept"
 
 
 def _race():

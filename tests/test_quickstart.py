@@ -70,6 +70,8 @@ def test_readme_quickstart_then_the_starter_kits_readme():
         demo = json.loads((copy / "demo.json").read_text())["robots"][0]
         assert demo["faults"] == [] and demo["task"]["reached"] > 0, demo  # the controller ran and drove
         assert "asabe" in out.stdout and "demo.replay: identical" in out.stdout  # levels listed, replay verified
+        # the first match after `pip install .` compiles the kernels, and says so, once
+        assert out.stderr.count("laserarena: compiling the simulator's kernels") == 1, out.stderr
         kit = copy / "myteam"
         commands = SH.findall((kit / "README.md").read_text(encoding="utf-8"))
         assert len(commands) >= 2

@@ -1,4 +1,4 @@
-"""The starter controller (`ref:starter`, the file `laserarena new` copies) localizes and drives."""
+"""The starter controller (`ref:starter`: a waypoint follower with a filter of its own, in one file) localizes and drives."""
 
 import ast
 import math

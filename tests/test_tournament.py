@@ -431,3 +431,113 @@ def test_bad_tournament_input_is_one_line(contest):
     ]:
         proc = run_cli("tournament", "race.yaml", *bad, "--db", "x/t.sqlite", "--out", "x/out", cwd=contest)
         assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and expect in proc.stderr, proc.stderr
+
+
+# ---- a level of one robot: teams compared on the same seeds ------------------------------------
+
+ALONE = ["ref:idle", "ref:dead-reckoning", "ref:ubersetzig"]  # blind, blind and moving, the level's reference
+
+
+def alone(folder: Path, teams: list[str], rounds: int, *extra: str) -> subprocess.CompletedProcess:
+    """A tournament on the one-robot level ubersetzig, on two workers, into `folder`."""
+    return run_cli(
+        "tournament", "ubersetzig", *(a for t in teams for a in ("--team", t)), "--rounds", str(rounds),
+        "--workers", "2", "--secret-file", secret_file(SECRET), "--db", "t.sqlite", "--out", "out", *extra,
+        cwd=folder,
+    )  # fmt: skip
+
+
+def test_a_one_robot_level_plays_every_team_on_the_same_seeds():
+    from levels.loader import find_level
+    from referee.contest.tournaments import entrants, plan
+    from referee.sandbox.teams import resolve
+
+    level = find_level("ubersetzig")
+    heats = plan([(level, Path("ubersetzig.yaml"))], entrants([resolve(t) for t in ALONE]), 3, "s", "v")
+    assert [(h.round, h.seed, h.teams) for h in heats] == [(r, r, (t,)) for r in (1, 2, 3) for t in (0, 1, 2)]
+    assert len({h.noise_key for h in heats}) == 3  # one seed, one noise: the same for every team
+
+
+def test_a_one_robot_tournament_ranks_the_teams_as_their_scores_do(shared_dir):
+    proc = alone(shared_dir, ALONE, 3)
+    assert proc.returncode == 0, proc.stderr
+    out = shared_dir / "out"
+    heats = read_csv(out / "heats.csv")
+    scores: dict[str, dict[int, float]] = {t: {} for t in ALONE}
+    for r in heats:
+        scores[r["team"]][int(r["seed"])] = float(r["score"])
+    assert all(sorted(s) == [1, 2, 3] for s in scores.values()) and len(heats) == 9  # each team once per seed
+    for r in heats:  # a heat's rank is its place among every team's match on that seed
+        on_seed = [s[int(r["seed"])] for s in scores.values()]
+        assert int(r["rank"]) == 1 + sum(o > float(r["score"]) for o in on_seed)
+    mean = {t: sum(s.values()) / 3 for t, s in scores.items()}
+    assert len(set(mean.values())) == 3  # clearly different: the order to follow is defined
+    standings = read_csv(out / "standings.csv")
+    assert [r["team"] for r in standings] == sorted(ALONE, key=lambda t: -mean[t])
+    place = {r["team"]: int(r["rank"]) for r in standings}
+    above = [(a, b) for a, b in itertools.permutations(ALONE, 2) if all(scores[a][k] > scores[b][k] for k in (1, 2, 3))]
+    assert ("ref:ubersetzig", "ref:idle") in above and ("ref:ubersetzig", "ref:dead-reckoning") in above
+    assert all(place[a] < place[b] for a, b in above)  # higher on every seed: ranked above
+    ratings = [float(r["rating"]) for r in standings]
+    assert len(set(ratings)) == 3 and ratings == sorted(ratings, reverse=True)
+    table = [line.split() for line in proc.stdout.splitlines()[1:4]]  # what the command printed
+    assert [(row[0], row[1], row[-1]) for row in table] == [
+        (r["rank"], f"{float(r['rating']):.2f}", r["team"]) for r in standings
+    ]
+    assert "no rating" not in proc.stdout + proc.stderr
+    files = {name: (out / name).read_bytes() for name in ("standings.csv", "standings.json", "heats.csv")}
+
+    # resumed: a heat lost (as if the run had been killed before it was committed) is played
+    # again, the others are taken from the journal, and the ranks and files come out the same
+    with sqlite3.connect(shared_dir / "t.sqlite") as c:
+        c.execute("DELETE FROM heats WHERE rowid = (SELECT max(rowid) FROM heats)")
+    again = alone(shared_dir, ALONE, 3)
+    assert again.returncode == 0, again.stderr
+    assert "9 heats in the journal t.sqlite (8 resumed, 1 run now)" in again.stderr
+    assert {name: (out / name).read_bytes() for name in files} == files
+
+
+def test_where_no_rating_can_be_formed_the_standings_say_so(shared_dir):
+    (shared_dir / "still.py").write_text(IDLE)
+    (shared_dir / "still.py").chmod(0o644)
+    # one team: nobody to compare it with
+    one = alone(shared_dir, ["ref:idle"], 2)
+    assert one.returncode == 0, one.stderr
+    assert one.stdout.count("no rating") == 1 and "Note: no rating: one team alone" in one.stdout
+    (row,) = read_csv(shared_dir / "out" / "standings.csv")
+    assert (row["rating"], row["mu"], row["sigma"], row["heats"]) == ("", "", "", "2")
+    assert one.stdout.splitlines()[1].split()[:2] == ["1", "-"]  # no 0.00 that looks like a rating
+    # two teams that score alike on the one seed they play: a tie ranks nobody
+    tied = alone(shared_dir, ["ref:idle", "still.py"], 1, "--db", "tied.sqlite", "--out", "tied")
+    assert tied.returncode == 0, tied.stderr
+    heats = read_csv(shared_dir / "tied" / "heats.csv")
+    assert [(r["seed"], float(r["score"])) for r in heats] == [("1", 0.0), ("1", 0.0)]
+    assert tied.stdout.count("no rating") == 1 and "Note: no rating: every heat was a tie" in tied.stdout
+    data = json.loads((shared_dir / "tied" / "standings.json").read_text())
+    assert [s["rating"] for s in data["standings"]] == [None, None]
+    assert any(n.startswith("no rating") for n in data["notes"])
+    page = (shared_dir / "tied" / "index.html").read_text()
+    assert "no rating" in page and "<polyline" not in page  # no chart of ratings that do not exist
+
+
+def test_on_a_seed_a_team_placed_higher_is_rated_higher_ties_included():
+    """The teams' matches on one seed of a one-robot level, rated as one heat: a team that
+    placed higher on every seed rates higher, and teams that tied on every seed rate alike,
+    in cases where openskill's own formula for ties would rate the third place above the
+    tied winners (1, 1, 2, 3)."""
+    cases = [
+        [[9.0, 9.0, 5.0, 1.0]],
+        [[9.0, 9.0, 5.0, 1.0], [8.0, 8.0, 3.0, 0.0]],
+        [[0.0, 13.0, 1.0, 13.0, 2.0, 5.0]],
+        [[13.0, 1.0, 13.0, 1.0, 13.0, 3.0], [7.0, 0.0, 7.0, 0.0, 7.0, 2.0]],
+        [[3.0, 3.0, 3.0, 0.0], [4.0, 1.0, 1.0, 1.0], [2.0, 2.0, 5.0, 2.0]],
+    ]
+    for seeds in cases:
+        n = len(seeds[0])
+        heats = [[Placing(t, s, k) for t, (s, k) in enumerate(zip(row, ranks(row)))] for row in seeds]
+        final = [r.ordinal for r in rate(n, heats, seeds=range(len(heats)))[-1]]
+        for a, b in itertools.permutations(range(n), 2):
+            if all(row[a] > row[b] for row in seeds):
+                assert final[a] > final[b], (seeds, a, b)
+            if all(row[a] == row[b] for row in seeds):
+                assert final[a] == final[b], (seeds, a, b)

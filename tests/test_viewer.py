@@ -339,7 +339,37 @@ def test_browser_frame_matches_the_pygame_frame(replays, browser, tmp_path, key,
         centre = painter.to_screen(beacon.x, beacon.y)
         a, b = _centroid(web, centre, 2 * r, BEACON[kind]), _centroid(ref, centre, 2 * r, BEACON[kind])
         assert math.dist(a, b) <= 2, (beacon.id, a, b)
+        for img in (web, ref):  # each beacon's name legible in both pictures, wherever it stands
+            _legible_label(img, centre, painter.hud_height, beacon.id)
     assert page.errors == [] and page.remote == []
+
+
+def _luminance(rgb) -> float:
+    """WCAG 2's relative luminance of an sRGB colour (0..255 per channel)."""
+    c = np.asarray(rgb, dtype=float) / 255
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return float(c @ [0.2126, 0.7152, 0.0722])
+
+
+def _legible_label(img: np.ndarray, centre: tuple[int, int], hud: int, name: str) -> None:
+    """Near a beacon (above it, either side), a white plate with dark letters on it: WCAG's
+    enhanced contrast for text (7:1) between the letters and the plate, letters at least 10 px
+    tall, the plate whole inside the frame and below the HUD."""
+    x0, y0 = max(0, centre[0] - 60), max(hud + 1, centre[1] - 60)  # below the HUD (its timeline's knob is white)
+    window = img[x0 : centre[0] + 60, y0 : centre[1] + 10]
+    white = np.all(window >= 245, axis=2)
+    assert white.sum() >= 30, f"beacon {name}: no label plate near {centre}"
+    xs, ys = np.nonzero(white)
+    plate = window[xs.min() : xs.max() + 1, ys.min() : ys.max() + 1]
+    # its dark border inside the window on every side: the plate is whole, not cut by the HUD or the frame's edge
+    top, bottom = y0 + ys.min(), y0 + ys.max()
+    assert top > y0 and bottom < img.shape[1] - 1 and x0 + xs.min() > 0 and x0 + xs.max() < img.shape[0] - 1, name
+    lum = np.apply_along_axis(_luminance, 2, plate)
+    ink = lum < 0.2  # the letters' dark pixels
+    rows = np.nonzero(ink.any(axis=0))[0]
+    assert ink.sum() >= 10 and rows.max() - rows.min() + 1 >= 10, f"beacon {name}: letters too small"
+    contrast = (lum.max() + 0.05) / (lum[ink].min() + 0.05)
+    assert contrast >= 7, f"beacon {name}: contrast {contrast:.1f}"
 
 
 def test_other_replays_open_by_picker_and_drop(replays, browser, tmp_path):

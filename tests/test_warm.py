@@ -2,11 +2,22 @@
 kernel a match calls: after it, with its cache alone (a cache folder of the test's own), other
 matches of every level, with noise and ideal, their replays written, load every kernel and compile none, so a user's
 first match never waits for the compiler. They load them without readying numba to compile
-(decision 0045), and numba still compiles what is new afterwards."""
+(decision 0045), and numba still compiles what is new afterwards. Without it, the first
+`laserarena run` says, before anything else, that it compiles and how long that takes; a
+warmed one does not."""
 
+import json
 import os
+import select
 import subprocess
 import sys
+from pathlib import Path
+
+from referee.cli.commands import COMPILING_S
+
+ROOT = Path(__file__).resolve().parent.parent
+LASERARENA = str(Path(sys.executable).parent / "laserarena")
+RUN = [LASERARENA, "run", "bac-static", "--team", "ref:idle"]
 
 PROBE = """
 import dataclasses
@@ -36,8 +47,22 @@ print(sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in compiled.buf
 """
 
 
+def first_error_line(command: list[str], env: dict[str, str], cwd: Path) -> str:
+    """The first line `command` writes to stderr (or '' if it ends first); then it is stopped."""
+    proc = subprocess.Popen(command, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        ready, _, _ = select.select([proc.stderr], [], [], 600)
+        return proc.stderr.readline() if ready else ""
+    finally:
+        proc.kill()
+        proc.wait(timeout=60)
+
+
 def test_after_the_warm_up_a_match_compiles_nothing(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    # a cold cache: the command's first word is that it compiles, before the match can end
+    notice = first_error_line(RUN, env, tmp_path)
+    assert notice.startswith("laserarena: compiling the simulator's kernels") and f"{COMPILING_S} s" in notice
     warm = subprocess.run([sys.executable, "-P", "-m", "referee.match.warm"], env=env, capture_output=True, text=True)
     assert warm.returncode == 0, warm.stderr
     assert "compiled kernels ready" in warm.stderr
@@ -47,3 +72,14 @@ def test_after_the_warm_up_a_match_compiles_nothing(tmp_path):
     assert lines[-1] == "[]", probe.stdout  # the kernels it had to compile
     assert lines[-3] == "readied to compile: 0", probe.stdout
     assert lines[-2] == "a new function: 12.0 readied: True", probe.stdout
+    # warmed: a run says nothing of compiling (the table on stdout, nothing on stderr)
+    done = subprocess.run(RUN, env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0 and "ref:idle" in done.stdout, done.stderr
+    assert "compiling" not in done.stderr
+
+
+def test_the_notice_says_what_was_measured():
+    """The seconds the notice gives are those the performance report measured for a first run,
+    within half again (the machine it runs on may be another)."""
+    measured = json.loads((ROOT / "docs" / "performance.json").read_text())["first-run"]["cold_wall_s"]
+    assert COMPILING_S / 1.5 <= measured <= COMPILING_S * 1.5

@@ -29,13 +29,42 @@ from referee.sandbox import forkserver
 from referee.sandbox.teams import controller_problem
 from referee.terminal import safe
 
+# s: about what a first match after installing spends compiling the kernels (the `first-run`
+# row of docs/performance.json; tests/test_warm.py holds the two together)
+COMPILING_S = 25
+
+
+def announce_compiling(quiet: bool) -> None:
+    """Say, in one line on stderr, that this command's first match compiles the kernels and
+    how long that takes: numba's cache holds nothing for the loop every match steps (a fresh
+    install that `referee.match.warm` has not warmed). Nothing with --quiet."""
+    if quiet:
+        return
+    with lasting():  # numba's objects live as long as the process (arena.heap)
+        from arena.compiled import cached
+        from arena.stepping import run_steps
+
+    if cached(run_steps) is False:
+        print(
+            f"laserarena: compiling the simulator's kernels, once after installing: about {COMPILING_S} s",
+            file=sys.stderr,
+            flush=True,
+        )
+
 
 def cmd_levels(args: argparse.Namespace) -> int:
-    for name in levels.names():
-        lv = load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controller_problem)
+    found = {
+        name: load_level(levels.path(name), display=f"levels/{name}.yaml", controllers=controller_problem)
+        for name in levels.names()
+    }
+    # columns as wide as their widest entry: the names and controllers are the levels' own
+    names = max(map(len, found))
+    robots = max(len(str(len(lv.robots))) for lv in found.values())
+    defaults = max(len(lv.default_controller) for lv in found.values())
+    for name, lv in found.items():
         print(
-            f"{name:<12} {len(lv.robots)} robot{'s' if len(lv.robots) > 1 else ' '}  "
-            f"default {lv.default_controller:<20} {lv.description}"
+            f"{name:<{names}}  {len(lv.robots):>{robots}} robot{'s' if len(lv.robots) > 1 else ' '}  "
+            f"default {lv.default_controller:<{defaults}}  {lv.description}"
         )
     return 0
 
@@ -64,6 +93,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         forkserver.start()
     with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
         import referee.match.loop  # noqa: F401
+    announce_compiling(args.quiet)
     result = api.run_match(
         level,
         args.team,
@@ -116,9 +146,12 @@ def _contest_options(args: argparse.Namespace) -> dict:
 
 def cmd_grade(args: argparse.Namespace) -> int:
     from referee.contest.grading import markdown
+    from referee.contest.journal import account
 
     if args.seeds < 1:
         raise UserError("--seeds must be at least 1")
+    if not args.scheduler:  # a cluster's workers compile on their own machines
+        announce_compiling(args.quiet)
     start = time.perf_counter()
     board = api.leaderboard(
         args.level,
@@ -131,9 +164,8 @@ def cmd_grade(args: argparse.Namespace) -> int:
         api.warn(board.notes)
     else:
         print(markdown([asdict(r) for r in rows], board.notes), end="")
-        matches = sum(r.matches for r in rows)
         print(
-            f"{matches} matches in the journal {args.db}; leaderboard {args.out} (.json, .md); "
+            f"{account(board.matches, 'match', board.ran, args.db)}; leaderboard {args.out} (.json, .md); "
             f"{time.perf_counter() - start:.1f} s",
             file=sys.stderr,
         )
@@ -141,6 +173,10 @@ def cmd_grade(args: argparse.Namespace) -> int:
 
 
 def cmd_tournament(args: argparse.Namespace) -> int:
+    from referee.contest.journal import account
+
+    if not args.scheduler:  # a cluster's workers compile on their own machines
+        announce_compiling(args.quiet)
     start = time.perf_counter()
     done = api.tournament(
         args.level,
@@ -153,7 +189,8 @@ def cmd_tournament(args: argparse.Namespace) -> int:
     else:
         print(f"{'rank':>4}  {'rating':>7}  {'heats':>5}  {'mean':>7}  team")
         for s in done.standings:
-            print(f"{s.rank:>4}  {s.rating:7.2f}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
+            rating = "-" if s.rating is None else f"{s.rating:.2f}"
+            print(f"{s.rank:>4}  {rating:>7}  {s.heats:>5}  {s.mean_score:7.1f}  {safe(s.team)}")
         for note in done.notes:
             print(f"Note: {safe(note, 500)}")
         for s in done.standings:
@@ -161,7 +198,7 @@ def cmd_tournament(args: argparse.Namespace) -> int:
                 print(f"faults of {safe(s.team)}: {safe(s.faults, 500)}")
         heats = len({h.heat for h in done.heats})
         print(
-            f"{heats} heats ({done.ran} run now) in the journal {args.db}; report {Path(args.out) / 'index.html'}; "
+            f"{account(heats, 'heat', done.ran, args.db)}; report {Path(args.out) / 'index.html'}; "
             f"{time.perf_counter() - start:.1f} s. Heats' own time {done.heat_seconds:.1f} s; scheduling and rating "
             f"{1000 * done.overhead_seconds:.1f} ms ({1000 * done.overhead_seconds / heats:.2f} ms per heat); "
             f"report and viewer pages {done.report_seconds:.1f} s",
@@ -188,6 +225,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
     with lasting():  # numba's objects live as long as the process (arena.heap)
         from referee.match.verify import verify
+    announce_compiling(False)
 
     secret = _secret(args)
     if args.db:
@@ -263,6 +301,7 @@ def cmd_watch(args: argparse.Namespace) -> int:
     if problem:
         raise UserError(f"watch: {problem}; {ELSEWHERE}")
     print(KEYS_HELP)
+    announce_compiling(False)
     watch(args.target, args.team, args.seed, (w, h), args.speed, args.frames)
     return 0
 

@@ -14,7 +14,7 @@ from typing import TextIO
 from arena.heap import lasting
 from levels.errors import LaserArenaError
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
-from referee.interrupts import Catcher, ignore
+from referee.interrupts import Catcher, Interrupted, ignore
 from referee.terminal import safe
 from referee.threads import one_blas_thread
 
@@ -62,9 +62,10 @@ def main(argv: list[str] | None = None) -> int:
     except LaserArenaError as e:
         print(f"laserarena: {safe(e, 1000)}", file=sys.stderr)
         return e.exit_code
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as stop:
         ignore()
-        print("laserarena: interrupted", file=sys.stderr)
+        kept = f"; {safe(stop, 500)}" if isinstance(stop, Interrupted) else ""  # what the journal kept
+        print(f"laserarena: interrupted{kept}", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # the reader went away (`laserarena levels | head -1`): stop quietly
         devnull = os.open(os.devnull, os.O_WRONLY)

@@ -7,7 +7,7 @@ import re
 import shutil
 from pathlib import Path
 
-import robots.controllers.starter as starter
+import robots.controllers.tutorial as tutorial
 from referee.errors import UserError
 from robots.toolkit.policy import Policy
 
@@ -124,7 +124,7 @@ def _folder(name: str, where: Path) -> Path:
 def create(name: str, where: Path = Path(".")) -> Path:
     """Write the starter kit into `where/name`; refuse to overwrite anything."""
     folder = _folder(name, where)
-    (folder / "controller.py").write_text(Path(starter.__file__).read_text())
+    (folder / "controller.py").write_text(Path(tutorial.__file__).read_text())
     (folder / "test_controller.py").write_text(TEST)
     (folder / "README.md").write_text(README.format(name=name))
     return folder

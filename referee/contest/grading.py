@@ -115,18 +115,19 @@ def grade_jobs(
     quiet: bool = False,
     teams: Sequence[Team] = (),
     unsandboxed: bool = False,
-) -> Journal:
-    """Run every job not yet in `journal`, on `workers` local processes or on `cluster`;
-    replays go to the journal's folder/replays. Workers return each match's result and replay;
-    only this process writes them. `teams`: the jobs' teams as resolved when they were made
-    (any other is resolved here); `unsandboxed`: the organizer allows matches without a kernel
-    sandbox (the journal then records it, as it records an insecure cluster). A worker that
-    fails its audit: its results of this run are removed again, and AuditFailed goes on up."""
+) -> int:
+    """Run every job not yet in `journal`, on `workers` local processes or on `cluster`, and
+    return how many ran now; replays go to the journal's folder/replays. Workers return each
+    match's result and replay; only this process writes them. `teams`: the jobs' teams as
+    resolved when they were made (any other is resolved here); `unsandboxed`: the organizer
+    allows matches without a kernel sandbox (the journal then records it, as it records an
+    insecure cluster). A worker that fails its audit: its results of this run are removed
+    again, and AuditFailed goes on up."""
     replay_dir = replay_folder(journal.path)
     done = journal.done()
     todo = [j for j in jobs if j.key() not in done]
     if not todo:
-        return journal
+        return 0
     by_key = {j.key(): j for j in todo}
     playable = _match_jobs(todo, teams, unsandboxed)
     progress = Progress(len(jobs), "match", quiet, already=len(jobs) - len(todo))
@@ -149,7 +150,7 @@ def grade_jobs(
     finally:
         progress.close()
         results.close()  # a pool's workers end here, even on an interrupt
-    return journal
+    return len(todo)
 
 
 # ---- the leaderboard --------------------------------------------------------------------

@@ -18,12 +18,13 @@ import secrets
 import sqlite3
 import time
 import warnings
-from collections.abc import Iterable
-from contextlib import closing
+from collections.abc import Iterable, Iterator
+from contextlib import closing, contextmanager
 from pathlib import Path
 from typing import Protocol, TypeVar
 
 from referee.errors import LaserArenaWarning, UserError
+from referee.interrupts import Interrupted
 from referee.terminal import safe
 
 SCHEMA_VERSION = 2
@@ -201,6 +202,21 @@ class Journal:
         )
         self.db.commit()  # at once: a killed run loses nothing that finished
 
+    @contextmanager
+    def keeping(self, keys: list[tuple], noun: str, heats: bool = False) -> Iterator[None]:
+        """Run the block; a Ctrl-C (or SIGTERM) in it ends it as `Interrupted`, saying how
+        many of `keys` (of `heats`, else of graded matches) finished and are kept: what the
+        same command resumes."""
+        try:
+            yield
+        except Interrupted:
+            raise
+        except KeyboardInterrupt:
+            self.db.rollback()  # a row whose commit the interrupt cut short is not kept
+            done = self.heats_done() if heats else self.done()
+            kept = counted(sum(k in done for k in keys), f"finished {noun}")
+            raise Interrupted(f"{kept} kept in the journal {self.path}; the same command resumes") from None
+
     def heat(self, key: tuple) -> tuple[dict, str, float] | None:
         """A finished heat's result, replay path and wall time, or None if it has not run."""
         where = " AND ".join(f"{k.strip()}=?" for k in HEAT_KEY.split(","))
@@ -211,6 +227,19 @@ class Journal:
             return json.loads(row[0][0]), row[0][1], row[0][2]
         except ValueError:
             raise UserError(f"{self.path}: a damaged heat result ({safe(key[0])} seed {key[2]})") from None
+
+
+def counted(n: int, noun: str) -> str:
+    """`1 match`, `2 matches`, `3 heats`."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}{'es' if noun.endswith('ch') else 's'}"
+
+
+def account(total: int, noun: str, ran: int, path: str | Path) -> str:
+    """What a grade or tournament says of its journal once done, in the same words for both:
+    `9 heats in the journal t.sqlite (4 resumed, 5 run now)`; `resumed`: found there finished,
+    not run again (left out when none was)."""
+    resumed = f"{total - ran} resumed, " if total > ran else ""
+    return f"{counted(total, noun)} in the journal {path} ({resumed}{ran} run now)"
 
 
 def _existing(path: Path) -> sqlite3.Connection:

@@ -10,12 +10,19 @@ import html
 import json
 import os
 import shutil
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypeVar
 
+from referee.contest.ratings import Rating
 from referee.contest.tournaments import HeatResult, Outcome
 from referee.terminal import csv_text, markdown_text
 
+ALONE = (
+    " On a one-robot level every team plays each round's seed, and the matches on one seed are"
+    " ranked and rated together, as one heat."
+)
+T = TypeVar("T")
 PALETTE = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#7f7f7f"]
 
 
@@ -46,6 +53,14 @@ def heat_rows(outcome: Outcome) -> list[list]:
     ]
 
 
+def rating_figures(rating: Rating | None, form: Callable[[float], T]) -> tuple[T | None, T | None, T | None]:
+    """A rating's ordinal, mu and sigma each as `form` makes it, or three Nones where no
+    rating could be formed (never a zero that looks like one)."""
+    if rating is None:
+        return None, None, None
+    return form(rating.ordinal), form(rating.mu), form(rating.sigma)
+
+
 def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
     """The standings as plain data (standings.json), with the tournament's `notes`."""
     return {
@@ -54,9 +69,7 @@ def standings_data(outcome: Outcome, notes: Sequence[str] = ()) -> dict:
             {
                 "rank": s.rank,
                 "team": s.team,
-                "rating": round(s.rating.ordinal, 4),
-                "mu": round(s.rating.mu, 4),
-                "sigma": round(s.rating.sigma, 4),
+                **dict(zip(("rating", "mu", "sigma"), rating_figures(s.rating, lambda v: round(v, 4)))),
                 "heats": s.heats,
                 "mean_score": s.mean_score,
                 "faults": s.faults,
@@ -82,11 +95,11 @@ def standings_markdown(outcome: Outcome, title: str, notes: Sequence[str] = ()) 
         "| rank | team | rating | mu | sigma | heats | mean score |",
         "|---|---|---|---|---|---|---|",
     ]
-    md += [
-        f"| {s.rank} | {markdown_text(s.team)} | {s.rating.ordinal:.2f} | {s.rating.mu:.2f} | {s.rating.sigma:.2f} "
-        f"| {s.heats} | {s.mean_score:.1f} |"
-        for s in outcome.standings
-    ]
+    for s in outcome.standings:
+        rating, mu, sigma = (v or "-" for v in rating_figures(s.rating, "{:.2f}".format))
+        md.append(
+            f"| {s.rank} | {markdown_text(s.team)} | {rating} | {mu} | {sigma} | {s.heats} | {s.mean_score:.1f} |"
+        )
     md += [f"\nNote: {markdown_text(note, 500)}" for note in notes]
     md += [
         f"\nFaults of {markdown_text(s.team)}: {markdown_text(s.faults, 500)}" for s in outcome.standings if s.faults
@@ -101,15 +114,7 @@ def write(outcome: Outcome, out: Path, title: str, notes: Sequence[str] = ()) ->
     (out / "replays").mkdir(exist_ok=True)
     (out / "heats").mkdir(exist_ok=True)
     rows = [
-        [
-            s.rank,
-            s.team,
-            f"{s.rating.ordinal:.4f}",
-            f"{s.rating.mu:.4f}",
-            f"{s.rating.sigma:.4f}",
-            s.heats,
-            s.mean_score,
-        ]
+        [s.rank, s.team, *(v or "" for v in rating_figures(s.rating, "{:.4f}".format)), s.heats, s.mean_score]
         for s in outcome.standings
     ]
     for row, s in zip(rows, outcome.standings):
@@ -203,21 +208,23 @@ def page(outcome: Outcome, title: str, notes: Sequence[str] = ()) -> str:
         f"{_e(', '.join(dict.fromkeys(h.heat.level for h in outcome.heats)))}. Rating: openskill's Plackett-Luce "
         "model, updated heat by heat; teams are ranked by the conservative rating mu - 3 sigma. "
         '<span class="filler">Fillers</span> (the level\'s default controller in a slot no team '
-        "fills) are never rated.</p>",
+        "fills) are never rated." + (ALONE if any(len(h.placings) == 1 for h in outcome.heats) else "") + "</p>",
         *(f'<p class="note"><strong>Note:</strong> {_e(note)}</p>' for note in notes),
         "<h2>Standings</h2>",
         "<table><tr><th>rank</th><th>team</th><th>rating</th><th>mu</th><th>sigma</th><th>heats</th>"
         "<th>mean score</th></tr>",
     ]
     for s in outcome.standings:
+        rating, mu, sigma = (v or "-" for v in rating_figures(s.rating, "{:.2f}".format))
         out.append(
-            f'<tr><td class="n">{s.rank}</td><td>{_e(s.team)}</td><td class="n">{s.rating.ordinal:.2f}</td>'
-            f'<td class="n">{s.rating.mu:.2f}</td><td class="n">{s.rating.sigma:.2f}</td>'
+            f'<tr><td class="n">{s.rank}</td><td>{_e(s.team)}</td><td class="n">{rating}</td>'
+            f'<td class="n">{mu}</td><td class="n">{sigma}</td>'
             f'<td class="n">{s.heats}</td><td class="n">{s.mean_score:.1f}</td></tr>'
         )
     out.append("</table>")
     out += [f"<p>Faults of {_e(s.team)}: {_e(s.faults)}</p>" for s in outcome.standings if s.faults]
-    out += ["<h2>Rating over the heats</h2>", rating_plot(outcome)]
+    if not outcome.unrated:  # no chart of ratings that were never formed
+        out += ["<h2>Rating over the heats</h2>", rating_plot(outcome)]
     for level in dict.fromkeys(h.heat.level for h in outcome.heats):
         out.append(f"<h2>Level {_e(level)}</h2>")
         out.append("<table><tr><th>team</th><th>heats</th><th>mean score</th><th>95 % interval (bootstrap)</th></tr>")

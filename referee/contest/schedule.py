@@ -5,7 +5,9 @@ slots, choosing the split that keeps every pair's meetings as even as possible; 
 fewer teams than slots is filled with the level's default controller (marked as a filler,
 never rated). Each group then plays one heat per slot, its lineup rotated one slot each time
 (a cyclic Latin square), so over a round every entry starts from every slot exactly once and
-no team wins by its start position.
+no team wins by its start position. A level of one slot has nothing to group or rotate:
+every team plays alone each round, in team order (and on the round's seed, so that the
+teams are compared on the same seeds: referee.contest.tournaments).
 """
 
 from __future__ import annotations
@@ -89,6 +91,8 @@ def schedule(teams: int, slots: int, rounds: int, seed: int = 0) -> list[Lineup]
     the order they are played (and rated). Deterministic for the same arguments."""
     if teams < 1 or slots < 1 or rounds < 1:
         raise ValueError("a schedule needs at least one team, one slot and one round")
+    if slots == 1:
+        return [Lineup(r, (Entry(t),)) for r in range(1, rounds + 1) for t in range(teams)]
     rng = np.random.default_rng(seed)
     met = np.zeros((teams, teams), dtype=np.int64)
     heats = []

@@ -6,6 +6,10 @@ the run's secret as in grading. A finished heat is committed to the journal at o
 by its level, lineup (specs and code hashes in slot order), seed, software and noise, so a
 killed tournament resumes where it stopped and the standings come out the same whatever ran
 the heats. Standings are computed from the journal, in heat order, after the last heat.
+
+On a level of one robot a heat is one team alone, which ranks nobody: there every team plays
+each round on the round's seed, and the matches on one seed are ranked together as one heat
+of all the teams (Outcome.unrated says why, where even that ranks no team above another).
 """
 
 from __future__ import annotations
@@ -95,9 +99,11 @@ def plan(levels: list[tuple[Level, Path]], teams: list[Entrant], rounds: int, se
     heats: list[Heat] = []
     for r in range(1, rounds + 1):
         for level, filler, lineups in per_level:
-            for seed, lineup in enumerate(lineups, start=1):
+            alone = len(level.robots) == 1  # compared on the same seeds: the round's (module doc)
+            for number, lineup in enumerate(lineups, start=1):
                 if lineup.round != r:
                     continue
+                seed = lineup.round if alone else number
                 slot_teams = [teams[e.team].team if e.team is not None else filler for e in lineup.entries]
                 heats.append(
                     Heat(
@@ -194,7 +200,8 @@ def play_heats(
 
 @dataclass(frozen=True)
 class HeatResult:
-    """A played heat: the heat, each slot's placing (slot order), its replay file and wall time."""
+    """A played heat: the heat, each slot's placing (slot order), its replay file and wall time.
+    A heat of one robot is placed among all the matches on its level and seed."""
 
     heat: Heat
     placings: tuple[Placing, ...]
@@ -204,13 +211,14 @@ class HeatResult:
 
 @dataclass(frozen=True)
 class Standing:
-    """A team's line in the standings: rank, name, rating, heats played, mean score over them,
-    per level (name -> (heats, mean, low, high) with the 95 % bootstrap interval), and its
-    faults told by kind (referee.records.faults.summary; "" for none)."""
+    """A team's line in the standings: rank, name, rating (None where none can be formed),
+    heats played, mean score over them, per level (name -> (heats, mean, low, high) with the
+    95 % bootstrap interval), and its faults told by kind (referee.records.faults.summary; ""
+    for none)."""
 
     rank: int
     team: str
-    rating: Rating
+    rating: Rating | None
     heats: int
     mean_score: float
     levels: dict[str, tuple[int, float, float, float]]
@@ -219,18 +227,55 @@ class Standing:
 
 @dataclass(frozen=True)
 class Outcome:
-    """What a tournament produced: the standings, every heat's result in order, and each
-    team's rating after each heat (`history[h][t]`)."""
+    """What a tournament produced: the standings, every heat's result in order, each team's
+    rating after each heat (`history[h][t]`), and `unrated`: why no rating could be formed
+    (None when the ratings rank the teams)."""
 
     teams: list[Entrant]
     standings: list[Standing]
     heats: list[HeatResult]
     history: list[list[Rating]]
+    unrated: str | None = None
+
+
+def _placed(played: list[tuple[Heat, list[float]]]) -> tuple[list[tuple[Placing, ...]], list[list[Placing]], set[int]]:
+    """Each heat's placings (slot order), what it adds to the ratings, and which heats add a
+    seed. A heat adds its own placings; a heat of one robot is ranked among the matches on its
+    level and seed, and the last of those adds them all, as one heat (the others add nothing)."""
+    seeds: dict[tuple[str, int], list[int]] = {}
+    for i, (heat, scores) in enumerate(played):
+        if len(scores) == 1:
+            seeds.setdefault((heat.level_hash, heat.seed), []).append(i)
+    rank: dict[int, int] = {}
+    for group in seeds.values():
+        rank.update(zip(group, ranks([played[i][1][0] for i in group])))
+    placings = [
+        tuple(Placing(t, s, k) for t, s, k in zip(heat.teams, scores, [rank[i]] if i in rank else ranks(scores)))
+        for i, (heat, scores) in enumerate(played)
+    ]
+    added: list[list[Placing]] = [[] if i in rank else list(p) for i, p in enumerate(placings)]
+    for group in seeds.values():
+        added[group[-1]] = [placings[j][0] for j in group]
+    return placings, added, {group[-1] for group in seeds.values()}
+
+
+def why_unrated(teams: int, added: list[list[Placing]]) -> str | None:
+    """Why no rating can be formed from what the heats add (None if one can): a rating needs a
+    heat that places one robot above another."""
+    if any(len({p.rank for p in heat}) > 1 for heat in added):
+        return None
+    if teams == 1 and all(len(heat) < 2 for heat in added):
+        return "no rating: one team alone, with no other to compare it with on the same seeds"
+    return (
+        "no rating: every heat was a tie (on a one-robot level: all teams scored alike on every seed); "
+        "ranked by mean score, then name"
+    )
 
 
 def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcome:
-    """The standings from the journal's results of `heats` (all of which must have run)."""
-    played = []
+    """The standings from the journal's results of `heats` (all of which must have run). Where
+    no rating can be formed the teams are ranked by mean score, and `unrated` says why."""
+    played, files = [], []
     faults: dict[int, list] = {}  # each team's faults, heat by heat
     for heat in heats:
         found = journal.heat(heat.key())
@@ -241,14 +286,16 @@ def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcom
         for team, robot in zip(heat.teams, robots):
             if team is not None:
                 faults.setdefault(team, []).extend(robot["faults"])
-        scores = [float(r["score"]["total"]) for r in robots]
-        placings = tuple(Placing(t, s, k) for t, s, k in zip(heat.teams, scores, ranks(scores)))
-        played.append(HeatResult(heat, placings, replay, wall))
-    history = rate(len(teams), [list(h.placings) for h in played])
-    final = history[-1] if history else []
+        played.append((heat, [float(r["score"]["total"]) for r in robots]))
+        files.append((replay, wall))
+    placings, added, seeds = _placed(played)
+    results = [HeatResult(heat, placed, *file) for heat, placed, file in zip(heats, placings, files)]
+    history = rate(len(teams), added, seeds)
+    why = why_unrated(len(teams), added)
+    final = history[-1] if history and why is None else []
     rows = []
     for t, entrant in enumerate(teams):
-        mine = [(h.heat.level, p.score) for h in played for p in h.placings if p.team == t]
+        mine = [(h.heat.level, p.score) for h in results for p in h.placings if p.team == t]
         per_level = {}
         for level in dict.fromkeys(lv for lv, _ in mine):
             scores = [s for lv, s in mine if lv == level]
@@ -258,9 +305,6 @@ def outcome(heats: list[Heat], teams: list[Entrant], journal: Journal) -> Outcom
         rows.append(
             (entrant.name, final[t] if final else None, len(mine), mean_all, per_level, summary(faults.get(t, [])))
         )
-    rows.sort(key=lambda r: (-(r[1].ordinal if r[1] else 0.0), r[0]))
-    standings = [
-        Standing(i + 1, name, rating or Rating(0.0, 0.0), n, mean, per_level, told)
-        for i, (name, rating, n, mean, per_level, told) in enumerate(rows)
-    ]
-    return Outcome(teams, standings, played, history)
+    rows.sort(key=lambda r: (-r[1].ordinal if r[1] else -r[3], r[0]))
+    standings = [Standing(i + 1, *row) for i, row in enumerate(rows)]
+    return Outcome(teams, standings, results, history, why)

@@ -72,6 +72,8 @@ def _style() -> dict:
         "beacon": draw.BEACON,
         "hud_height": draw.HUD_HEIGHT,
         "hud_text": draw.HUD_TEXT,
+        "label": draw.LABEL,
+        "label_plate": draw.LABEL_PLATE,
         "trail": render.TRAIL,
         "beam_window": render.BEAM_WINDOW,
         "points": {
@@ -92,7 +94,7 @@ def _font() -> str:
 
 
 def _fonts(level: Level, size: tuple[int, int]) -> dict:
-    """The sizes and metrics of arena/draw.py's two fonts on a frame of `size` (they depend
+    """The sizes and metrics of arena/draw.py's three fonts on a frame of `size` (they depend
     on its height only), so the page places text where pygame does."""
     painter = draw.Painter(level, size)
     return {
@@ -104,7 +106,7 @@ def _fonts(level: Level, size: tuple[int, int]) -> dict:
             "sample": SAMPLE,
             "sample_width": f.size(SAMPLE)[0],
         }
-        for key, f in (("big", painter.font), ("small", painter.small))
+        for key, f in (("big", painter.font), ("small", painter.small), ("tag", painter.tag))
     }
 
 

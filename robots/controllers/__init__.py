@@ -5,6 +5,7 @@ REFERENCE: dict[str, str] = {
     "sensorless": "robots.controllers.sensorless:Sensorless",
     "dead-reckoning": "robots.controllers.dead_reckoning:DeadReckoning",
     "starter": "robots.controllers.starter:Starter",
+    "tutorial": "robots.controllers.tutorial:MyBot",
     "best": "robots.controllers.best:Best",
     "bac": "robots.controllers.bac:Bac",
     "bac-seed": "robots.controllers.bac:BacSeed",

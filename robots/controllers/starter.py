@@ -1,4 +1,5 @@
-"""The starter controller: `laserarena new NAME` copies this file. It uses only the public API.
+"""A waypoint follower with a filter of its own (`ref:starter`), in one file on the public API.
+The starter kit `laserarena new` writes is the tutorial's robot (`tutorial`).
 
 It has three parts; change one at a time and watch the score.
 

@@ -280,6 +280,7 @@
       const [w, h] = size, f = geom.field;
       this.font = DATA.fonts.big;
       this.small = DATA.fonts.small;
+      this.tag = DATA.fonts.tag;  // a beacon's name
       this.line = this.font.linesize + 2;
       const H = this.hudHeight = Math.max(S.hud_height, 6 + (1 + geom.robots.length) * this.line + 14);
       this.xmin = f.origin[0]; this.ymin = f.origin[1];
@@ -350,8 +351,18 @@
                                 [cx - fy * r - fx * r * 0.6, cy + fx * r - fy * r * 0.6],
                                 [cx + fy * r - fx * r * 0.6, cy - fx * r - fy * r * 0.6]]);
         }
-        this.text(ctx, b.id, this.small, cx + r + 2, cy - r - 2, [40, 40, 40]);
+        this.label(ctx, b.id, cx + r + 2, cy - r - 2);
       }
+    }
+
+    label(ctx, str, x, bottom) {  // arena/draw.py's _label: a beacon's name on a plate, kept in the frame
+      ctx.font = this.tag.css;
+      const w = Math.round(ctx.measureText(str).width) + 6, h = this.tag.height + 2;
+      x = Math.min(x, this.size[0] - w - 2);
+      const y = Math.max(bottom - h, this.hudHeight + 2);
+      draw.rect(ctx, S.label_plate, x, y, w, h);
+      draw.rect(ctx, S.label, x, y, w, h, 1);
+      this.text(ctx, str, this.tag, x + 3, y + 1, S.label);
     }
 
     box(x, y, h, length, width) {
@@ -578,7 +589,7 @@
 
   // ---- start: fonts first (pygame's default font, embedded), then the embedded replay ----
   async function start() {
-    for (const f of [DATA.fonts.big, DATA.fonts.small]) {
+    for (const f of [DATA.fonts.big, DATA.fonts.small, DATA.fonts.tag]) {
       // pygame's text is wider than its point size says: scale the font so the sample line
       // is as wide as pygame drew it
       const family = "LaserArenaSans, sans-serif";
