@@ -7,8 +7,9 @@
 - `<!-- run: notebook -->`: a cell of the doc's notebook; its cells run in order in one
   process, each known to `linecache` under a cell name, as Jupyter runs them;
 - `<!-- quickstart -->`: the README's quickstart, followed on a fresh copy by test_quickstart.py;
-- ```text: an output sample; `<!-- output: COMMAND -->` before it: what COMMAND prints, run
-  here in a fresh folder and compared with the block, character for character;
+- `<!-- output: COMMAND -->` before a ```text block: what COMMAND prints, run here in a fresh
+  folder and compared with the block, character for character; `<!-- sample: NAME -->`: a
+  sample whose figures vary, held to the program's shape by test_docs_samples.py;
 - `<!-- fragment: WHY -->`: a part of something larger, saying why it does not run alone.
 
 A block that is none of these fails `test_every_block_runs_or_says_why`. The controllers
@@ -69,8 +70,8 @@ def _kind(block: Block) -> str | None:
         return "quickstart"
     if block.marker.startswith("save:") and block.lang == "python" and block.marker.partition(":")[2].strip():
         return "save"
-    if block.lang == "text" and not block.marker:
-        return "output"
+    if block.lang == "text" and block.marker.startswith("sample:") and block.marker.partition(":")[2].strip():
+        return "sample"  # its shape held to the program's by test_docs_samples.py
     if block.lang == "text" and block.marker.startswith("output:") and block.marker.partition(":")[2].strip():
         return "checked output"
     if block.marker.startswith("fragment:") and block.marker.partition(":")[2].strip():
