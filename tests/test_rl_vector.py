@@ -1,5 +1,6 @@
-"""Vector envs over LaserArena-v0: `gymnasium.make_vec` in both modes steps, resets the
-episodes that end, gives the single env's numbers, and closes without leaving a process.
+"""Vector envs over LaserArena-v0: `gymnasium.make_vec` in every mode (its own in-process
+vector env, sync, async) steps, resets the episodes that end, gives the single env's numbers,
+and closes without leaving a process; the in-process one plays what Gymnasium's sync one does.
 Every wait on a worker is bounded. Needs the `rl` extra (installed by `make test`)."""
 
 import multiprocessing
@@ -54,7 +55,7 @@ def close_within(envs, seconds: float) -> None:
         pytest.fail(f"closing the vector env took over {seconds} s")
 
 
-@pytest.mark.parametrize("mode", ["sync", "async"])
+@pytest.mark.parametrize("mode", ["vector_entry_point", "sync", "async"])
 def test_make_vec_steps_resets_and_closes(mode, short_level):
     before = set(multiprocessing.active_children())
     envs = gymnasium.make_vec(referee.gym.ENV_ID, num_envs=2, vectorization_mode=mode, level=short_level)
@@ -80,3 +81,44 @@ def test_make_vec_steps_resets_and_closes(mode, short_level):
     if mode == "async":
         assert all(p.exitcode == 0 for p in envs.processes)
     assert set(multiprocessing.active_children()) <= before  # nothing left running
+
+
+def test_the_default_vector_env_is_the_in_process_one():
+    envs = gymnasium.make_vec(referee.gym.ENV_ID, num_envs=2, level="bac-line")
+    try:
+        assert type(envs.unwrapped).__name__ == "LaserArenaVectorEnv"
+        assert envs.metadata["autoreset_mode"] == gymnasium.vector.AutoresetMode.NEXT_STEP
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("seed", [None, 11])
+def test_the_in_process_vector_env_plays_as_gymnasiums_sync_one(seed, tmp_path):
+    """Over several episodes each (ended ones reset from each env's own generator, seeded
+    `seed + i`), the in-process vector env and Gymnasium's SyncVectorEnv over the one-robot
+    env give the same observations, rewards, flags and match seeds, step for step."""
+    d = yaml.safe_load(levels.path("bac-line").read_text())
+    d["time_limit"] = 0.6  # 3 control periods: 12 steps cross three resets
+    path = tmp_path / "short.yaml"
+    path.write_text(yaml.safe_dump(d))
+    level = load_level(path)
+    rng = np.random.default_rng(5)
+    actions = rng.uniform(-1, 1, (12, 3, 2)).astype(np.float32)
+    runs = []
+    for mode in ("vector_entry_point", "sync"):
+        envs = gymnasium.make_vec(referee.gym.ENV_ID, num_envs=3, vectorization_mode=mode, level=level)
+        first = envs.reset(seed=seed if seed is not None else [7, 8, 9])
+        outcomes = [first] + [envs.step(a) for a in actions]
+        envs.close()
+        runs.append(outcomes)
+    (obs_a, info_a), (obs_b, info_b) = runs[0][0], runs[1][0]
+    assert np.array_equal(obs_a, obs_b) and list(info_a["seed"]) == list(info_b["seed"])
+    resets = 0
+    for a, b in zip(runs[0][1:], runs[1][1:]):
+        for x, y in zip(a[:4], b[:4]):
+            assert np.array_equal(x, y)
+        if "seed" in b[4]:  # an env reset at this step: the same next match
+            resets += int(b[4]["_seed"].sum())
+            assert np.array_equal(a[4]["_seed"], b[4]["_seed"])
+            assert list(a[4]["seed"][a[4]["_seed"]]) == list(b[4]["seed"][b[4]["_seed"]])
+    assert resets >= 6  # every env went through at least two resets

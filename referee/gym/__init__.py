@@ -3,8 +3,9 @@
     import gymnasium
     env = gymnasium.make("referee.gym:LaserArena-v0", level="asabe")
 
-- this module: `LaserArenaEnv`, one robot driven by an agent (registered as `LaserArena-v0`;
-  `gymnasium.make_vec` steps several); `parallel`: every robot an agent (PettingZoo);
+- this module: `LaserArenaEnv`, one robot driven by an agent (registered as `LaserArena-v0`);
+  `vector`: several of its matches in this process (`gymnasium.make_vec`'s default for the id);
+  `parallel`: every robot an agent (PettingZoo);
 - `session`: the simulation, its agents and other slots' controllers; `view`: `render()`.
 
 Imports: match, sandbox, records, `arena`, `levels`, `robots` (the API, the toolkit's features
@@ -80,4 +81,6 @@ class LaserArenaEnv(gymnasium.Env):
         self.session.close()
 
 
-gymnasium.register(id=ENV_ID, entry_point="referee.gym:LaserArenaEnv")
+gymnasium.register(
+    id=ENV_ID, entry_point="referee.gym:LaserArenaEnv", vector_entry_point="referee.gym.vector:LaserArenaVectorEnv"
+)
