@@ -1,6 +1,11 @@
-"""How fast the learning envs step beside bare stepping of the same world, side by side in one run.
+"""How fast the learning envs step beside bare pymunk stepping of the same world, side by side in one run.
 
-How it works, in detail: docs/internals.md, `benchmarks/env.py`.
+Bare: the level's pymunk space stepped `Space.step` by `Space.step` through one control period,
+its robots driving gentle circles (what a user's own pymunk loop costs). Beside it, the same
+period in the simulator's compiled loop (`World.run`: physics alone) and with every laser and
+detector (`Sensing`: what any env step costs before the referee's checks and the env's work).
+Figures are medians of interleaved rounds; ratios are bare over the figure (1.0: a step costs
+what bare pymunk does).
 """
 
 from __future__ import annotations
@@ -28,17 +33,24 @@ WHEELS = (0.08, 0.12)  # m/s, every robot in every figure
 Clock = Callable[[], float]
 
 
-def bare(name: str, periods: int, clock: Clock, sensed: bool = False) -> float:
-    """Seconds (by `clock`) per control period of the level's world, stepped bare; or `sensed`:
-    every period's states recorded and flushed into detections, as a match does."""
+def bare(name: str, periods: int, clock: Clock, how: str = "pymunk") -> float:
+    """Seconds (by `clock`) per control period of the level's world: "pymunk", its space stepped
+    by pymunk's `Space.step`; "compiled", `World.run`; "sensed", `World.run` with every period's
+    states recorded and flushed into detections, as a match does."""
     level = find_level(name)
     world = World(level)
-    sensing = Sensing(world, RandomTree(level.seed)) if sensed else None
+    sensing = Sensing(world, RandomTree(level.seed)) if how == "sensed" else None
     for slot in range(len(level.robots)):
         world.command(slot, *WHEELS)
+    world.run(5 * level.steps_per_control)  # the wheels up to speed: pymunk then keeps them there
+    space, dt, steps = world.space, world.dt, level.steps_per_control
     start = clock()
     for _ in range(periods):
-        states, _ = world.run(level.steps_per_control)
+        if how == "pymunk":
+            for _ in range(steps):
+                space.step(dt)
+            continue
+        states, _ = world.run(steps)
         if sensing:
             sensing.record_many(states)
             sensing.flush()
@@ -111,12 +123,14 @@ def round_of(periods: int) -> dict[str, float]:
     """One round of every figure, each beside the bare stepping it is compared with."""
     cpu = time.process_time
     f = {"bare_us": 1e6 * bare(LEVEL, periods, cpu), "bare_race_us": 1e6 * bare(RACE, periods, cpu)}
-    f["sensed_us"] = 1e6 * bare(LEVEL, periods, cpu, sensed=True)
+    f["compiled_us"] = 1e6 * bare(LEVEL, periods, cpu, "compiled")
+    f["sensed_us"] = 1e6 * bare(LEVEL, periods, cpu, "sensed")
     f["single_us"] = 1e6 * single(periods)
     f["goal_us"] = 1e6 * single(periods, goal=True)
     f["parallel_us"] = 1e6 * multi(periods)
     for n in (1, 2):
         f[f"sync{n}_us"] = 1e6 * vector("sync", n, periods)[1]
+        f[f"native{n}_us"] = 1e6 * vector("vector_entry_point", n, periods)[1]
     f["bare_wall_us"] = 1e6 * bare(LEVEL, periods, time.perf_counter)
     for n in (1, 2):
         wall, used = vector("async", n, periods)
@@ -131,13 +145,16 @@ def measure(repeat: int = 5, periods: int = 300) -> dict[str, float]:
     round_of(max(periods // 10, 5))  # untimed: loads the compiled kernels, fills the caches
     runs = [round_of(periods) for _ in range(repeat)]
     f = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    f["compiled_ratio"] = f["bare_us"] / f["compiled_us"]
     f["sensed_ratio"] = f["bare_us"] / f["sensed_us"]
+    f["sensing_over_physics"] = (f["sensed_us"] - f["compiled_us"]) / f["compiled_us"]
     f["single_ratio"] = f["bare_us"] / f["single_us"]
     f["parallel_ratio"] = f["bare_race_us"] / f["parallel_us"]
     for n in (1, 2):
         f[f"sync{n}_ratio"] = f["bare_us"] / f[f"sync{n}_us"]
+        f[f"native{n}_ratio"] = f["bare_us"] / f[f"native{n}_us"]
         f[f"async{n}_ratio"] = f["bare_wall_us"] / f[f"async{n}_us"]
-    for name in ("single", "goal", "parallel", "sync1", "sync2", "async1", "async2"):
+    for name in ("single", "goal", "parallel", "native1", "native2", "sync1", "sync2", "async1", "async2"):
         f[f"{name}_steps_per_s"] = 1e6 / f[f"{name}_us"]  # per CPU s; async: per wall s, all envs
     f["async_scaling"] = f["async1_us"] / f["async2_us"]
     return f
@@ -146,12 +163,17 @@ def measure(repeat: int = 5, periods: int = 300) -> dict[str, float]:
 def table(f: dict[str, float]) -> list[tuple[str, str, str]]:
     """The figures as (what, value, against bare) rows."""
     rows = [
-        (f"{LEVEL} bare stepping", f"{f['bare_us']:.0f} us CPU per control period", ""),
-        (f"{RACE} bare stepping", f"{f['bare_race_us']:.0f} us CPU per control period", ""),
+        (f"{LEVEL} bare pymunk stepping", f"{f['bare_us']:.0f} us CPU per control period", ""),
+        (f"{RACE} bare pymunk stepping", f"{f['bare_race_us']:.0f} us CPU per control period", ""),
         (
-            f"{LEVEL} stepping + sensing",
+            f"{LEVEL} compiled loop (physics alone)",
+            f"{f['compiled_us']:.0f} us CPU per control period",
+            f"{f['compiled_ratio']:.2f} of bare",
+        ),
+        (
+            f"{LEVEL} compiled loop + sensing",
             f"{f['sensed_us']:.0f} us CPU per control period",
-            f"{f['sensed_ratio']:.2f} of bare: the most an env step can reach",
+            f"{f['sensed_ratio']:.2f} of bare; sensing {f['sensing_over_physics']:.2f}x the physics",
         ),
         ("LaserArena-v0, one env", f"{f['single_us']:.0f} us CPU per step", f"{f['single_ratio']:.2f} of bare"),
         ("  with goal=True", f"{f['goal_us']:.0f} us CPU per step", f"{f['bare_us'] / f['goal_us']:.2f} of bare"),
@@ -161,6 +183,9 @@ def table(f: dict[str, float]) -> list[tuple[str, str, str]]:
             f"{f['parallel_ratio']:.2f} of bare ({RACE})",
         ),
     ]
+    for n in (1, 2):
+        cost = f"{f[f'native{n}_us']:.0f} us CPU per env step"
+        rows.append((f"make_vec (in-process), {n} env", cost, f"{f[f'native{n}_ratio']:.2f} of bare"))
     for n in (1, 2):
         cost = f"{f[f'sync{n}_us']:.0f} us CPU per env step"
         rows.append((f"make_vec sync, {n} env", cost, f"{f[f'sync{n}_ratio']:.2f} of bare"))
