@@ -36,8 +36,10 @@ lint: $(VENV)/.installed
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
+# the suite on every CPU (at most 4 workers), then, alone, the tests that measure CPU shares
 test: lint
-	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider
+	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider -n auto --maxprocesses 4 -m "not alone"
+	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider -m alone
 
 bench: $(VENV)/.installed
 	$(VENV)/bin/python benchmarks/all.py  # writes docs/performance.json and sets the figures the docs quote from it

@@ -14,6 +14,15 @@ settings.register_profile("laserarena", deadline=None)
 settings.load_profile("laserarena")
 
 
+# the modules whose tests take longest (an install, a cold compile, clusters, whole grading
+# runs): started first, so that `make test`'s workers do not end waiting on one of them
+SLOW_FIRST = ("test_quickstart.py", "test_warm.py", "test_cluster.py", "test_docs_run.py", "test_grade.py")
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    items.sort(key=lambda item: item.path.name not in SLOW_FIRST)  # stable: each module keeps its order
+
+
 @pytest.fixture
 def write_level(tmp_path):
     """Write level text to a file and return its path."""

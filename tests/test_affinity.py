@@ -17,6 +17,8 @@ from referee.sandbox.exchange import exchange
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
 
+pytestmark = pytest.mark.alone  # CPU claims: no other test's referee may hold one meanwhile
+
 # a controller that reports, as its estimate, how many CPUs it may run on and the lowest of them
 REPORTER = """
 from robots.api import Command, Controller
