@@ -71,9 +71,22 @@ def _below(root: int) -> dict[int, tuple[int, str]]:
     return below
 
 
+_EARLIER: set[int] = set()  # what ran below this process before the test began
+
+
+@pytest.fixture(autouse=True)
+def _earlier_processes():
+    """Note what already runs below this process when a test begins: helpers that earlier
+    tests in the same process started (multiprocessing's resource tracker, say, where a
+    worker of `make test` runs several modules), not the referee's."""
+    _EARLIER.clear()
+    _EARLIER.update(_below(os.getpid()))
+    yield
+
+
 def assert_template_idle(timeout: float = 5.0) -> None:
-    """Nothing runs below the referee but its templates (bwrap and the template it starts):
-    every slot's controller has ended (a bounded wait for the last of them)."""
+    """Nothing this test started runs below the referee but its templates (bwrap and the
+    template it starts): every slot's controller has ended (a bounded wait for the last of them)."""
     assert forkserver.server() is not None, forkserver.unavailable()
     deadline = time.monotonic() + timeout
     while True:
@@ -81,7 +94,9 @@ def assert_template_idle(timeout: float = 5.0) -> None:
         left = {
             pid: name
             for pid, (ppid, name) in below.items()
-            if name != "bwrap" and below.get(ppid, (0, ""))[1] != "bwrap"  # a template: bwrap's child
+            if pid not in _EARLIER
+            and name != "bwrap"
+            and below.get(ppid, (0, ""))[1] != "bwrap"  # a template: bwrap's child
         }
         if not left or time.monotonic() > deadline:
             break
