@@ -36,7 +36,7 @@ lint: $(VENV)/.installed
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
-# the suite on every CPU (at most 4 workers), then, alone, the tests that measure CPU shares
+# the suite on every CPU (at most 4 workers), then, alone, the tests that load the machine or time a neighbour
 test: lint
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider -n auto --maxprocesses 4 -m "not alone"
 	cd tests && ../$(VENV)/bin/python -m pytest -q -p no:cacheprovider -m alone

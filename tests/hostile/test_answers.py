@@ -8,8 +8,6 @@ import os
 import select
 import threading
 
-import pytest
-
 from hostile.hostile_kit import assert_contained, assert_others_unharmed, hostile_match
 from referee.sandbox.channel import Channel, Trouble
 from robots._host import protocol
@@ -77,7 +75,6 @@ def test_a_frame_over_the_bound_is_a_protocol_fault_that_names_it(tmp_path):
 SLOW_NUMBER = -1.2345678901234567e-300  # the slowest kind of number to read (an extreme exponent)
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_decoding_a_legal_answer_is_paid_from_the_senders_think_budget(tmp_path):
     """Answers within the bound whose decoding takes the referee long: the sender, not the
     referee or the others, pays for it, until its think budget is spent. The same team sending
@@ -171,7 +168,6 @@ class Staller(Controller):
 """
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_an_observation_written_late_is_its_readers_time(tmp_path):
     """The clock of an answer starts before its observation is written: a controller that lets
     its input fill and empties it late pays the referee's wait from its own allowance (it is

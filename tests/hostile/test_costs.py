@@ -7,8 +7,6 @@ import dataclasses
 import gzip
 import json
 
-import pytest
-
 from hostile.hostile_kit import FAST, assert_contained, assert_others_unharmed, hostile_match
 from referee.match.drawings import MATCH_BYTES, TICK_BYTES
 from referee.match.fleet import NO_LIMITS
@@ -76,7 +74,6 @@ def test_warnings_of_endless_variety_are_one_per_kind(tmp_path):
     assert len(json.dumps(result.to_dict()["robots"][0]["warnings"])) < 400
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_thinking_just_under_the_step_time_every_tick_meets_the_think_budget(tmp_path):
     limits = dataclasses.replace(FAST, think_budget=0.05)  # 0.3 s over a 6 s match; Slow takes 0.04 s a tick
     result = hostile_match(tmp_path, SLOW, limits=limits)

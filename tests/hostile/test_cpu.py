@@ -21,8 +21,6 @@ from referee.match.loop import play_match
 from referee.sandbox import cgroup
 from referee.sandbox.teams import resolve
 
-pytestmark = pytest.mark.alone  # CPU shares and claims: measured with no other test beside
-
 
 def hog(children: int, cpus: str = "range(os.cpu_count())") -> str:
     """A controller whose setup starts `children` busy processes, each moved to `cpus` (every

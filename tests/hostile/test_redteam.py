@@ -398,7 +398,6 @@ class Eager(Controller):
     assert bad["faults"][0]["tick"] == 4
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_huge_answers_every_tick_cost_the_others_nothing(tmp_path):
     # 3000 drawings of 64 points every tick: the team side sends the 255 a command may hold
     # and one note of the rest; the referee decodes it, and times the others alone
@@ -497,7 +496,6 @@ class Deaf(Controller):
     assert_template_idle()
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_a_fork_bomb_in_one_match_leaves_a_match_in_another_thread_alone(tmp_path):
     # two matches at once in two threads of one referee process (a Dask worker with several
     # threads does this): slot 0 of one holds every process its uid may have; slot 0 of the
@@ -561,7 +559,6 @@ class Probe(Controller):
     ]
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_memory_held_through_descriptors_stays_within_the_limit(tmp_path):
     # memfd pages written through the descriptor are never mapped: RLIMIT_AS does not see them;
     # the slot's memory cgroup counts them, and its out-of-memory killer ends the hoarder alone
@@ -680,7 +677,6 @@ def test_a_spawned_sandbox_is_closed_to_the_keyrings_too():
     assert slot_uid(7) not in owners
 
 
-@pytest.mark.alone  # loads the machine (or keeps to a deadline) and times an honest neighbour
 def test_its_log_cannot_take_more_disk_than_the_output_limit(tmp_path):
     # fallocate(KEEP_SIZE) on its log would reserve blocks without growing the file, past any
     # file-size limit: its log is a pipe the referee reads, and fallocate is filtered out anyway

@@ -1,7 +1,5 @@
 """A controller that signals or traces every process it can name reaches only its own sandbox."""
 
-import pytest
-
 from hostile.hostile_kit import assert_contained, hostile_match
 
 
@@ -78,7 +76,6 @@ def test_ptrace_reaches_nothing(tmp_path):
     assert_contained(result, words="contained: traced [] peeked 0")
 
 
-@pytest.mark.alone  # the bomb's slot at its limit: its neighbours' ticks are measured
 def test_a_fork_bomb_stops_at_the_slots_process_limit(tmp_path):
     # forks until the kernel refuses; every child sleeps. The slot's own uid has a process
     # limit, its PID namespace takes every child down with it at the end
