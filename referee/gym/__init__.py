@@ -20,7 +20,7 @@ import gymnasium
 import numpy as np
 
 from levels.model import Level
-from referee.gym.session import AgentSession
+from referee.gym.session import AgentSession, match_seed
 
 ENV_ID = "LaserArena-v0"
 
@@ -61,9 +61,9 @@ class LaserArenaEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """A new match: with `seed`, that match seed; without, the next from the env's generator."""
         super().reset(seed=seed)
-        match_seed = seed if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
-        obs = self.session.reset(match_seed)
-        return obs[self.slot], {"seed": match_seed}
+        played = match_seed(seed, self.np_random)
+        obs = self.session.reset(played)
+        return obs[self.slot], {"seed": played}
 
     def step(self, action):
         out = self.session.step({self.slot: action})

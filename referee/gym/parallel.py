@@ -18,7 +18,7 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from levels.model import Level
-from referee.gym.session import AgentSession, load
+from referee.gym.session import AgentSession, load, match_seed
 
 
 class LaserArenaParallelEnv(ParallelEnv):
@@ -65,10 +65,10 @@ class LaserArenaParallelEnv(ParallelEnv):
         """A new match: with `seed`, that match seed; without, the next from the env's generator."""
         if seed is not None:
             self._rng = np.random.default_rng(seed)
-        match_seed = seed if seed is not None else int(self._rng.integers(0, 2**31 - 1))
-        obs = self.session.reset(match_seed)
+        played = match_seed(seed, self._rng)
+        obs = self.session.reset(played)
         self.agents = list(self.possible_agents)
-        return ({a: obs[self.slots[a]] for a in self.agents}, {a: {"seed": match_seed} for a in self.agents})
+        return ({a: obs[self.slots[a]] for a in self.agents}, {a: {"seed": played} for a in self.agents})
 
     def step(self, actions: dict):
         slots = self.slots

@@ -44,6 +44,11 @@ class Step(NamedTuple):
     infos: dict[int, dict]
 
 
+def match_seed(seed: int | None, generator: np.random.Generator) -> int:
+    """The match an env's reset plays: `seed`, or else the next draw of the env's generator."""
+    return seed if seed is not None else int(generator.integers(0, 2**31 - 1))
+
+
 def load(level: str | Path | Level) -> Level:
     """A level by built-in name, file path, or already loaded."""
     if isinstance(level, Level):

@@ -18,9 +18,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from levels.model import Level
-from referee.gym.session import AgentSession, load
-
-SEEDS = 2**31 - 1  # a match seed drawn for an unseeded reset is below this, as the one-robot env draws it
+from referee.gym.session import AgentSession, load, match_seed
 
 
 class LaserArenaVectorEnv(VectorEnv):
@@ -77,9 +75,9 @@ class LaserArenaVectorEnv(VectorEnv):
         """Start env `i`'s next match: `seed`, or the next from its generator."""
         generator = self._generators[i]
         assert generator is not None
-        match_seed = seed if seed is not None else int(generator.integers(0, SEEDS))
-        self._observations[i] = self.sessions[i].reset(match_seed)[self.slot]
-        return {"seed": match_seed}
+        played = match_seed(seed, generator)
+        self._observations[i] = self.sessions[i].reset(played)[self.slot]
+        return {"seed": played}
 
     def step(self, actions):
         """One control period of every env; an env whose episode ended at the last step is reset instead."""
