@@ -16,11 +16,13 @@ How it works, in detail: docs/internals.md, `arena/compiled.py`.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
 from numba import njit
+from numba.core import environment
 from numba.core.runtime import rtsys
 
 from arena.angles import TWO_PI
@@ -51,10 +53,31 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
     """numba's `Cache.load_overload` (the kernel's machine code for `sig` from its cache, or
     None) without its refresh of the target context: numba refreshes the context (importing
     and installing every typing and lowering registry) so that it could compile, and compiling
-    refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to."""
+    refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to. Its
+    environments are rebuilt without importing modules (`_environment`)."""
     rtsys.initialize(target_context)
     with cache._guard_against_spurious_io_errors():
-        return cache._load_overload(sig, target_context)
+        rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
+        environment._rebuild_env = _environment
+        try:
+            return cache._load_overload(sig, target_context)
+        finally:
+            environment._rebuild_env = rebuild
+
+
+def _environment(modname: str, consts: list, env_name: str) -> Any:
+    """numba's `_rebuild_env` (the environment of one compiled function in a cached kernel),
+    without importing `modname` where no one has: an environment holds its module's globals
+    only for code in object mode, which no kernel here has, and the modules of numba's own
+    array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import."""
+    env = environment.lookup_environment(env_name)
+    if env is None:
+        module = sys.modules.get(modname)
+        env = environment.Environment(module.__dict__ if module is not None else {})
+        env.consts[:] = consts
+        env.env_name = env_name
+        environment.Environment._memo[env_name] = env
+    return env
 
 
 def cached(kernel: Any) -> bool | None:

@@ -4,7 +4,7 @@ Each kernel replaced a run of NumPy expressions; those expressions are kept here
 before, and both are run on random trajectories: crossings (beams on and beside their axis),
 occlusion by other robots, and Bac's merged pulses. Equality is exact, bit for bit, so results
 and replays stay what they were (tests/test_golden.py guards the whole match). The arc functions
-of the crossings themselves are the C library's (decision 0041): the NumPy expressions here take
+of the crossings themselves are the C library's (decisions 0041, 0050): the NumPy expressions here take
 them elementwise from Python's `math`, which calls the same library."""
 
 import math
@@ -29,7 +29,7 @@ def numpy_crossings(traj, bx, by, off):
     dx = bx[None, None, :] - traj.x[:, :, None]
     dy = by[None, None, :] - traj.y[:, :, None]
     a = traj.h + traj.phi
-    d = a[:, :, None] - np.arctan2(dy, dx)  # the grid: NumPy's
+    d = a[:, :, None] - _atan2(dy, dx)  # the grid: the C library's too (decision 0050)
     if off is not None:
         d += _asin(np.clip(off[None, :, None] / np.hypot(dx, dy), -1.0, 1.0))
     d = wrap_angle(d)

@@ -3,7 +3,7 @@ trajectories, for every detector kind, `candidates` keeps the crossings that `fi
 the occlusion kernel and `hardware.visible` keep, with `hardware.sensitivity`'s response, and
 `response` fires those `optics.optics` fires with the same log-normal light, taking each robot's
 draws in order from its row of a block (normals.Normals). The arc functions
-differ in the last bit (the C library's against NumPy's: decision 0041), so floats are compared
+differ in the last bit (the C library's against NumPy's: decisions 0041, 0050), so floats are compared
 to 1e-12 and decisions exactly."""
 
 import math
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from helpers import BEACONS, random_trajectory
 
-from arena.sensing import hardware, occlusion, optics, sweep
+from arena.sensing import hardware, occlusion, optics, spin, sweep
 from arena.sensing.crossings import find_crossings
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
@@ -95,3 +95,112 @@ def test_gates_take_the_defaults_of_the_kind_modules():
     """A parameter a level leaves out reads as the kind modules read it."""
     g = sweep.gates({}, 0.05)
     assert g[-1] == 0.05 and math.isinf(g[0]) and math.isinf(g[7]) and g[2] == 0.0
+
+
+def test_bearings_are_the_c_librarys_atan2_within_an_ulp_of_numpys():
+    """The grid's bearings are the C library's `atan2` (decision 0050), the same on every
+    processor; NumPy's own `arctan2` (which may take SIMD code) agrees to the last bit or one."""
+    g = np.random.default_rng(5)
+    traj = random_trajectory(g, robots=3)
+    bx, by = BEACONS
+    dx, dy, bearing = sweep.bearings(traj.x, traj.y, bx, by)
+    np.testing.assert_array_equal(dx, bx[None, None, :] - traj.x[:, :, None])
+    np.testing.assert_array_equal(dy, by[None, None, :] - traj.y[:, :, None])
+    libm = np.vectorize(math.atan2)(dy, dx)
+    assert np.array_equal(bearing, libm)
+    assert np.all(np.abs(bearing - np.arctan2(dy, dx)) <= np.spacing(np.abs(libm)))
+
+
+def sensing_case(g, kind, trial):
+    """A random batch: a trajectory whose beams leave off the bodies (a tilted floor), the
+    spin's drive and state, the kind's hardware, and draws for the light and the timing."""
+    p = KINDS[kind]
+    traj = random_trajectory(g, robots=int(g.integers(1, 5)))
+    robots, steps = traj.x.shape[1], traj.x.shape[0] - 1
+    omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
+    noise = g.normal(size=(steps, robots)) if trial % 2 else np.zeros((0, 0))
+    powers = [
+        np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, steps + 1)[:, None], (steps, robots)))
+        for a in (0.9, 0.8)
+    ]
+    lag_decay, coupled = (0.8, 0.05) if trial % 3 else (-1.0, 0.0)
+    bx, by = BEACONS
+    gain = g.uniform(0.5, 1.2, len(FACING)) if trial % 2 else np.zeros(0)
+    reach, silhouette = g.uniform(0.05, 0.3, robots), g.uniform(0.02, 0.12, robots)
+    code = sweep.KIND_CODES[kind]
+    return {
+        "traj": traj, "x": traj.x + 0.001, "y": traj.y - 0.001, "omega": omega,
+        "drive": (noise, 0.01, 0.9, powers[0], lag_decay, coupled, powers[1]),
+        "state": [g.uniform(-50, 50, robots), g.normal(0, 0.01, robots), g.normal(0, 0.1, robots), g.normal(0, 1, robots)],
+        "hardware": (bx, by, FACING, gain, np.zeros(0), reach, silhouette, code, sweep.gates(p, 0.02)),
+        "light": g.normal(size=(robots, 400)), "timing": g.normal(size=(robots, 400)),
+        "clock": np.array([1e-5, traj.t[0], traj.t[-1], 0.0, math.nextafter(traj.t[0], math.inf)]),
+        "fire": (p.get("light_noise", 0.0), np.array(sweep.hardware(p))),
+        "merging": (np.sign(omega), np.array([0.0, len(bx), 0.0]), np.uint64(7)),
+    }  # fmt: skip
+
+
+def fire_case(c, robot, beacon, rows, at):
+    """`sweep.fire` of a case's crossings, its draws taken from the positions `at`."""
+    sigma, optics_ = c["fire"]
+    direction, merging, key = c["merging"]
+    code = c["hardware"][7]
+    return sweep.fire(
+        robot, beacon, rows, code, c["light"], at[0], sigma, optics_, c["timing"], at[1], c["clock"], c["omega"],
+        direction, merging, key,
+    )  # fmt: skip
+
+
+def staged(c):
+    """The stages one by one: `laser_phases`, `bearings`, `candidates`, `fire`."""
+    traj, x, y = c["traj"], c["x"], c["y"]
+    robots = traj.x.shape[1]
+    phi0, wobble, lag, body = (v.copy() for v in c["state"])
+    noise, scale, a, powers, lag_decay, coupled, lag_powers = c["drive"]
+    phi, wobble, lag, body = spin.laser_phases(
+        c["omega"], 1 / 240, phi0, traj.h, noise, scale, a, powers, wobble, lag_decay, coupled, lag_powers, lag, body
+    )
+    bx, by, facing, gain, offset, reach, silhouette, code, gates = c["hardware"]
+    robot, beacon, _, _, rows = sweep.candidates(
+        x, y, traj.h, phi, traj.t, *sweep.bearings(x, y, bx, by), traj.x, traj.y, bx, by, facing, gain, offset,
+        reach, silhouette, code, gates,
+    )  # fmt: skip
+    at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
+    return (phi, *fire_case(c, robot, beacon, rows, at)), [phi[-1], wobble, lag, body], at
+
+
+def one_call(c, split):
+    """`sense` in one call, or (`split`) `sense_candidates` then `fire`."""
+    traj = c["traj"]
+    robots = traj.x.shape[1]
+    moved = [v.copy() for v in c["state"]]
+    at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
+    motion = (c["x"], c["y"], traj.h, traj.t, traj.x, traj.y, c["omega"], 1 / 240, moved[0], *c["drive"], *moved[1:])
+    if not split:
+        sigma, optics_ = c["fire"]
+        out = sweep.sense(
+            *motion, *c["hardware"], c["light"], at[0], sigma, optics_, c["timing"], at[1], c["clock"], *c["merging"]
+        )
+        return out, moved, at
+    phi, robot, beacon, rows = sweep.sense_candidates(*motion, *c["hardware"])
+    return (phi, *fire_case(c, robot, beacon, rows, at)), moved, at
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_one_call_senses_what_the_stages_do(kind):
+    """`sense` (the phases, the bearings, `candidates` and `fire` in one compiled call) gives
+    what the stages give called one by one, and moves the spin's state on as `laser_phases`
+    does; `sense_candidates` then `fire` (the path with obstacles between) gives the same."""
+    g = np.random.default_rng(23)
+    pulses_seen = 0
+    for trial in range(12):
+        c = sensing_case(g, kind, trial)
+        want, want_state, want_at = staged(c)
+        pulses_seen += len(want[3])
+        for split in (False, True):
+            got, got_state, got_at = one_call(c, split)
+            assert all(np.array_equal(w, v) for w, v in zip(want[:-1], got[:-1]))
+            assert all(np.array_equal(w, v) for w, v in zip(want[-1], got[-1]))  # counts, ties
+            assert all(np.array_equal(w, v) for w, v in zip(want_state, got_state))
+            assert all(np.array_equal(w, v) for w, v in zip(want_at, got_at))
+    assert pulses_seen > 0

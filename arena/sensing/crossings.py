@@ -89,10 +89,9 @@ def find_crossings(
     turn per step), so the beam passes a beacon in step k exactly when d changes sign there
     without wrapping round. A pass belongs to the step in which d arrives at 0, so an exact
     hit at a step boundary is counted once, whichever way the beam turns. All of it is one
-    compiled call (`crossing_arrays`) but the bearings of every step, NumPy's `arctan2`."""
+    compiled: the bearings of every step (`bearings`), then `crossing_arrays`."""
     off = beam_offset if beam_offset is not None and beam_offset.any() else _NO_OFFSET
-    dx, dy = laser_to_beacons(traj.x, traj.y, bx, by)
-    grid = (dx, dy, np.arctan2(dy, dx))
+    grid = bearings(traj.x, traj.y, bx, by)
     robot, beacon, step, s, rows = crossing_arrays(traj.x, traj.y, traj.h, traj.phi, traj.t, bx, by, off, *grid)
     return Crossings(robot, beacon, step, s, *rows)
 
@@ -140,10 +139,8 @@ def crossing_arrays(
     """`find_crossings` but the grid: (robot, beacon, step, s, and the rows t, x, y, phi,
     beam_rate, distance, bearing) from a trajectory (x, y, h, phi at the step ends `t`), the
     beacons, each robot's beam offset (none: every beam on its axis), the vectors from every
-    laser to every beacon (`laser_to_beacons`) and their bearings, NumPy's `arctan2` (its SIMD
-    code is several times faster on the grid than the C library's; a kernel cannot call it
-    and still be cached). The arc functions of the crossings themselves are the C library's
-    (decision 0041)."""
+    laser to every beacon and their bearings (`bearings`). Its arc functions are the C
+    library's (decision 0050)."""
     shifted = offset.shape[0] > 0
     k, r, b = dx.shape
     beam = np.empty((k, r))
@@ -190,6 +187,20 @@ def laser_to_beacons(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarra
                 dx[i, j, m] = bx[m] - x[i, j]
                 dy[i, j, m] = by[m] - y[i, j]
     return dx, dy
+
+
+@compiled()
+def bearings(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The vectors from every laser (steps, robots) to every beacon and their bearings, the C
+    library's `atan2` (decision 0050): the grid `crossing_arrays` takes."""
+    dx, dy = laser_to_beacons(x, y, bx, by)
+    bearing = np.empty(dx.shape)
+    k, r, b = dx.shape
+    for i in range(k):
+        for j in range(r):
+            for m in range(b):
+                bearing[i, j, m] = math.atan2(dy[i, j, m], dx[i, j, m])
+    return dx, dy, bearing
 
 
 @compiled()

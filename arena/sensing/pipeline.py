@@ -99,6 +99,16 @@ class Sensing:
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
         self._merging = np.array([float(merges[0]), len(self.ids), merges[1]])
         self._merge_key = np.uint64(self.merge_key)
+        self._clock = np.array([self._timing_noise, 0.0, 0.0, self._clock_hz, 0.0])  # `_pulses` fills in the window
+        # what `sweep.sense_candidates` takes after the spin: the beacons, then the bodies and the gates
+        beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
+        self._hardware = (*beacons, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
+        # what a hit reports (`_hits`): the beacons' labels and places as lists, and the head's encoder
+        self._labels = self.ids if self.kind != "reflector" else None
+        self._places = (self.bx.tolist(), self.by.tolist())
+        self._steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
+        self._latched = bool(self._steps) or self.kind == "flash_detector"  # an encoder reports angles even when ideal
+        self._stepped = self.kind == "reflector" and bool(self._steps)  # a stepped head
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
         self._last = world.state
@@ -143,12 +153,16 @@ class Sensing:
         steps = len(poses) - 1
         t = self._last_t + self._ramp(steps)
         t[-1] = self.world.time  # exact at the end, so batches join without drift
-        heading = poses[:, :, 2]
-        traj = Trajectory(t=t, x=poses[:, :, 0], y=poses[:, :, 1], h=heading, phi=self.spin.phases(heading))
+        x, y, heading = poses[:, :, 0], poses[:, :, 1], poses[:, :, 2]
         self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
-        lasers = traj if self.tilt is None else self._leaned(traj)
-
-        sources = [self.turrets.scan(traj, lasers) if self.kind == "light" else self._hits(traj, lasers)]
+        if self.kind == "light":
+            traj = Trajectory(t=t, x=x, y=y, h=heading, phi=self.spin.phases(heading))
+            sources = [self.turrets.scan(traj, traj if self.tilt is None else self._leaned(traj))]
+        else:
+            lx, ly = (x, y) if self.tilt is None else self._lean(x, y)
+            phi, hits = self._hits(t, x, y, heading, lx, ly)
+            traj = Trajectory(t=t, x=x, y=y, h=heading, phi=phi)
+            sources = [hits]
         if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(traj)))
@@ -167,12 +181,16 @@ class Sensing:
             out.append(merged)
         return out
 
-    def _leaned(self, traj: Trajectory) -> Trajectory:
-        """Where the beams leave, step by step: each body's position, leaned by the floor's tilt
-        there (arena.floor); the body itself (`traj`) is what the score and other beams see."""
+    def _lean(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Where the beams leave, step by step: each body's position (x, y), leaned by the
+        floor's tilt there (arena.floor); the body itself is what the score and other beams see."""
         assert self.tilt is not None
-        dx, dy = self.tilt.lean(traj.x, traj.y, self.height)
-        return Trajectory(t=traj.t, x=traj.x + dx, y=traj.y + dy, h=traj.h, phi=traj.phi)
+        dx, dy = self.tilt.lean(x, y, self.height)
+        return x + dx, y + dy
+
+    def _leaned(self, traj: Trajectory) -> Trajectory:
+        """`traj` with its positions where the beams leave (`_lean`)."""
+        return Trajectory(traj.t, *self._lean(traj.x, traj.y), traj.h, traj.phi)
 
     def _ramp(self, steps: int) -> np.ndarray:
         """Step-end times of a batch of `steps` steps from its start (cached per length)."""
@@ -183,66 +201,76 @@ class Sensing:
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
-    def _pulses(self, traj: Trajectory, lasers: Trajectory) -> tuple[np.ndarray, ...]:
-        """The batch's crossings of the beams leaving from `lasers` (`sweep.candidates`' rows),
-        the optics' offsets, and its pulses as the hardware reads them (`pulses`' results):
-        `sweep.candidates` then `sweep.fire`, with pymunk's segment query between them where the
-        level has obstacles. Each robot's light and timing draws come from its own streams,
-        drawn ahead (normals.Normals)."""
-        need = (len(traj.t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
+    def _pulses(
+        self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, lx: np.ndarray, ly: np.ndarray
+    ) -> tuple:
+        """The batch's laser phases and pulses, in one compiled call (`sweep.sense`) from the
+        step-end times `t`, the bodies' poses (x, y, h) and where the beams leave (lx, ly):
+        the phases (spin), the crossings, the optics' offsets and the pulses as the hardware
+        reads them (`sweep.fire`'s results). Where the level has obstacles, pymunk's segment
+        query runs between `sweep.sense_candidates` and `sweep.fire`. Each robot's light and
+        timing draws come from its own streams, drawn ahead (normals.Normals)."""
+        need = (len(t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
         light, light_at = self._light.ready(need) if self._light else (_NO_ROWS, _NO_AT)
         timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)
-        w0, w1 = float(traj.t[0]), float(traj.t[-1])
-        clock = np.array([self._timing_noise, w0, w1, self._clock_hz, first_tick_after(w0, self.params)])
-        bodies = (self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
-        beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
-        grid = sweep.bearings(lasers.x, lasers.y, self.bx, self.by)
-        path = (lasers.x, lasers.y, lasers.h, lasers.phi, lasers.t, *grid, traj.x, traj.y)
-        robot, beacon, _, _, rows = sweep.candidates(*path, *beacons, *bodies)
-        if self.occlusion.has_obstacles:  # pymunk's segment query, between the compiled stages
-            self.occlusion.clear_obstacles(rows)
-        return sweep.fire(
-            robot, beacon, rows, self._kind, light, light_at, self._light_sigma, self._optics, timing, timing_at,
-            clock, self.omega, self.direction, self._merging, self._merge_key,
+        w0 = float(t[0])
+        clock = self._clock  # the timing noise's scale, the window's start and end, the clock's rate and first tick
+        clock[1], clock[2], clock[4] = w0, t[-1], first_tick_after(w0, self.params)
+        spin = self.spin
+        motion = (lx, ly, h, t, x, y, spin.omega, spin.dt, spin.phi, *spin.drive(len(t) - 1), *spin.state())
+        sigma, optics = self._light_sigma, self._optics
+        if not self.occlusion.has_obstacles:
+            return sweep.sense(
+                *motion, *self._hardware, light, light_at, sigma, optics, timing, timing_at, clock,
+                self.direction, self._merging, self._merge_key,
+            )  # fmt: skip
+        phi, robot, beacon, rows = sweep.sense_candidates(*motion, *self._hardware)
+        self.occlusion.clear_obstacles(rows)  # pymunk's segment query, between the compiled stages
+        return phi, *sweep.fire(
+            robot, beacon, rows, self._kind, light, light_at, sigma, optics, timing, timing_at, clock,
+            self.omega, self.direction, self._merging, self._merge_key,
         )  # fmt: skip
 
-    def _hits(self, traj: Trajectory, lasers: Trajectory) -> list[list[Detection]]:
-        """The beacons' pulses (`_pulses`) as detections, per robot in event order."""
+    def _hits(
+        self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, lx: np.ndarray, ly: np.ndarray
+    ) -> tuple[np.ndarray, list[list[Detection]]]:
+        """The batch's laser phases, and the beacons' pulses (`_pulses`) as detections, per
+        robot in event order."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        rows, offset, source, robot, beacon, times, phase, (counts_, tied_) = self._pulses(traj, lasers)
+        phi, rows, offset, source, robot, beacon, times, phase, (counts_, tied_) = self._pulses(t, x, y, h, lx, ly)
         if not len(source):
-            return out
-        p = self.params
-        window = (float(traj.t[0]), float(traj.t[-1]))
+            return phi, out
         counts = counts_.tolist()
-        steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
-        latched = steps or self.kind == "flash_detector"  # an encoder reports angles even when ideal
+        steps = self._steps
         m = len(source)
-        if self.kind == "reflector" and steps:  # a stepped head: what it reads is the step, and when it got there
-            times = reflector.step_time(times, phase, self.omega[robot], steps, window[0])
-        angles = quantize_angle(phase, steps).tolist() if latched else [None] * m
-        labels = [self.ids[b] for b in beacon.tolist()] if self.kind != "reflector" else [None] * m
-        beams = zip(
-            rows[1, source].tolist(), rows[2, source].tolist(), self.bx[beacon].tolist(), self.by[beacon].tolist()
-        )
+        if self._stepped:  # a stepped head: what it reads is the step, and when it got there
+            times = reflector.step_time(times, phase, self.omega[robot], steps, float(t[0]))
+        angles = quantize_angle(phase, steps).tolist() if self._latched else [None] * m
+        beacons = beacon.tolist()
+        labels = [self._labels[b] for b in beacons] if self._labels else [None] * m
+        bx, by = self._places
+        lasers = rows[1:3, source].tolist()
+        beams = zip(lasers[0], lasers[1], [bx[b] for b in beacons], [by[b] for b in beacons])
         robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
-            low = (p.get("rise_time", 0.0) - 2 * offset[source]).tolist()  # the optics' dwell, and the release
-            kept = self.lines.flanks(times_, beacon.tolist(), low)
+            low = (
+                self.params.get("rise_time", 0.0) - 2 * offset[source]
+            ).tolist()  # the optics' dwell, and the release
+            kept = self.lines.flanks(times_, beacons, low)
             heard = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
-            return self._to_everyone(heard)
+            return phi, self._to_everyone(heard)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
         events = list(map(NEW_DETECTION, fields))
         # times never decrease within a robot; hits at one time go by their keys (a stepped head's
         # times, moved back to their steps, may reorder two returns of one step: sorted too)
-        stepped = self.kind == "reflector" and bool(steps)
+        stepped = self._stepped
         start = 0
         for r, (k, tied) in enumerate(zip(counts, tied_.tolist())):
             out[r] = events[start : start + k]
             start += k
             if tied or stepped:
                 out[r].sort(key=event_order)
-        return out
+        return phi, out
 
     def _to_everyone(self, heard: list[tuple]) -> list[list[Detection]]:
         """Every controller gets every pulse (robot, time, label, angle, beam): an array's

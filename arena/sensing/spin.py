@@ -32,7 +32,7 @@ class Spin:
         self.body_rate = np.zeros(n)  # the body's yaw rate in the last step (rad/s)
         self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
-        self._noise: dict[int, np.ndarray] = {}  # batch length -> the wobble's draws, a row per robot
+        self._drive: dict[int, tuple] = {}  # batch length -> `drive`
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
@@ -41,29 +41,42 @@ class Spin:
     def phases(self, heading: np.ndarray) -> np.ndarray:
         """Unwrapped laser phases at the step ends, from the body headings there (steps + 1,
         robots); the last row is where the next batch starts."""
-        steps, n = len(heading) - 1, len(self.omega)
+        return advance(self.omega, self.dt, self.phi, heading, *self.drive(len(heading) - 1), *self.state())
+
+    def drive(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
+        """What moves the phases through a batch of `steps` steps, as `advance` takes it after
+        the headings: the wobble's draws (steps, robots; none without wobble), their scale, decay
+        and powers, then the spin lag's decay (negative: none), coupling and powers. All but the
+        draws depend only on `steps`: kept per batch length, with the block the draws fill."""
+        drive = self._drive.get(steps)
+        if drive is None:
+            drive = self._drive[steps] = self._drive_of(steps)
+        noise = drive[0]
+        if noise.shape[0]:
+            for g, row in zip(self.streams, noise.T):
+                g.standard_normal(out=row)
+        return drive
+
+    def _drive_of(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
+        """`drive` for batches of `steps` steps, its draws' block not yet filled."""
+        n = len(self.omega)
         p = self.params
         noise, scale, decay, powers = _NO_ROWS, 0.0, 0.0, _NO_ROWS
         if p["wobble"] > 0:
             decay = math.exp(-self.dt / p["wobble_time"])
-            draws = self._noise.get(steps)
-            if draws is None:
-                draws = self._noise[steps] = np.empty((n, steps))
-            for g, row in zip(self.streams, draws):
-                g.standard_normal(out=row)
-            noise = draws.T
+            noise = np.empty((n, steps)).T  # a row per robot, as each robot's stream fills it
             scale, powers = math.sqrt(1 - decay * decay) * p["wobble"], self._powers_of(decay, noise.shape)
         lag_decay, coupled, lag_powers = -1.0, 0.0, _NO_ROWS  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
             lag_decay = math.exp(-self.dt / p["spin_time"])
             coupled = (1 - lag_decay) * p.get("spin_coupling", 0.0)
             lag_powers = self._powers_of(lag_decay, (steps, n))
-        phi, self.wobble, self.spin_lag, self.body_rate = laser_phases(
-            self.omega, self.dt, self.phi, heading, noise, scale, decay, powers, self.wobble,
-            lag_decay, coupled, lag_powers, self.spin_lag, self.body_rate,
-        )  # fmt: skip
-        self.phi = phi[-1].copy()
-        return phi
+        return noise, scale, decay, powers, lag_decay, coupled, lag_powers
+
+    def state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The wobble, spin lag and body yaw rate a batch starts from, as `advance` takes them
+        last (and updates in place)."""
+        return self.wobble, self.spin_lag, self.body_rate
 
     def _powers_of(self, a: float, shape: tuple[int, int]) -> np.ndarray:
         """a^1..a^steps per row for a batch of `shape` (cached), or none where a^steps
@@ -158,3 +171,33 @@ def laser_phases(
             acc = v if k == 0 else acc + v
             phi[k + 1, r] = acc + phi0[r]
     return phi, last_wobble, last_lag, last_body
+
+
+@compiled()
+def advance(
+    omega: np.ndarray,
+    dt: float,
+    phi0: np.ndarray,
+    heading: np.ndarray,
+    noise: np.ndarray,
+    scale: float,
+    a: float,
+    powers: np.ndarray,
+    lag_decay: float,
+    coupled: float,
+    lag_powers: np.ndarray,
+    wobble: np.ndarray,
+    lag: np.ndarray,
+    body_rate: np.ndarray,
+) -> np.ndarray:
+    """`laser_phases` with the spin's state updated in place: the phase a batch starts from
+    (`phi0`), the wobble, the lag and the body's yaw rate become those at the batch's end.
+    Returns the phases at the step ends."""
+    phi, w, lg, b = laser_phases(
+        omega, dt, phi0, heading, noise, scale, a, powers, wobble, lag_decay, coupled, lag_powers, lag, body_rate
+    )
+    wobble[:] = w
+    lag[:] = lg
+    body_rate[:] = b
+    phi0[:] = phi[heading.shape[0] - 1]
+    return phi

@@ -1,10 +1,11 @@
-"""A batch's beam-beacon hits, in two compiled calls (decision 0041) of three stages:
-`candidates` finds every crossing, drops those another robot's silhouette blocks or the kind's
-gates refuse, and gives each detector's response there; `response` lets each sweep's light vary
-(`light_noise`) and applies the optics (which sweeps fire, and how early); then `pulses` reads
-them as the hardware does (the last two in one call, `fire`: a level's obstacles are queried
-in pymunk between the calls). Each robot's draws come in order from blocks drawn ahead from its own
-streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
+"""A batch's beam-beacon hits, in one compiled call (`sense`, decision 0050) of the laser
+phases (spin), the bearing grid and three stages: `candidates` finds every crossing, drops
+those another robot's silhouette blocks or the kind's gates refuse, and gives each detector's
+response there; `response` lets each sweep's light vary (`light_noise`) and applies the optics
+(which sweeps fire, and how early); then `pulses` reads them as the hardware does (the last two
+in one call, `fire`). Where a level has obstacles, pymunk's segment query runs between
+`sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead from
+its own streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
 flash_detector, optics); here they run on one batch at once.
 """
 
@@ -16,10 +17,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from arena.compiled import compiled, maximum, minimum, wrap_angle
-from arena.sensing.crossings import crossing_arrays, laser_to_beacons
+from arena.sensing.crossings import bearings, crossing_arrays
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
 from arena.sensing.pulses import pulses
+from arena.sensing.spin import advance
 
 REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
 KIND_CODES = {"reflector": REFLECTOR, "sensor_array": SENSOR_ARRAY, "flash_detector": FLASH_DETECTOR}
@@ -38,13 +40,6 @@ GATES = (
     ("beam_divergence", 0.0),
     ("aperture", 0.0),
 )
-
-
-def bearings(x: np.ndarray, y: np.ndarray, bx: np.ndarray, by: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The vectors from every laser (steps, robots) to every beacon and their bearings, NumPy's
-    `arctan2` (decision 0041): what `candidates` takes after the trajectory."""
-    dx, dy = laser_to_beacons(x, y, bx, by)
-    return dx, dy, np.arctan2(dy, dx)
 
 
 def gates(p: Mapping[str, float], radius: float) -> np.ndarray:
@@ -95,7 +90,7 @@ def candidates(
     n = s.shape[0]
     px, py, distance, bearing = rows[1], rows[2], rows[5], rows[6]
     hidden, qx, qy = blocked(px, py, bx[beacon], by[beacon], radius, robot, step, s, body_x, body_y, reach, silhouette)
-    out = np.empty((13, n))
+    out = np.empty((12, n))
     out[:7] = rows
     out[7], out[8] = qx, qy
     near, far, near_i, far_i, accept, eta = g[3], g[4], g[5], g[6], g[7], g[8]
@@ -190,3 +185,101 @@ def fire(
         kind == REFLECTOR, clock[3], clock[4], direction, (merging[0] > 0, int(merging[1]), merging[2], key),
     )  # fmt: skip
     return rows, shift, source, rob, bea, times, phase, counts
+
+
+@compiled()
+def sense_candidates(
+    x: np.ndarray,
+    y: np.ndarray,
+    h: np.ndarray,
+    t: np.ndarray,
+    body_x: np.ndarray,
+    body_y: np.ndarray,
+    omega: np.ndarray,
+    dt: float,
+    phi0: np.ndarray,
+    noise: np.ndarray,
+    scale: float,
+    a: float,
+    powers: np.ndarray,
+    lag_decay: float,
+    coupled: float,
+    lag_powers: np.ndarray,
+    wobble: np.ndarray,
+    lag: np.ndarray,
+    body_rate: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    facing: np.ndarray,
+    gain: np.ndarray,
+    offset: np.ndarray,
+    reach: np.ndarray,
+    silhouette: np.ndarray,
+    kind: int,
+    g: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A batch's laser phases and crossings in one call: `spin.advance` (the phases, the spin's
+    state moved on in place; its arguments from `omega` to `body_rate`), `bearings` from the
+    lasers at (x, y), then `candidates` (the bodies at `body_x`, `body_y`). Returns the phases
+    (steps + 1, robots), and `candidates`' robot, beacon and rows."""
+    phi = advance(omega, dt, phi0, h, noise, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate)
+    dx, dy, bearing = bearings(x, y, bx, by)
+    robot, beacon, _, _, rows = candidates(
+        x, y, h, phi, t, dx, dy, bearing, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
+    )
+    return phi, robot, beacon, rows
+
+
+@compiled()
+def sense(
+    x: np.ndarray,
+    y: np.ndarray,
+    h: np.ndarray,
+    t: np.ndarray,
+    body_x: np.ndarray,
+    body_y: np.ndarray,
+    omega: np.ndarray,
+    dt: float,
+    phi0: np.ndarray,
+    noise: np.ndarray,
+    scale: float,
+    a: float,
+    powers: np.ndarray,
+    lag_decay: float,
+    coupled: float,
+    lag_powers: np.ndarray,
+    wobble: np.ndarray,
+    lag: np.ndarray,
+    body_rate: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    facing: np.ndarray,
+    gain: np.ndarray,
+    offset: np.ndarray,
+    reach: np.ndarray,
+    silhouette: np.ndarray,
+    kind: int,
+    g: np.ndarray,
+    light: np.ndarray,
+    light_at: np.ndarray,
+    sigma: float,
+    optics: np.ndarray,
+    timing: np.ndarray,
+    timing_at: np.ndarray,
+    clock: np.ndarray,
+    direction: np.ndarray,
+    merging: np.ndarray,
+    key: np.uint64,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A batch's sensing of beacons in one compiled call where nothing but robots can block a
+    beam: `sense_candidates` then `fire` (its arguments from `light` on). Returns the phases,
+    then what `fire` returns."""
+    phi, robot, beacon, rows = sense_candidates(
+        x, y, h, t, body_x, body_y, omega, dt, phi0, noise, scale, a, powers, lag_decay, coupled, lag_powers,
+        wobble, lag, body_rate, bx, by, facing, gain, offset, reach, silhouette, kind, g,
+    )  # fmt: skip
+    rows, shift, source, rob, bea, times, phase, counts = fire(
+        robot, beacon, rows, kind, light, light_at, sigma, optics, timing, timing_at, clock, omega, direction,
+        merging, key,
+    )  # fmt: skip
+    return phi, rows, shift, source, rob, bea, times, phase, counts
