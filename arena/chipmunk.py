@@ -9,9 +9,7 @@ are not as expected (another major version), `lib` is None and the public API is
 
 from __future__ import annotations
 
-import contextlib
 import functools
-from collections.abc import Iterator
 
 import numpy as np
 import pymunk
@@ -28,16 +26,22 @@ def settled(space: pymunk.Space) -> bool:
     return lib is not None and not space._bodies_to_check and not space._add_later
 
 
-@contextlib.contextmanager
-def locked(space: pymunk.Space) -> Iterator[None]:
+class locked:
     """Steps taken directly in chipmunk: callbacks must not add or remove shapes meanwhile, as
-    in `Space.step`, and shapes removed during them are forgotten after, as it does."""
-    space._locked = True
-    try:
-        yield
-    finally:
-        space._locked = False
-        space._removed_shapes.clear()
+    in `Space.step`, and shapes removed during them are forgotten after, as it does. A class,
+    not a generator: it is entered at every control period."""
+
+    __slots__ = ("space",)
+
+    def __init__(self, space: pymunk.Space):
+        self.space = space
+
+    def __enter__(self) -> None:
+        self.space._locked = True
+
+    def __exit__(self, *exc: object) -> None:
+        self.space._locked = False
+        self.space._removed_shapes.clear()
 
 
 def step(space: pymunk.Space, dt: float) -> None:

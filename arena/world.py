@@ -74,6 +74,9 @@ def _deferring(callback: Callable[..., None]) -> Callable[..., None]:
     return deferring
 
 
+_NO_POINTS, _NO_CHANGES = np.zeros((0, 3)), np.zeros((0, 5))  # a run's watch points, servo changes: none
+
+
 class World:
     """Walls, obstacles, beacons and robots of one level, and their differential drives.
     With the match's random tree each drive has its robot's errors; without one (ideal mode)
@@ -281,13 +284,15 @@ class World:
         function, space_address, bodies, controls, places = self._addresses
         states = np.empty((steps, 3 * n))
         velocities = np.empty((steps if speeds else 0, 2 * n))
-        points = np.array([(3 * slot, x, y) for slot, x, y in watch.points] if watch else (), float).reshape(-1, 3)
+        points = (
+            np.array([(3 * slot, x, y) for slot, x, y in watch.points], float).reshape(-1, 3) if watch else _NO_POINTS
+        )
         near = watch.near if watch else 0.0
         done, since = 0, len(self.contacts)
         self._clock[0], self._compiled = self.tick, True
         try:
             with chipmunk.locked(space):  # callbacks must not add or remove shapes meanwhile
-                changes = np.array(self._changes(self.tick + steps), float).reshape(-1, 5)
+                changes = self._changes(self.tick + steps)
                 table = self._drive_table  # each drive's row: the run updates them in place
                 ran = 0
                 try:
@@ -327,12 +332,14 @@ class World:
             ]
         return states, moving
 
-    def _changes(self, until: int) -> list[tuple[float, ...]]:
+    def _changes(self, until: int) -> np.ndarray:
         """Every drive's servo changes due before tick `until` (`DiffDrive.changes`, its slot
-        after its tick), in order of their ticks: a drive's own stay in command order."""
+        after its tick), in order of their ticks, a row each: a drive's own stay in command order."""
         rows = [(due, slot, *rest) for slot, drive in enumerate(self.drives) for due, *rest in drive.changes(until)]
+        if not rows:
+            return _NO_CHANGES
         rows.sort(key=itemgetter(0))  # stable
-        return rows
+        return np.array(rows, float)
 
     def _run_stepwise(
         self, steps: int, speeds: bool, watch: Watch | None
