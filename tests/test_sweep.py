@@ -141,14 +141,19 @@ def sensing_case(g, kind, trial):
 
 
 def fire_case(c, robot, beacon, rows, at):
-    """`sweep.fire` of a case's crossings, its draws taken from the positions `at`."""
+    """`sweep.fire` of a case's crossings, its draws taken from the positions `at`, as `sense`
+    returns it: the pulses' robot, beacon, reading, phase, counts, and `pulse_rows`."""
     sigma, optics_ = c["fire"]
     direction, merging, key = c["merging"]
-    code = c["hardware"][7]
-    return sweep.fire(
+    bx, by, code = c["hardware"][0], c["hardware"][1], c["hardware"][7]
+    rows, shift, source, robot, beacon, times, phase, counts = sweep.fire(
         robot, beacon, rows, code, c["light"], at[0], sigma, optics_, c["timing"], at[1], c["clock"], c["omega"],
         direction, merging, key,
     )  # fmt: skip
+    told = sweep.pulse_rows(rows, shift, source, beacon, bx, by)
+    by_numpy = np.array([rows[1, source], rows[2, source], bx[beacon], by[beacon], shift[source]]).reshape(5, -1)
+    assert np.array_equal(told, by_numpy)
+    return robot, beacon, times, phase, counts, told
 
 
 def staged(c):
@@ -196,11 +201,12 @@ def test_one_call_senses_what_the_stages_do(kind):
     for trial in range(12):
         c = sensing_case(g, kind, trial)
         want, want_state, want_at = staged(c)
-        pulses_seen += len(want[3])
+        pulses_seen += len(want[1])
         for split in (False, True):
             got, got_state, got_at = one_call(c, split)
-            assert all(np.array_equal(w, v) for w, v in zip(want[:-1], got[:-1]))
-            assert all(np.array_equal(w, v) for w, v in zip(want[-1], got[-1]))  # counts, ties
+            assert all(np.array_equal(w, v) for w, v in zip(want[:5], got[:5]))
+            assert all(np.array_equal(w, v) for w, v in zip(want[5], got[5]))  # counts, ties
+            assert np.array_equal(want[6], got[6])
             assert all(np.array_equal(w, v) for w, v in zip(want_state, got_state))
             assert all(np.array_equal(w, v) for w, v in zip(want_at, got_at))
     assert pulses_seen > 0

@@ -103,9 +103,9 @@ class Sensing:
         # what `sweep.sense_candidates` takes after the spin: the beacons, then the bodies and the gates
         beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
         self._hardware = (*beacons, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
-        # what a hit reports (`_hits`): the beacons' labels and places as lists, and the head's encoder
+        # what a hit reports (`_hits`): the beacons' labels, the optics' rise time, and the head's encoder
         self._labels = self.ids if self.kind != "reflector" else None
-        self._places = (self.bx.tolist(), self.by.tolist())
+        self._rise_time = float(p.get("rise_time", 0.0))
         self._steps = p["counts_per_turn"] if self.kind == "flash_detector" else p["quantization"]
         self._latched = bool(self._steps) or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         self._stepped = self.kind == "reflector" and bool(self._steps)  # a stepped head
@@ -226,10 +226,11 @@ class Sensing:
             )  # fmt: skip
         phi, robot, beacon, rows = sweep.sense_candidates(*motion, *self._hardware)
         self.occlusion.clear_obstacles(rows)  # pymunk's segment query, between the compiled stages
-        return phi, *sweep.fire(
+        rows, shift, source, robot, beacon, times, phase, counts = sweep.fire(
             robot, beacon, rows, self._kind, light, light_at, sigma, optics, timing, timing_at, clock,
             self.omega, self.direction, self._merging, self._merge_key,
         )  # fmt: skip
+        return phi, robot, beacon, times, phase, counts, sweep.pulse_rows(rows, shift, source, beacon, self.bx, self.by)
 
     def _hits(
         self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, lx: np.ndarray, ly: np.ndarray
@@ -237,26 +238,22 @@ class Sensing:
         """The batch's laser phases, and the beacons' pulses (`_pulses`) as detections, per
         robot in event order."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        phi, rows, offset, source, robot, beacon, times, phase, (counts_, tied_) = self._pulses(t, x, y, h, lx, ly)
-        if not len(source):
+        phi, robot, beacon, times, phase, (counts_, tied_), told = self._pulses(t, x, y, h, lx, ly)
+        m = len(robot)
+        if not m:
             return phi, out
         counts = counts_.tolist()
         steps = self._steps
-        m = len(source)
         if self._stepped:  # a stepped head: what it reads is the step, and when it got there
             times = reflector.step_time(times, phase, self.omega[robot], steps, float(t[0]))
         angles = quantize_angle(phase, steps).tolist() if self._latched else [None] * m
-        beacons = beacon.tolist()
-        labels = [self._labels[b] for b in beacons] if self._labels else [None] * m
-        bx, by = self._places
-        lasers = rows[1:3, source].tolist()
-        beams = zip(lasers[0], lasers[1], [bx[b] for b in beacons], [by[b] for b in beacons])
+        labels = [self._labels[b] for b in beacon.tolist()] if self._labels else [None] * m
+        laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
+        beams = zip(laser_x, laser_y, beacon_x, beacon_y)
         robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
-            low = (
-                self.params.get("rise_time", 0.0) - 2 * offset[source]
-            ).tolist()  # the optics' dwell, and the release
-            kept = self.lines.flanks(times_, beacons, low)
+            low = [self._rise_time - 2 * o for o in offset]  # the optics' dwell, and the release
+            kept = self.lines.flanks(times_, beacon.tolist(), low)
             heard = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
             return phi, self._to_everyone(heard)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)

@@ -231,6 +231,22 @@ def sense_candidates(
 
 
 @compiled()
+def pulse_rows(
+    rows: np.ndarray, shift: np.ndarray, source: np.ndarray, beacon: np.ndarray, bx: np.ndarray, by: np.ndarray
+) -> np.ndarray:
+    """What each of `fire`'s pulses tells besides its reading: where its laser was (x, y), its
+    beacon's centre (x, y), and the optics' offset, as rows (5, pulses)."""
+    m = source.shape[0]
+    out = np.empty((5, m))
+    for j in range(m):
+        c = source[j]
+        out[0, j], out[1, j] = rows[1, c], rows[2, c]
+        out[2, j], out[3, j] = bx[beacon[j]], by[beacon[j]]
+        out[4, j] = shift[c]
+    return out
+
+
+@compiled()
 def sense(
     x: np.ndarray,
     y: np.ndarray,
@@ -270,10 +286,11 @@ def sense(
     direction: np.ndarray,
     merging: np.ndarray,
     key: np.uint64,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A batch's sensing of beacons in one compiled call where nothing but robots can block a
     beam: `sense_candidates` then `fire` (its arguments from `light` on). Returns the phases,
-    then what `fire` returns."""
+    then the pulses: each one's robot, beacon, reading and phase, per robot its count and
+    whether two of its pulses read one time (`fire`'s), and `pulse_rows`."""
     phi, robot, beacon, rows = sense_candidates(
         x, y, h, t, body_x, body_y, omega, dt, phi0, noise, scale, a, powers, lag_decay, coupled, lag_powers,
         wobble, lag, body_rate, bx, by, facing, gain, offset, reach, silhouette, kind, g,
@@ -282,4 +299,4 @@ def sense(
         robot, beacon, rows, kind, light, light_at, sigma, optics, timing, timing_at, clock, omega, direction,
         merging, key,
     )  # fmt: skip
-    return phi, rows, shift, source, rob, bea, times, phase, counts
+    return phi, rob, bea, times, phase, counts, pulse_rows(rows, shift, source, bea, bx, by)
