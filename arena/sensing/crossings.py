@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,10 +26,10 @@ NEWTON_ITERATIONS = 2  # each squares the error; the linear first guess is alrea
 _NO_OFFSET = np.zeros(0)  # for beams on their spin axis
 
 
-@dataclass(frozen=True)
-class Trajectory:
+class Trajectory(NamedTuple):
     """Robot states at the ends of consecutive physics steps: `t` (n+1,), the rest (n+1, R).
-    `h` is the unwrapped body heading, `phi` the unwrapped laser phase relative to the body."""
+    `h` is the unwrapped body heading, `phi` the unwrapped laser phase relative to the body.
+    A named tuple: one is made at every control period."""
 
     t: np.ndarray
     x: np.ndarray

@@ -142,11 +142,11 @@ class Sensing:
         rows = self._rows
         if not rows:
             return [[] for _ in range(self.n)]
-        if all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
-            flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
-        elif len(rows) == 1:  # one run of states (`record_many`): a match's period
+        if len(rows) == 1 and type(rows[0]) is not tuple:  # one run of states (`record_many`): a match's period
             flat = np.empty((len(rows[0]) + 1, 3 * self.n))
             flat[0], flat[1:] = self._last, rows[0]
+        elif all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
+            flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
         else:  # runs of states, or both
             flat = np.vstack([self._last, *rows])
         poses = flat.reshape(-1, self.n, 3)
