@@ -1,17 +1,18 @@
 """What a step-wise driver (the match loop, the gym, the PettingZoo env) reads of the
 simulation: what a control tick did (`Tick`) and each robot's standing as the referee counts
-it (`RobotReport`), in frozen records, so no driver reaches into the simulation's own state."""
+it (`RobotReport`), in frozen records, so no driver reaches into the simulation's own state.
+Named tuples: the gym makes one of each per agent at every step, where a frozen dataclass's
+field-by-field set costs more than the step's checks."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from referee.match.rules import Foul
 from robots.api import Observation
 
 
-@dataclass(frozen=True)
-class RobotReport:
+class RobotReport(NamedTuple):
     """One robot's standing now (docs/rules.md for what each part scores)."""
 
     time: float  # the match's time (s)
@@ -33,8 +34,7 @@ class RobotReport:
         return self.finished is not None or self.stopped
 
 
-@dataclass(frozen=True)
-class Tick:
+class Tick(NamedTuple):
     """What one control tick of a `Simulation` did, robot by robot (tuples in slot order)."""
 
     time: float  # the match's time now (s)

@@ -109,7 +109,8 @@ class TaskTracker:
                     self.final_distance[slot] = math.dist((xs[-1], ys[-1]), targets[0])
                 continue
             end = n  # the step after which the robot has finished (no more samples)
-            base, reached = self.next[slot], list[int]()  # the steps at which it reached a target
+            base = self.next[slot]
+            reached: list[int] = []  # the steps at which it reached a target
             i = 0
             while self.next[slot] < len(targets) and i < n:
                 tx, ty = targets[self.next[slot]]
