@@ -76,9 +76,9 @@ def test_a_command_imports_only_what_it_needs_and_freezes_it(tmp_path):
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["run", "level.yaml", "--team", "ref:idle", "--in-process", "--quiet"]) == 0
         import numba.core.typing.context as typing_context
-        from arena.sensing import spin
+        from arena.sensing import sweep
         seen = {id(o) for o in gc.get_objects()}
-        loaded = [o for kernel in vars(spin).values() for o in getattr(kernel, "overloads", {}).values()]
+        loaded = [o for kernel in vars(sweep).values() for o in getattr(kernel, "overloads", {}).values()]
         print("numba seen after run:", id(typing_context.BaseContext) in seen)
         print("kernels loaded:", len(loaded) > 0, "seen:", any(id(o) in seen for o in loaded))
         print("collector on:", gc.isenabled())
@@ -100,12 +100,12 @@ def test_a_first_sensing_leaves_its_kernels_out_of_the_collectors_sight():
         import levels
         from levels.loader import load_level
         from arena.rng import RandomTree
-        from arena.sensing import spin
+        from arena.sensing import sweep
         from arena.sensing.pipeline import Sensing
         from arena.world import World
         world = World(load_level(levels.path("asabe")))
         Sensing(world, RandomTree(1))
-        loaded = [o for kernel in vars(spin).values() for o in getattr(kernel, "overloads", {}).values()]
+        loaded = [o for kernel in vars(sweep).values() for o in getattr(kernel, "overloads", {}).values()]
         seen = {id(o) for o in gc.get_objects()}
         print("kernels loaded:", len(loaded) > 0, "seen:", any(id(o) in seen for o in loaded))
         print("collector on:", gc.isenabled())
