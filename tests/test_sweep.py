@@ -119,10 +119,7 @@ def sensing_case(g, kind, trial):
     robots, steps = traj.x.shape[1], traj.x.shape[0] - 1
     omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
     noise = g.normal(size=(steps, robots)) if trial % 2 else np.zeros((0, 0))
-    powers = [
-        np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, steps + 1)[:, None], (steps, robots)))
-        for a in (0.9, 0.8)
-    ]
+    powers = [np.broadcast_to(a ** np.arange(1, steps + 1)[:, None], (steps, robots)).copy() for a in (0.9, 0.8)]
     lag_decay, coupled = (0.8, 0.05) if trial % 3 else (-1.0, 0.0)
     bx, by = BEACONS
     gain = g.uniform(0.5, 1.2, len(FACING)) if trial % 2 else np.zeros(0)

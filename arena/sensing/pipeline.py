@@ -153,7 +153,7 @@ class Sensing:
         steps = len(poses) - 1
         t = self._last_t + self._ramp(steps)
         t[-1] = self.world.time  # exact at the end, so batches join without drift
-        x, y, heading = poses[:, :, 0], poses[:, :, 1], poses[:, :, 2]
+        x, y, heading = poses.transpose(2, 0, 1).copy()  # each contiguous: one compiled form for every level
         self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
         if self.kind == "light":
             traj = Trajectory(t=t, x=x, y=y, h=heading, phi=self.spin.phases(heading))

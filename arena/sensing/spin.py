@@ -33,6 +33,7 @@ class Spin:
         self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
         self._drive: dict[int, tuple] = {}  # batch length -> `drive`
+        self._draws: dict[int, np.ndarray] = {}  # batch length -> the wobble's draws, a row per robot
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
@@ -53,8 +54,10 @@ class Spin:
             drive = self._drive[steps] = self._drive_of(steps)
         noise = drive[0]
         if noise.shape[0]:
-            for g, row in zip(self.streams, noise.T):
+            draws = self._draws[steps]
+            for g, row in zip(self.streams, draws):
                 g.standard_normal(out=row)
+            noise[:] = draws.T
         return drive
 
     def _drive_of(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
@@ -64,7 +67,8 @@ class Spin:
         noise, scale, decay, powers = _NO_ROWS, 0.0, 0.0, _NO_ROWS
         if p["wobble"] > 0:
             decay = math.exp(-self.dt / p["wobble_time"])
-            noise = np.empty((n, steps)).T  # a row per robot, as each robot's stream fills it
+            self._draws[steps] = np.empty((n, steps))  # a row per robot, as each robot's stream fills it
+            noise = np.empty((steps, n))  # the same, a column per robot (contiguous: one compiled form)
             scale, powers = math.sqrt(1 - decay * decay) * p["wobble"], self._powers_of(decay, noise.shape)
         lag_decay, coupled, lag_powers = -1.0, 0.0, _NO_ROWS  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
@@ -87,7 +91,9 @@ class Spin:
             if a ** shape[0] < 1e-150:
                 powers = _NO_ROWS
             else:
-                powers = np.ascontiguousarray(np.broadcast_to(a ** np.arange(1, shape[0] + 1)[:, None], shape))
+                powers = np.broadcast_to(
+                    a ** np.arange(1, shape[0] + 1)[:, None], shape
+                ).copy()  # writeable: one compiled form
             self._powers[key] = powers
         return powers
 
