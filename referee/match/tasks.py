@@ -31,6 +31,7 @@ class TaskTracker:
         starts = starts or tuple(r.start for r in level.robots)
         self.level = level
         self.kind = level.task.kind
+        self._targets = [self._targets_of(slot) for slot in range(len(level.robots))]  # asked at every period
         self.next = [0] * len(level.robots)
         self.reached_at: list[list[float]] = [[] for _ in level.robots]
         self.finished: list[float | None] = [None] * len(level.robots)
@@ -71,6 +72,9 @@ class TaskTracker:
 
     def targets(self, slot: int) -> tuple[tuple[float, float], ...]:
         """The points robot `slot` must reach in order."""
+        return self._targets[slot]
+
+    def _targets_of(self, slot: int) -> tuple[tuple[float, float], ...]:
         g = self.level.task.goal
         if self.kind == "goto" and g is not None:  # the loader requires the goal of a goto task
             return ((g.x, g.y),)
