@@ -69,7 +69,13 @@ def _environment(modname: str, consts: list, env_name: str) -> Any:
     """numba's `_rebuild_env` (the environment of one compiled function in a cached kernel),
     without importing `modname` where no one has: an environment holds its module's globals
     only for code in object mode, which no kernel here has, and the modules of numba's own
-    array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import."""
+    array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import.
+
+    One environment serves a function's every copy. A kernel linked into another (spin.advance
+    into sweep.sense) holds fewer constants there than alone, where returning an array needs
+    its dtype too; numba keeps the first one loaded, so a kernel called alone after a kernel
+    that links it failed to return ("'descr' is NULL"). The longer list is kept: the copies
+    number their constants alike, the shorter list a prefix of the longer."""
     env = environment.lookup_environment(env_name)
     if env is None:
         module = sys.modules.get(modname)
@@ -77,6 +83,8 @@ def _environment(modname: str, consts: list, env_name: str) -> Any:
         env.consts[:] = consts
         env.env_name = env_name
         environment.Environment._memo[env_name] = env
+    elif len(env.consts) < len(consts):
+        env.consts[:] = consts
     return env
 
 

@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from referee.cli.commands import COMPILING_S
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -83,3 +85,44 @@ def test_the_notice_says_what_was_measured():
     within half again (the machine it runs on may be another)."""
     measured = json.loads((ROOT / "docs" / "performance.json").read_text())["first-run"]["cold_wall_s"]
     assert COMPILING_S / 1.5 <= measured <= COMPILING_S * 1.5
+
+
+LINKED = """
+import sys
+import numpy as np
+import levels
+from levels.loader import load_level
+from arena.rng import RandomTree
+from arena.sensing.pipeline import Sensing
+from arena.sensing.spin import first_order
+from arena.world import World
+
+def alone():
+    y0, drive = np.array([0.4, -1.0]), np.arange(10.0).reshape(5, 2)
+    powers = np.ones((5, 2)) * 0.5 ** np.arange(1, 6)[:, None]  # a^1..a^5 per row, as the spin passes them
+    return first_order(0.5, powers, y0, drive)
+
+def sensing():
+    Sensing(World(load_level(levels.path("asabe"))), RandomTree(1))
+
+if sys.argv[1] == "alone first":
+    alone()
+    sensing()
+else:
+    sensing()
+print(alone().tolist())
+"""
+
+
+def test_a_kernel_another_links_in_still_returns_its_arrays_alone():
+    """A kernel linked into another (`spin.first_order`, in `sweep.sense` through the laser's
+    phases) and called on its own after that one was loaded from numba's cache returns its
+    arrays (decision 0045: one environment per function, with the longer list of constants)."""
+    y, want = np.array([0.4, -1.0]), []
+    for k in range(5):  # the recursion itself: y[k] = a y[k-1] + drive[k]
+        y = 0.5 * y + np.arange(10.0).reshape(5, 2)[k]
+        want.append(y.tolist())
+    for order in ("alone first", "sensing first"):  # the first caches both kernels, if need be
+        run = subprocess.run([sys.executable, "-c", LINKED, order], capture_output=True, text=True, timeout=600)
+        assert run.returncode == 0, run.stderr
+        assert np.allclose(json.loads(run.stdout), want, rtol=1e-12, atol=1e-12), run.stdout
