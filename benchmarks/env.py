@@ -5,7 +5,7 @@ its robots driving gentle circles (what a user's own pymunk loop costs). Beside 
 period in the simulator's compiled loop (`World.run`: physics alone) and with every laser and
 detector (`Sensing`: what any env step costs before the referee's checks and the env's work).
 Figures are medians of interleaved rounds; ratios are bare over the figure (1.0: a step costs
-what bare pymunk does).
+what bare pymunk does), the median of each round's own ratio.
 """
 
 from __future__ import annotations
@@ -145,15 +145,21 @@ def measure(repeat: int = 5, periods: int = 300) -> dict[str, float]:
     round_of(max(periods // 10, 5))  # untimed: loads the compiled kernels, fills the caches
     runs = [round_of(periods) for _ in range(repeat)]
     f = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
-    f["compiled_ratio"] = f["bare_us"] / f["compiled_us"]
-    f["sensed_ratio"] = f["bare_us"] / f["sensed_us"]
-    f["sensing_over_physics"] = (f["sensed_us"] - f["compiled_us"]) / f["compiled_us"]
-    f["single_ratio"] = f["bare_us"] / f["single_us"]
-    f["parallel_ratio"] = f["bare_race_us"] / f["parallel_us"]
+
+    def paired(top: str, bottom: str) -> float:
+        """The median over the rounds of each round's own ratio: a round's figures are timed
+        within seconds of each other, so a machine whose speed swings between rounds moves both."""
+        return statistics.median(r[top] / r[bottom] for r in runs)
+
+    f["compiled_ratio"] = paired("bare_us", "compiled_us")
+    f["sensed_ratio"] = paired("bare_us", "sensed_us")
+    f["sensing_over_physics"] = statistics.median((r["sensed_us"] - r["compiled_us"]) / r["compiled_us"] for r in runs)
+    f["single_ratio"] = paired("bare_us", "single_us")
+    f["parallel_ratio"] = paired("bare_race_us", "parallel_us")
     for n in (1, 2):
-        f[f"sync{n}_ratio"] = f["bare_us"] / f[f"sync{n}_us"]
-        f[f"native{n}_ratio"] = f["bare_us"] / f[f"native{n}_us"]
-        f[f"async{n}_ratio"] = f["bare_wall_us"] / f[f"async{n}_us"]
+        f[f"sync{n}_ratio"] = paired("bare_us", f"sync{n}_us")
+        f[f"native{n}_ratio"] = paired("bare_us", f"native{n}_us")
+        f[f"async{n}_ratio"] = paired("bare_wall_us", f"async{n}_us")
     for name in ("single", "goal", "parallel", "native1", "native2", "sync1", "sync2", "async1", "async2"):
         f[f"{name}_steps_per_s"] = 1e6 / f[f"{name}_us"]  # per CPU s; async: per wall s, all envs
     f["async_scaling"] = f["async1_us"] / f["async2_us"]
