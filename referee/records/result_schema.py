@@ -5,6 +5,7 @@ hold the committed file to the generated one byte for byte."""
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import msgspec
@@ -17,12 +18,25 @@ SCHEMA_FILE = f"result-v{RESULT_VERSION}.schema.json"
 
 def schema() -> dict[str, Any]:
     """The JSON Schema of a result, generated from the records."""
-    generated: dict[str, Any] = msgspec.json.schema(MatchResult)
+    generated: dict[str, Any] = _cleaned(msgspec.json.schema(MatchResult))
     return {
         "$schema": schema_file.DRAFT,
         "title": f"{RESULT_FORMAT} version {RESULT_VERSION}",
         **generated,
     }
+
+
+def _cleaned(node: Any) -> Any:
+    """`node` with every description as `inspect.cleandoc` gives it: msgspec takes them from
+    the records' docstrings, and its releases differ in whether they clean their indentation."""
+    if isinstance(node, dict):
+        return {
+            k: inspect.cleandoc(v) if k == "description" and isinstance(v, str) else _cleaned(v)
+            for k, v in node.items()
+        }
+    if isinstance(node, list):
+        return [_cleaned(v) for v in node]
+    return node
 
 
 def schema_text() -> str:
