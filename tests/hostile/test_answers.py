@@ -3,12 +3,14 @@
 think budget; a team that takes back from its protocol pipe the bytes the referee was told were
 there stalls nobody (docs/protocol.md, docs/security.md)."""
 
+import dataclasses
 import json
 import os
 import select
 import threading
+import time
 
-from hostile.hostile_kit import assert_contained, assert_others_unharmed, hostile_match
+from hostile.hostile_kit import FAST, assert_contained, assert_others_unharmed, hostile_match
 from referee.sandbox.channel import Channel, Trouble
 from robots._host import protocol
 
@@ -75,15 +77,29 @@ def test_a_frame_over_the_bound_is_a_protocol_fault_that_names_it(tmp_path):
 SLOW_NUMBER = -1.2345678901234567e-300  # the slowest kind of number to read (an extreme exponent)
 
 
+def decoding(body: bytes) -> float:
+    """CPU seconds the referee's decoding of the answer `body` takes on this machine (the
+    median of three)."""
+    frame, took = body.replace(b"TICK", b"1"), []
+    for _ in range(3):
+        start = time.process_time()
+        protocol.answer(frame)
+        took.append(time.process_time() - start)
+    return sorted(took)[1]
+
+
 def test_decoding_a_legal_answer_is_paid_from_the_senders_think_budget(tmp_path):
     """Answers within the bound whose decoding takes the referee long: the sender, not the
     referee or the others, pays for it, until its think budget is spent. The same team sending
-    small answers, after building the same bytes, thinks within its budget."""
+    small answers, after building the same bytes, thinks within its budget. The budget is 40
+    decodings of the match's 100, whatever this machine's decoder takes for one (msgspec 0.22
+    read the largest answer in 0.3 s here, 0.23 in 10 ms)."""
     big = largest_legal_answer(SLOW_NUMBER)
-    bad = assert_contained(hostile_match(tmp_path, writer(big), seconds=20.0), "timeout", "in step")
+    limits = dataclasses.replace(FAST, think_budget=40 * decoding(big) / 20.0)  # per simulated s of 20
+    bad = assert_contained(hostile_match(tmp_path, writer(big), seconds=20.0, limits=limits), "timeout", "in step")
     assert bad["faults"][0]["tick"] < 50  # of 100: the overage bank or the think budget ran out
     small = largest_legal_answer(0.5).split(b',"debug"')[0] + b"}}"
-    calm = hostile_match(tmp_path, f"UNSENT = {big!r}\n" + writer(small), seconds=20.0)
+    calm = hostile_match(tmp_path, f"UNSENT = {big!r}\n" + writer(small), seconds=20.0, limits=limits)
     assert calm["robots"][0]["faults"] == []
     assert_others_unharmed(calm)
 
