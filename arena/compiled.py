@@ -71,7 +71,7 @@ def _environment(modname: str, consts: list, env_name: str) -> Any:
     only for code in object mode, which no kernel here has, and the modules of numba's own
     array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import.
 
-    One environment serves a function's every copy. A kernel linked into another (spin.advance
+    One environment serves a function's every copy. A kernel linked into another (spin.laser_phases
     into sweep.sense) holds fewer constants there than alone, where returning an array needs
     its dtype too; numba keeps the first one loaded, so a kernel called alone after a kernel
     that links it failed to return ("'descr' is NULL"). The longer list is kept: the copies

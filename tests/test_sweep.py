@@ -157,18 +157,15 @@ def staged(c):
     """The stages one by one: `laser_phases`, `bearings`, `candidates`, `fire`."""
     traj, x, y = c["traj"], c["x"], c["y"]
     robots = traj.x.shape[1]
-    phi0, wobble, lag, body = (v.copy() for v in c["state"])
-    noise, scale, a, powers, lag_decay, coupled, lag_powers = c["drive"]
-    phi, wobble, lag, body = spin.laser_phases(
-        c["omega"], 1 / 240, phi0, traj.h, noise, scale, a, powers, wobble, lag_decay, coupled, lag_powers, lag, body
-    )
+    moved = [v.copy() for v in c["state"]]
+    phi = spin.laser_phases(c["omega"], 1 / 240, moved[0], traj.h, *c["drive"], *moved[1:])
     bx, by, facing, gain, offset, reach, silhouette, code, gates = c["hardware"]
     robot, beacon, _, _, rows = sweep.candidates(
         x, y, traj.h, phi, traj.t, *sweep.bearings(x, y, bx, by), traj.x, traj.y, bx, by, facing, gain, offset,
         reach, silhouette, code, gates,
     )  # fmt: skip
     at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
-    return (phi, *fire_case(c, robot, beacon, rows, at)), [phi[-1], wobble, lag, body], at
+    return (phi, *fire_case(c, robot, beacon, rows, at)), [phi[-1], *moved[1:]], at
 
 
 def one_call(c, split):

@@ -42,10 +42,10 @@ class Spin:
     def phases(self, heading: np.ndarray) -> np.ndarray:
         """Unwrapped laser phases at the step ends, from the body headings there (steps + 1,
         robots); the last row is where the next batch starts."""
-        return advance(self.omega, self.dt, self.phi, heading, *self.drive(len(heading) - 1), *self.state())
+        return laser_phases(self.omega, self.dt, self.phi, heading, *self.drive(len(heading) - 1), *self.state())
 
     def drive(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
-        """What moves the phases through a batch of `steps` steps, as `advance` takes it after
+        """What moves the phases through a batch of `steps` steps, as `laser_phases` takes it after
         the headings: the wobble's draws (steps, robots; none without wobble), their scale, decay
         and powers, then the spin lag's decay (negative: none), coupling and powers. All but the
         draws depend only on `steps`: kept per batch length, with the block the draws fill."""
@@ -78,7 +78,7 @@ class Spin:
         return noise, scale, decay, powers, lag_decay, coupled, lag_powers
 
     def state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The wobble, spin lag and body yaw rate a batch starts from, as `advance` takes them
+        """The wobble, spin lag and body yaw rate a batch starts from, as `laser_phases` takes them
         last (and updates in place)."""
         return self.wobble, self.spin_lag, self.body_rate
 
@@ -130,44 +130,46 @@ def laser_phases(
     scale: float,
     a: float,
     powers: np.ndarray,
-    last_wobble: np.ndarray,
     lag_decay: float,
     coupled: float,
     lag_powers: np.ndarray,
-    last_lag: np.ndarray,
-    last_body: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Unwrapped laser phases at the step ends (`Spin.phases`): the steady rate
-    `omega`, times 1 + the wobble when `noise` has rows (the noise's `scale`, the decay per step
-    `a`, its `powers`, the wobble before), plus the spin lag when `lag_decay` (per step) is not
-    negative (with (1 - decay) x coupling `coupled`, its powers, the lag and the body's yaw rate
-    before). Returns the phases and the wobble, lag and yaw rate after. Plain arguments, no
-    tuples: numba reads a tuple of arrays far slower at each call."""
+    wobble: np.ndarray,
+    lag: np.ndarray,
+    body_rate: np.ndarray,
+) -> np.ndarray:
+    """Unwrapped laser phases at the step ends (`Spin.phases`), from the phase a batch starts
+    from (`phi0`): the steady rate `omega`, times 1 + the wobble when `noise` has rows (the
+    noise's `scale`, the decay per step `a`, its `powers`), plus the spin lag when `lag_decay`
+    (per step) is not negative (with (1 - decay) x coupling `coupled`, its powers). The spin's
+    state (`phi0`, `wobble`, `lag` and the body's yaw rate `body_rate`) is moved on in place to
+    the batch's end. Plain arguments, no tuples: numba reads a tuple of arrays far slower at
+    each call."""
     steps, n = heading.shape[0] - 1, omega.shape[0]
     rate = np.empty((steps, n))
     for k in range(steps):
         rate[k] = omega
     if noise.shape[0]:
-        w = first_order(a, powers, last_wobble, scale * noise)
+        w = first_order(a, powers, wobble, scale * noise)
         for k in range(steps):
             for r in range(n):
                 rate[k, r] = omega[r] * (1.0 + w[k, r])
-        last_wobble = w[steps - 1].copy()
+        wobble[:] = w[steps - 1]
     if lag_decay >= 0.0:
         body = np.empty((steps, n))
         drive = np.empty((steps, n))
         for k in range(steps):
             for r in range(n):
                 body[k, r] = (heading[k + 1, r] - heading[k, r]) / dt
-                change = body[k, r] - (last_body[r] if k == 0 else body[k - 1, r])
+                change = body[k, r] - (body_rate[r] if k == 0 else body[k - 1, r])
                 drive[k, r] = -lag_decay * change
                 if coupled != 0.0:  # a zero coupling adds only signed zeros, which vanish in the sums
                     drive[k, r] = drive[k, r] - coupled * body[k, r]
-        lag = first_order(lag_decay, lag_powers, last_lag, drive)
+        lags = first_order(lag_decay, lag_powers, lag, drive)
         for k in range(steps):
             for r in range(n):
-                rate[k, r] = rate[k, r] + lag[k, r]
-        last_lag, last_body = lag[steps - 1].copy(), body[steps - 1].copy()
+                rate[k, r] = rate[k, r] + lags[k, r]
+        lag[:] = lags[steps - 1]
+        body_rate[:] = body[steps - 1]
     phi = np.empty((steps + 1, n))
     for r in range(n):
         acc = 0.0
@@ -176,34 +178,5 @@ def laser_phases(
             v = rate[k, r] * dt
             acc = v if k == 0 else acc + v
             phi[k + 1, r] = acc + phi0[r]
-    return phi, last_wobble, last_lag, last_body
-
-
-@compiled()
-def advance(
-    omega: np.ndarray,
-    dt: float,
-    phi0: np.ndarray,
-    heading: np.ndarray,
-    noise: np.ndarray,
-    scale: float,
-    a: float,
-    powers: np.ndarray,
-    lag_decay: float,
-    coupled: float,
-    lag_powers: np.ndarray,
-    wobble: np.ndarray,
-    lag: np.ndarray,
-    body_rate: np.ndarray,
-) -> np.ndarray:
-    """`laser_phases` with the spin's state updated in place: the phase a batch starts from
-    (`phi0`), the wobble, the lag and the body's yaw rate become those at the batch's end.
-    Returns the phases at the step ends."""
-    phi, w, lg, b = laser_phases(
-        omega, dt, phi0, heading, noise, scale, a, powers, wobble, lag_decay, coupled, lag_powers, lag, body_rate
-    )
-    wobble[:] = w
-    lag[:] = lg
-    body_rate[:] = b
-    phi0[:] = phi[heading.shape[0] - 1]
+    phi0[:] = phi[steps]
     return phi

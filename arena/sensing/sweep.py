@@ -21,7 +21,7 @@ from arena.sensing.crossings import bearings, crossing_arrays
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
 from arena.sensing.pulses import pulses
-from arena.sensing.spin import advance
+from arena.sensing.spin import laser_phases
 
 REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
 KIND_CODES = {"reflector": REFLECTOR, "sensor_array": SENSOR_ARRAY, "flash_detector": FLASH_DETECTOR}
@@ -218,11 +218,13 @@ def sense_candidates(
     kind: int,
     g: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A batch's laser phases and crossings in one call: `spin.advance` (the phases, the spin's
+    """A batch's laser phases and crossings in one call: `spin.laser_phases` (the phases, the spin's
     state moved on in place; its arguments from `omega` to `body_rate`), `bearings` from the
     lasers at (x, y), then `candidates` (the bodies at `body_x`, `body_y`). Returns the phases
     (steps + 1, robots), and `candidates`' robot, beacon and rows."""
-    phi = advance(omega, dt, phi0, h, noise, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate)
+    phi = laser_phases(
+        omega, dt, phi0, h, noise, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate
+    )
     dx, dy, bearing = bearings(x, y, bx, by)
     robot, beacon, _, _, rows = candidates(
         x, y, h, phi, t, dx, dy, bearing, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
