@@ -208,9 +208,27 @@ def command_line_run(spec: str = "ref:dead-reckoning") -> dict:
     }
 
 
+# where a run's fixed cost goes: processes that each do one more of what `laserarena run` does
+# before and around its match, timed beside the command itself (the last stage)
+FIXED_STAGES = (
+    ("interpreter", "pass"),
+    ("numpy", "import numpy"),
+    ("numba", "import numpy, numba"),
+    ("modules", "import referee.cli.commands, referee.match.loop"),
+    (
+        "in_process",  # the same match in this process: the kernels' loading, the match, its replay
+        "import sys; from pathlib import Path; from levels.loader import load_level; "
+        "from referee.match.loop import play_match; from referee.sandbox.teams import resolve; "
+        "play_match(load_level(Path(sys.argv[1])), [resolve(sys.argv[2])] * 4, isolate=False, replay=Path(sys.argv[3]))",
+    ),
+)
+
+
 def command_line_fixed(spec: str = "ref:dead-reckoning") -> dict:
     """A run's fixed cost: `laserarena run` of a 1-second `asabe-race` with 4 x `spec`, replay
-    and result written, a process of its own (wall seconds, whole command)."""
+    and result written, a process of its own (wall seconds, whole command); and where it goes,
+    the wall seconds each stage of `FIXED_STAGES` adds to the one before it (`isolation`: the
+    command's own over the in-process match: its sandboxed controllers, the result written)."""
     text = re.sub(r"(?m)^time_limit:.*$", "time_limit: 1", levels.path("asabe-race").read_text())
     with tempfile.TemporaryDirectory() as d:
         level = Path(d) / "one-second.yaml"
@@ -218,8 +236,15 @@ def command_line_fixed(spec: str = "ref:dead-reckoning") -> dict:
         command = [sys.executable, "-m", "referee", "run", str(level), *["--team", spec] * 4]
         command += ["--replay", str(Path(d) / "m.replay"), "--json", str(Path(d) / "r.json"), "--quiet"]
         process_cost(command)  # untimed: the first reads the files from disk
+        walls = {}
+        for name, code in FIXED_STAGES:
+            walls[name], _ = process_cost([sys.executable, "-c", code, str(level), spec, str(Path(d) / "s.replay")])
         wall, used = process_cost(command)
-    return {"wall_s": wall, "cpu_s": used}
+    out = {"wall_s": wall, "cpu_s": used}
+    before = 0.0
+    for name, took in (*walls.items(), ("isolation", wall)):
+        out[f"{name}_s"], before = took - before, took
+    return out
 
 
 def measure(repeat: int = 3, seconds: float = 60.0, matches: int = 2) -> dict:
@@ -318,6 +343,13 @@ def table(f: dict) -> list[tuple[str, str, str]]:
             f"{fixed['wall_s']:.2f} s wall",
             f"target <= 0.3 s; {fixed['wall_s'] / f['command_line_run']['wall_s']:.2f} of the whole 4 x "
             "ref:dead-reckoning run",
+        )
+    )
+    rows.append(
+        (
+            "  where it goes (each stage's added wall)",
+            ", ".join(f"{name} {fixed[f'{name}_s']:.2f}" for name, _ in (*FIXED_STAGES, ("isolation", ""))),
+            "s",
         )
     )
     return rows
