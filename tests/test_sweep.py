@@ -139,7 +139,7 @@ def sensing_case(g, kind, trial):
 
 def fire_case(c, robot, beacon, rows, at):
     """`sweep.fire` of a case's crossings, its draws taken from the positions `at`, as `sense`
-    returns it: the pulses' robot, beacon, reading, phase, counts, and `pulse_rows`."""
+    returns it: `pulse_rows`' two blocks, then the counts."""
     sigma, optics_ = c["fire"]
     direction, merging, key = c["merging"]
     bx, by, code = c["hardware"][0], c["hardware"][1], c["hardware"][7]
@@ -147,10 +147,11 @@ def fire_case(c, robot, beacon, rows, at):
         robot, beacon, rows, code, c["light"], at[0], sigma, optics_, c["timing"], at[1], c["clock"], c["omega"],
         direction, merging, key,
     )  # fmt: skip
-    told = sweep.pulse_rows(rows, shift, source, beacon, bx, by)
-    by_numpy = np.array([rows[1, source], rows[2, source], bx[beacon], by[beacon], shift[source]]).reshape(5, -1)
-    assert np.array_equal(told, by_numpy)
-    return robot, beacon, times, phase, counts, told
+    ids, told = sweep.pulse_rows(rows, shift, source, robot, beacon, times, phase, bx, by)
+    assert ids.dtype == np.int64 and np.array_equal(ids, np.array([robot, beacon]).reshape(2, -1))
+    by_numpy = [times, phase, rows[1, source], rows[2, source], bx[beacon], by[beacon], shift[source]]
+    assert np.array_equal(told, np.array(by_numpy).reshape(7, -1))
+    return ids, told, counts
 
 
 def staged(c):
@@ -195,12 +196,31 @@ def test_one_call_senses_what_the_stages_do(kind):
     for trial in range(12):
         c = sensing_case(g, kind, trial)
         want, want_state, want_at = staged(c)
-        pulses_seen += len(want[1])
+        pulses_seen += want[1].shape[1]
         for split in (False, True):
             got, got_state, got_at = one_call(c, split)
-            assert all(np.array_equal(w, v) for w, v in zip(want[:5], got[:5]))
-            assert all(np.array_equal(w, v) for w, v in zip(want[5], got[5]))  # counts, ties
-            assert np.array_equal(want[6], got[6])
+            assert all(np.array_equal(w, v) for w, v in zip(want[:3], got[:3]))  # phases, the pulses
+            assert all(np.array_equal(w, v) for w, v in zip(want[3], got[3]))  # counts, ties
             assert all(np.array_equal(w, v) for w, v in zip(want_state, got_state))
             assert all(np.array_equal(w, v) for w, v in zip(want_at, got_at))
     assert pulses_seen > 0
+
+
+@pytest.mark.parametrize("robots, steps", [(1, 48), (3, 5), (2, 0)])
+def test_a_batch_s_poses_and_times_are_the_states_laid_out_by_numpy(robots, steps):
+    """`batch_poses` lays a batch out as NumPy would: the last state then each step's, as x, y
+    and heading (steps + 1, robots) each; times `t0 + i dt`, the last exactly the world's; and it
+    moves `last` on to the batch's last state (kept as it was when the batch has no step)."""
+    g = np.random.default_rng(robots + steps)
+    last, states = g.normal(size=3 * robots), g.normal(size=(steps, 3 * robots))
+    t0, dt = 12.345, 1 / 240
+    t_end = t0 + steps * dt + 1e-13  # where the world's clock stands, not quite the sum
+    xyh, t = np.full((3, steps + 1, robots), np.nan), np.full(steps + 1, np.nan)
+    before = last.copy()
+    sweep.batch_poses(last, states, t0, t_end, dt, xyh, t)
+    poses = np.vstack([before, states]).reshape(-1, robots, 3)
+    assert np.array_equal(xyh, poses.transpose(2, 0, 1))
+    want_t = t0 + np.arange(steps + 1) * dt
+    want_t[-1] = t_end
+    assert np.array_equal(t, want_t)
+    assert np.array_equal(last, states[-1] if steps else before)

@@ -110,8 +110,8 @@ class Sensing:
         self._latched = bool(self._steps) or self.kind == "flash_detector"  # an encoder reports angles even when ideal
         self._stepped = self.kind == "reflector" and bool(self._steps)  # a stepped head
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
-        self._ramps: dict[int, np.ndarray] = {}  # batch length -> step-end times from its start
-        self._last = world.state
+        self._batches: dict[int, tuple] = {}  # batch length -> buffers for its poses and times (`_batch`)
+        self._last = np.array(world.state, float)  # where the next batch starts (`sweep.batch_poses` moves it on)
         self._last_t = world.time
         if not _loaded:
             with lasting():  # numba's objects for the kernels live as long as the process
@@ -130,7 +130,7 @@ class Sensing:
         the next batch starts from where they now stand, so no beam sweeps across the move."""
         if self._rows:
             raise RuntimeError("robots may be moved only at a control tick, after the flush")
-        self._last = self.world.state
+        self._last[:] = self.world.state
         self.spin.moved()
         self.turrets.moved()  # a turret's turn begun before the move is no scan of where it now stands
 
@@ -142,19 +142,16 @@ class Sensing:
         rows = self._rows
         if not rows:
             return [[] for _ in range(self.n)]
-        if len(rows) == 1 and type(rows[0]) is not tuple:  # one run of states (`record_many`): a match's period
-            flat = np.empty((len(rows[0]) + 1, 3 * self.n))
-            flat[0], flat[1:] = self._last, rows[0]
+        states: np.ndarray
+        if len(rows) == 1 and isinstance(rows[0], np.ndarray):  # one run of states (`record_many`): a match's period
+            states = rows[0]
         elif all(isinstance(row, tuple) for row in rows):  # one state a step (`record`)
-            flat = np.fromiter(chain(self._last, chain.from_iterable(rows)), float, (len(rows) + 1) * 3 * self.n)
+            states = np.fromiter(chain.from_iterable(rows), float, len(rows) * 3 * self.n).reshape(len(rows), -1)
         else:  # runs of states, or both
-            flat = np.vstack([self._last, *rows])
-        poses = flat.reshape(-1, self.n, 3)
-        steps = len(poses) - 1
-        t = self._last_t + self._ramp(steps)
-        t[-1] = self.world.time  # exact at the end, so batches join without drift
-        x, y, heading = poses.transpose(2, 0, 1).copy()  # each contiguous: one compiled form for every level
-        self._last, self._last_t, self._rows = tuple(poses[-1].ravel().tolist()), self.world.time, []
+            states = np.vstack(rows)
+        t, x, y, heading, xyh = self._batch(len(states))
+        sweep.batch_poses(self._last, states, self._last_t, self.world.time, self.dt, xyh, t)
+        self._last_t, self._rows = self.world.time, []
         if self.kind == "light":
             traj = Trajectory(t=t, x=x, y=y, h=heading, phi=self.spin.phases(heading))
             sources = [self.turrets.scan(traj, traj if self.tilt is None else self._leaned(traj))]
@@ -192,12 +189,16 @@ class Sensing:
         """`traj` with its positions where the beams leave (`_lean`)."""
         return Trajectory(traj.t, *self._lean(traj.x, traj.y), traj.h, traj.phi)
 
-    def _ramp(self, steps: int) -> np.ndarray:
-        """Step-end times of a batch of `steps` steps from its start (cached per length)."""
-        ramp = self._ramps.get(steps)
-        if ramp is None:
-            ramp = self._ramps[steps] = np.arange(steps + 1) * self.dt
-        return ramp
+    def _batch(self, steps: int) -> tuple[np.ndarray, ...]:
+        """Buffers for a batch of `steps` steps, kept per length and filled anew by each batch:
+        the step-end times, then x, y and heading (each (steps + 1, robots), contiguous: one
+        compiled form for every level), and the block they are rows of. Nothing keeps a batch's
+        trajectory past its flush."""
+        batch = self._batches.get(steps)
+        if batch is None:
+            xyh = np.empty((3, steps + 1, self.n))
+            batch = self._batches[steps] = (np.empty(steps + 1), xyh[0], xyh[1], xyh[2], xyh)
+        return batch
 
     # ---- beam-beacon hits -----------------------------------------------------------------
 
@@ -206,8 +207,8 @@ class Sensing:
     ) -> tuple:
         """The batch's laser phases and pulses, in one compiled call (`sweep.sense`) from the
         step-end times `t`, the bodies' poses (x, y, h) and where the beams leave (lx, ly):
-        the phases (spin), the crossings, the optics' offsets and the pulses as the hardware
-        reads them (`sweep.fire`'s results). Where the level has obstacles, pymunk's segment
+        the phases (spin), then the pulses as the hardware reads them, in `sweep.pulse_rows`'
+        two blocks, and per robot their count and whether two read one time. Where the level has obstacles, pymunk's segment
         query runs between `sweep.sense_candidates` and `sweep.fire`. Each robot's light and
         timing draws come from its own streams, drawn ahead (normals.Normals)."""
         need = (len(t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
@@ -230,7 +231,7 @@ class Sensing:
             robot, beacon, rows, self._kind, light, light_at, sigma, optics, timing, timing_at, clock,
             self.omega, self.direction, self._merging, self._merge_key,
         )  # fmt: skip
-        return phi, robot, beacon, times, phase, counts, sweep.pulse_rows(rows, shift, source, beacon, self.bx, self.by)
+        return phi, *sweep.pulse_rows(rows, shift, source, robot, beacon, times, phase, self.bx, self.by), counts
 
     def _hits(
         self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, lx: np.ndarray, ly: np.ndarray
@@ -238,22 +239,21 @@ class Sensing:
         """The batch's laser phases, and the beacons' pulses (`_pulses`) as detections, per
         robot in event order."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        phi, robot, beacon, times, phase, (counts_, tied_), told = self._pulses(t, x, y, h, lx, ly)
-        m = len(robot)
+        phi, ids, told, (counts_, tied_) = self._pulses(t, x, y, h, lx, ly)
+        m = ids.shape[1]
         if not m:
             return phi, out
-        counts = counts_.tolist()
         steps = self._steps
+        robots, beacons = ids.tolist()
+        times_, _, laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
         if self._stepped:  # a stepped head: what it reads is the step, and when it got there
-            times = reflector.step_time(times, phase, self.omega[robot], steps, float(t[0]))
-        angles = quantize_angle(phase, steps).tolist() if self._latched else [None] * m
-        labels = [self._labels[b] for b in beacon.tolist()] if self._labels else [None] * m
-        laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
+            times_ = reflector.step_time(told[0], told[1], self.omega[ids[0]], steps, float(t[0])).tolist()
+        angles = quantize_angle(told[1], steps).tolist() if self._latched else [None] * m
+        labels = [self._labels[b] for b in beacons] if self._labels else [None] * m
         beams = zip(laser_x, laser_y, beacon_x, beacon_y)
-        robots, times_ = robot.tolist(), times.tolist()
         if self.crosstalk == "shared":
             low = [self._rise_time - 2 * o for o in offset]  # the optics' dwell, and the release
-            kept = self.lines.flanks(times_, beacon.tolist(), low)
+            kept = self.lines.flanks(times_, beacons, low)
             heard = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
             return phi, self._to_everyone(heard)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
@@ -261,8 +261,12 @@ class Sensing:
         # times never decrease within a robot; hits at one time go by their keys (a stepped head's
         # times, moved back to their steps, may reorder two returns of one step: sorted too)
         stepped = self._stepped
+        if self.n == 1:
+            if tied_[0] or stepped:
+                events.sort(key=event_order)
+            return phi, [events]
         start = 0
-        for r, (k, tied) in enumerate(zip(counts, tied_.tolist())):
+        for r, (k, tied) in enumerate(zip(counts_.tolist(), tied_.tolist())):
             out[r] = events[start : start + k]
             start += k
             if tied or stepped:

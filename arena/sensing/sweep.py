@@ -234,18 +234,53 @@ def sense_candidates(
 
 @compiled()
 def pulse_rows(
-    rows: np.ndarray, shift: np.ndarray, source: np.ndarray, beacon: np.ndarray, bx: np.ndarray, by: np.ndarray
-) -> np.ndarray:
-    """What each of `fire`'s pulses tells besides its reading: where its laser was (x, y), its
-    beacon's centre (x, y), and the optics' offset, as rows (5, pulses)."""
+    rows: np.ndarray,
+    shift: np.ndarray,
+    source: np.ndarray,
+    robot: np.ndarray,
+    beacon: np.ndarray,
+    times: np.ndarray,
+    phase: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`fire`'s pulses as two blocks, what Python unpacks at once: each pulse's robot and beacon
+    (2, pulses), and its reading, phase, where its laser was (x, y), its beacon's centre (x, y)
+    and the optics' offset (7, pulses)."""
     m = source.shape[0]
-    out = np.empty((5, m))
+    ids, out = np.empty((2, m), np.int64), np.empty((7, m))
     for j in range(m):
         c = source[j]
-        out[0, j], out[1, j] = rows[1, c], rows[2, c]
-        out[2, j], out[3, j] = bx[beacon[j]], by[beacon[j]]
-        out[4, j] = shift[c]
-    return out
+        ids[0, j], ids[1, j] = robot[j], beacon[j]
+        out[0, j], out[1, j] = times[j], phase[j]
+        out[2, j], out[3, j] = rows[1, c], rows[2, c]
+        out[4, j], out[5, j] = bx[beacon[j]], by[beacon[j]]
+        out[6, j] = shift[c]
+    return ids, out
+
+
+@compiled()
+def batch_poses(
+    last: np.ndarray, states: np.ndarray, t0: float, t_end: float, dt: float, xyh: np.ndarray, t: np.ndarray
+) -> None:
+    """A batch's poses and times, in the buffers `xyh` (x, y, heading: each (steps + 1, robots))
+    and `t` (steps + 1): the world's `last` state, then `states` (a row per step, each robot's
+    x, y, heading in turn); the step ends at `t0 + i dt`, the last exactly `t_end`. `last` then
+    holds the batch's last state, where the next begins."""
+    k, n = states.shape[0], xyh.shape[2]
+    for j in range(n):
+        xyh[0, 0, j], xyh[1, 0, j], xyh[2, 0, j] = last[3 * j], last[3 * j + 1], last[3 * j + 2]
+    for i in range(k):
+        for j in range(n):
+            xyh[0, i + 1, j], xyh[1, i + 1, j], xyh[2, i + 1, j] = (
+                states[i, 3 * j],
+                states[i, 3 * j + 1],
+                states[i, 3 * j + 2],
+            )
+        t[i] = t0 + float(i) * dt
+    t[k] = t_end
+    if k:
+        last[:] = states[k - 1]
 
 
 @compiled()
@@ -288,11 +323,11 @@ def sense(
     direction: np.ndarray,
     merging: np.ndarray,
     key: np.uint64,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A batch's sensing of beacons in one compiled call where nothing but robots can block a
     beam: `sense_candidates` then `fire` (its arguments from `light` on). Returns the phases,
-    then the pulses: each one's robot, beacon, reading and phase, per robot its count and
-    whether two of its pulses read one time (`fire`'s), and `pulse_rows`."""
+    the pulses (`pulse_rows`' two blocks), and per robot its count of pulses and whether two of
+    them read one time (`fire`'s)."""
     phi, robot, beacon, rows = sense_candidates(
         x, y, h, t, body_x, body_y, omega, dt, phi0, noise, scale, a, powers, lag_decay, coupled, lag_powers,
         wobble, lag, body_rate, bx, by, facing, gain, offset, reach, silhouette, kind, g,
@@ -301,4 +336,5 @@ def sense(
         robot, beacon, rows, kind, light, light_at, sigma, optics, timing, timing_at, clock, omega, direction,
         merging, key,
     )  # fmt: skip
-    return phi, rob, bea, times, phase, counts, pulse_rows(rows, shift, source, bea, bx, by)
+    ids, told = pulse_rows(rows, shift, source, rob, bea, times, phase, bx, by)
+    return phi, ids, told, counts
