@@ -218,12 +218,19 @@ def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
         noise = g.normal(size=(steps, n)) if wobbles else None
         want = numpy_phases(omega, dt, phi0, heading, noise, (wa, w0), (sa, coupling, lag0, body0))
         state = [phi0.copy(), w0.copy(), lag0.copy(), body0.copy()]  # moved on in place
+        start = g.integers(0, 5, n)
+        block = np.zeros((n, steps + 5))
+        if noise is not None:
+            for r in range(n):
+                block[r, start[r] : start[r] + steps] = noise[:, r]
+        at = start.copy() if noise is not None else np.zeros(0, np.int64)
         phi = spin.laser_phases(
             omega,
             dt,
             state[0],
             heading,
-            np.zeros((0, 0)) if noise is None else noise,
+            np.zeros((0, 0)) if noise is None else block,  # each robot's draws in a row, from `at` on
+            at,
             np.sqrt(1 - wa * wa) * 0.003,
             wa,
             powers(wa),
@@ -235,6 +242,8 @@ def test_laser_phases_are_numpys_bit_for_bit(wobbles, coupling):
         for w, v in zip(want, (phi, *state[1:])):
             assert np.asarray(w).tobytes() == v.tobytes()
         assert state[0].tobytes() == phi[-1].tobytes()  # the next batch starts where this one ends
+        if noise is not None:
+            assert at.tolist() == (start + steps).tolist()  # each robot's position moved past its draws
 
 
 def test_optics_and_incidence_are_numpys_bit_for_bit():

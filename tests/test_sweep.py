@@ -118,7 +118,7 @@ def sensing_case(g, kind, trial):
     traj = random_trajectory(g, robots=int(g.integers(1, 5)))
     robots, steps = traj.x.shape[1], traj.x.shape[0] - 1
     omega = g.choice([-1.0, 1.0], robots) * g.uniform(30, 90, robots)
-    noise = g.normal(size=(steps, robots)) if trial % 2 else np.zeros((0, 0))
+    noise = g.normal(size=(robots, steps + 7)) if trial % 2 else np.zeros((0, 0))  # each robot's draws, a row
     powers = [np.broadcast_to(a ** np.arange(1, steps + 1)[:, None], (steps, robots)).copy() for a in (0.9, 0.8)]
     lag_decay, coupled = (0.8, 0.05) if trial % 3 else (-1.0, 0.0)
     bx, by = BEACONS
@@ -128,6 +128,7 @@ def sensing_case(g, kind, trial):
     return {
         "traj": traj, "x": traj.x + 0.001, "y": traj.y - 0.001, "omega": omega,
         "drive": (noise, 0.01, 0.9, powers[0], lag_decay, coupled, powers[1]),
+        "noise_at": g.integers(0, 7, robots) if trial % 2 else np.zeros(0, np.int64),
         "state": [g.uniform(-50, 50, robots), g.normal(0, 0.01, robots), g.normal(0, 0.1, robots), g.normal(0, 1, robots)],
         "hardware": (bx, by, FACING, gain, np.zeros(0), reach, silhouette, code, sweep.gates(p, 0.02)),
         "light": g.normal(size=(robots, 400)), "timing": g.normal(size=(robots, 400)),
@@ -159,14 +160,15 @@ def staged(c):
     traj, x, y = c["traj"], c["x"], c["y"]
     robots = traj.x.shape[1]
     moved = [v.copy() for v in c["state"]]
-    phi = spin.laser_phases(c["omega"], 1 / 240, moved[0], traj.h, *c["drive"], *moved[1:])
+    noise_at = c["noise_at"].copy()
+    phi = spin.laser_phases(c["omega"], 1 / 240, moved[0], traj.h, *drive(c, noise_at), *moved[1:])
     bx, by, facing, gain, offset, reach, silhouette, code, gates = c["hardware"]
     robot, beacon, _, _, rows = sweep.candidates(
         x, y, traj.h, phi, traj.t, *sweep.bearings(x, y, bx, by), traj.x, traj.y, bx, by, facing, gain, offset,
         reach, silhouette, code, gates,
     )  # fmt: skip
     at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
-    return (phi, *fire_case(c, robot, beacon, rows, at)), [phi[-1], *moved[1:]], at
+    return (phi, *fire_case(c, robot, beacon, rows, at)), [phi[-1], *moved[1:], noise_at], at
 
 
 def one_call(c, split):
@@ -174,16 +176,35 @@ def one_call(c, split):
     traj = c["traj"]
     robots = traj.x.shape[1]
     moved = [v.copy() for v in c["state"]]
+    noise_at = c["noise_at"].copy()
     at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
-    motion = (c["x"], c["y"], traj.h, traj.t, traj.x, traj.y, c["omega"], 1 / 240, moved[0], *c["drive"], *moved[1:])
+    motion = (
+        c["x"],
+        c["y"],
+        traj.h,
+        traj.t,
+        traj.x,
+        traj.y,
+        c["omega"],
+        1 / 240,
+        moved[0],
+        *drive(c, noise_at),
+        *moved[1:],
+    )
     if not split:
         sigma, optics_ = c["fire"]
         out = sweep.sense(
             *motion, *c["hardware"], c["light"], at[0], sigma, optics_, c["timing"], at[1], c["clock"], *c["merging"]
         )
-        return out, moved, at
+        return out, [*moved, noise_at], at
     phi, robot, beacon, rows = sweep.sense_candidates(*motion, *c["hardware"])
-    return (phi, *fire_case(c, robot, beacon, rows, at)), moved, at
+    return (phi, *fire_case(c, robot, beacon, rows, at)), [*moved, noise_at], at
+
+
+def drive(c, noise_at):
+    """The case's spin drive as `laser_phases` takes it: the wobble's draws, their positions
+    (`noise_at`, moved on in place), then the rest."""
+    return (c["drive"][0], noise_at, *c["drive"][1:])
 
 
 @pytest.mark.parametrize("kind", sorted(KINDS))

@@ -16,8 +16,10 @@ from collections.abc import Mapping
 import numpy as np
 
 from arena.compiled import compiled
+from arena.sensing.normals import Normals
 
 _NO_ROWS = np.zeros((0, 0))  # a kernel's array argument that is not there
+_NO_AT = np.zeros(0, np.int64)  # no draws
 
 
 class Spin:
@@ -32,8 +34,8 @@ class Spin:
         self.body_rate = np.zeros(n)  # the body's yaw rate in the last step (rad/s)
         self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
-        self._drive: dict[int, tuple] = {}  # batch length -> `drive`
-        self._draws: dict[int, np.ndarray] = {}  # batch length -> the wobble's draws, a row per robot
+        self._drive: dict[int, tuple] = {}  # batch length -> `drive` but its draws
+        self._noise = Normals(streams) if params["wobble"] > 0 else None  # the wobble's draws, drawn ahead
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
@@ -44,38 +46,33 @@ class Spin:
         robots); the last row is where the next batch starts."""
         return laser_phases(self.omega, self.dt, self.phi, heading, *self.drive(len(heading) - 1), *self.state())
 
-    def drive(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
+    def drive(self, steps: int) -> tuple[np.ndarray, np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
         """What moves the phases through a batch of `steps` steps, as `laser_phases` takes it after
-        the headings: the wobble's draws (steps, robots; none without wobble), their scale, decay
-        and powers, then the spin lag's decay (negative: none), coupling and powers. All but the
-        draws depend only on `steps`: kept per batch length, with the block the draws fill."""
+        the headings: the wobble's standard normals (normals.Normals' block and positions, each
+        robot's from its own stream; none without wobble), their scale, decay and powers, then
+        the spin lag's decay (negative: none), coupling and powers. All but the draws depend
+        only on `steps`: kept per batch length."""
         drive = self._drive.get(steps)
         if drive is None:
             drive = self._drive[steps] = self._drive_of(steps)
-        noise = drive[0]
-        if noise.shape[0]:
-            draws = self._draws[steps]
-            for g, row in zip(self.streams, draws):
-                g.standard_normal(out=row)
-            noise[:] = draws.T
-        return drive
+        if self._noise is None:
+            return (_NO_ROWS, _NO_AT, *drive)
+        return (*self._noise.ready(steps), *drive)
 
-    def _drive_of(self, steps: int) -> tuple[np.ndarray, float, float, np.ndarray, float, float, np.ndarray]:
-        """`drive` for batches of `steps` steps, its draws' block not yet filled."""
+    def _drive_of(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
+        """`drive` for batches of `steps` steps, but the draws."""
         n = len(self.omega)
         p = self.params
-        noise, scale, decay, powers = _NO_ROWS, 0.0, 0.0, _NO_ROWS
+        scale, decay, powers = 0.0, 0.0, _NO_ROWS
         if p["wobble"] > 0:
             decay = math.exp(-self.dt / p["wobble_time"])
-            self._draws[steps] = np.empty((n, steps))  # a row per robot, as each robot's stream fills it
-            noise = np.empty((steps, n))  # the same, a column per robot (contiguous: one compiled form)
-            scale, powers = math.sqrt(1 - decay * decay) * p["wobble"], self._powers_of(decay, noise.shape)
+            scale, powers = math.sqrt(1 - decay * decay) * p["wobble"], self._powers_of(decay, (steps, n))
         lag_decay, coupled, lag_powers = -1.0, 0.0, _NO_ROWS  # a negative decay: no lag
         if p.get("spin_time", 0.0) > 0:
             lag_decay = math.exp(-self.dt / p["spin_time"])
             coupled = (1 - lag_decay) * p.get("spin_coupling", 0.0)
             lag_powers = self._powers_of(lag_decay, (steps, n))
-        return noise, scale, decay, powers, lag_decay, coupled, lag_powers
+        return scale, decay, powers, lag_decay, coupled, lag_powers
 
     def state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The wobble, spin lag and body yaw rate a batch starts from, as `laser_phases` takes them
@@ -127,6 +124,7 @@ def laser_phases(
     phi0: np.ndarray,
     heading: np.ndarray,
     noise: np.ndarray,
+    noise_at: np.ndarray,
     scale: float,
     a: float,
     powers: np.ndarray,
@@ -138,8 +136,9 @@ def laser_phases(
     body_rate: np.ndarray,
 ) -> np.ndarray:
     """Unwrapped laser phases at the step ends (`Spin.phases`), from the phase a batch starts
-    from (`phi0`): the steady rate `omega`, times 1 + the wobble when `noise` has rows (the
-    noise's `scale`, the decay per step `a`, its `powers`), plus the spin lag when `lag_decay`
+    from (`phi0`): the steady rate `omega`, times 1 + the wobble when `noise` has rows (robot
+    r's standard normals from row r, at `noise_at[r]` on, which moves past them: normals.Normals;
+    their `scale`, the decay per step `a`, its `powers`), plus the spin lag when `lag_decay`
     (per step) is not negative (with (1 - decay) x coupling `coupled`, its powers). The spin's
     state (`phi0`, `wobble`, `lag` and the body's yaw rate `body_rate`) is moved on in place to
     the batch's end. Plain arguments, no tuples: numba reads a tuple of arrays far slower at
@@ -149,7 +148,13 @@ def laser_phases(
     for k in range(steps):
         rate[k] = omega
     if noise.shape[0]:
-        w = first_order(a, powers, wobble, scale * noise)
+        drive = np.empty((steps, n))
+        for r in range(n):
+            at = noise_at[r]
+            for k in range(steps):
+                drive[k, r] = scale * noise[r, at + k]
+            noise_at[r] = at + steps
+        w = first_order(a, powers, wobble, drive)
         for k in range(steps):
             for r in range(n):
                 rate[k, r] = omega[r] * (1.0 + w[k, r])

@@ -199,6 +199,7 @@ def sense_candidates(
     dt: float,
     phi0: np.ndarray,
     noise: np.ndarray,
+    noise_at: np.ndarray,
     scale: float,
     a: float,
     powers: np.ndarray,
@@ -223,7 +224,7 @@ def sense_candidates(
     lasers at (x, y), then `candidates` (the bodies at `body_x`, `body_y`). Returns the phases
     (steps + 1, robots), and `candidates`' robot, beacon and rows."""
     phi = laser_phases(
-        omega, dt, phi0, h, noise, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate
+        omega, dt, phi0, h, noise, noise_at, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate
     )
     dx, dy, bearing = bearings(x, y, bx, by)
     robot, beacon, _, _, rows = candidates(
@@ -295,6 +296,7 @@ def sense(
     dt: float,
     phi0: np.ndarray,
     noise: np.ndarray,
+    noise_at: np.ndarray,
     scale: float,
     a: float,
     powers: np.ndarray,
@@ -329,7 +331,7 @@ def sense(
     the pulses (`pulse_rows`' two blocks), and per robot its count of pulses and whether two of
     them read one time (`fire`'s)."""
     phi, robot, beacon, rows = sense_candidates(
-        x, y, h, t, body_x, body_y, omega, dt, phi0, noise, scale, a, powers, lag_decay, coupled, lag_powers,
+        x, y, h, t, body_x, body_y, omega, dt, phi0, noise, noise_at, scale, a, powers, lag_decay, coupled, lag_powers,
         wobble, lag, body_rate, bx, by, facing, gain, offset, reach, silhouette, kind, g,
     )  # fmt: skip
     rows, shift, source, rob, bea, times, phase, counts = fire(
