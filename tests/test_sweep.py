@@ -14,6 +14,7 @@ from helpers import BEACONS, random_trajectory
 
 from arena.sensing import hardware, occlusion, optics, spin, sweep
 from arena.sensing.crossings import find_crossings
+from arena.sensing.normals import Normals
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
 KINDS = {
@@ -245,3 +246,24 @@ def test_a_batch_s_poses_and_times_are_the_states_laid_out_by_numpy(robots, step
     want_t[-1] = t_end
     assert np.array_equal(t, want_t)
     assert np.array_equal(last, states[-1] if steps else before)
+
+
+@pytest.mark.parametrize("ahead", [2, 16])
+def test_draws_taken_from_the_block_are_each_stream_s_own_in_order(ahead):
+    """What a kernel takes from `Normals`' block, batch after batch (`need` at most, any part of
+    it), is each robot's stream drawn directly, in order: refills keep what was left and draw on
+    (normals.Normals; the spin's wobble, the light and the timing take their draws so)."""
+    seeds = (4, 9, 17)
+    block = Normals([np.random.default_rng(s) for s in seeds], ahead=ahead)
+    taken: list[list[float]] = [[] for _ in seeds]
+    g = np.random.default_rng(3)
+    for _ in range(60):
+        need = int(g.integers(1, 40))
+        values, at = block.ready(need)
+        for r in range(len(seeds)):
+            assert values.shape[1] - at[r] >= need
+            k = int(g.integers(0, need + 1))  # a batch takes any part of its need
+            taken[r] += values[r, at[r] : at[r] + k].tolist()
+            at[r] += k
+    for r, s in enumerate(seeds):
+        assert taken[r] == np.random.default_rng(s).standard_normal(len(taken[r])).tolist()

@@ -15,10 +15,11 @@ import numpy as np
 class Normals:
     """Standard normal draws per robot (`streams`, one Generator each), kept ahead in a block a
     row per robot, with each robot's position in its row (`at`): a kernel reads row r from
-    `at[r]` on and moves `at[r]` past what it took."""
+    `at[r]` on and moves `at[r]` past what it took. A row holds `ahead` times a batch's need:
+    a refill every `ahead - 1` batches at most (a Generator call per robot)."""
 
-    def __init__(self, streams: list[np.random.Generator]):
-        self.streams = streams
+    def __init__(self, streams: list[np.random.Generator], ahead: int = 2):
+        self.streams, self.ahead = streams, ahead
         self.values = np.zeros((len(streams), 0))
         self.at = np.zeros(len(streams), np.int64)
 
@@ -26,13 +27,13 @@ class Normals:
         """The block and the positions, with at least `need` draws left in every robot's row
         (what is left is moved to the row's start and the rest drawn anew)."""
         width = self.values.shape[1]
-        if width < 2 * need:  # room for twice the need: a refill every other batch at most
-            wider = np.zeros((len(self.streams), 2 * need))
+        if width < self.ahead * need:
+            wider = np.zeros((len(self.streams), self.ahead * need))
             for r, at in enumerate(self.at.tolist()):
                 left = width - at
                 wider[r, :left] = self.values[r, at:]
                 self.streams[r].standard_normal(out=wider[r, left:])
-            self.values, width = wider, 2 * need
+            self.values, width = wider, self.ahead * need
             self.at[:] = 0
             return self.values, self.at
         for r, at in enumerate(self.at.tolist()):
