@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from helpers import BEACONS, random_trajectory
 
-from arena.sensing import hardware, occlusion, optics, spin, sweep
-from arena.sensing.crossings import find_crossings
+from arena.sensing import crossings, hardware, occlusion, optics, spin, sweep
+from arena.sensing.crossings import bearings, find_crossings
 from arena.sensing.normals import Normals
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
@@ -61,7 +61,7 @@ def test_sweep_passes_keep_and_fire_what_the_kind_modules_do(kind):
         code, radius = sweep.KIND_CODES[kind], 0.02
         bx, by = BEACONS
         robot, beacon, step, s, rows = sweep.candidates(
-            traj.x, traj.y, traj.h, traj.phi, traj.t, *sweep.bearings(traj.x, traj.y, bx, by), traj.x, traj.y, bx, by, FACING,
+            traj.x, traj.y, traj.h, traj.phi, traj.t, *bearings(traj.x, traj.y, bx, by), traj.x, traj.y, bx, by, FACING,
             np.zeros(0) if gain is None else gain, np.zeros(0), reach, silhouette, code, sweep.gates(p, radius),
         )  # fmt: skip
         keep = rows[11] > 0
@@ -104,7 +104,7 @@ def test_bearings_are_the_c_librarys_atan2_within_an_ulp_of_numpys():
     g = np.random.default_rng(5)
     traj = random_trajectory(g, robots=3)
     bx, by = BEACONS
-    dx, dy, bearing = sweep.bearings(traj.x, traj.y, bx, by)
+    dx, dy, bearing = bearings(traj.x, traj.y, bx, by)
     np.testing.assert_array_equal(dx, bx[None, None, :] - traj.x[:, :, None])
     np.testing.assert_array_equal(dy, by[None, None, :] - traj.y[:, :, None])
     libm = np.vectorize(math.atan2)(dy, dx)
@@ -165,7 +165,7 @@ def staged(c):
     phi = spin.laser_phases(c["omega"], 1 / 240, moved[0], traj.h, *drive(c, noise_at), *moved[1:])
     bx, by, facing, gain, offset, reach, silhouette, code, gates = c["hardware"]
     robot, beacon, _, _, rows = sweep.candidates(
-        x, y, traj.h, phi, traj.t, *sweep.bearings(x, y, bx, by), traj.x, traj.y, bx, by, facing, gain, offset,
+        x, y, traj.h, phi, traj.t, *bearings(x, y, bx, by), traj.x, traj.y, bx, by, facing, gain, offset,
         reach, silhouette, code, gates,
     )  # fmt: skip
     at = [np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
@@ -267,3 +267,38 @@ def test_draws_taken_from_the_block_are_each_stream_s_own_in_order(ahead):
             at[r] += k
     for r, s in enumerate(seeds):
         assert taken[r] == np.random.default_rng(s).standard_normal(len(taken[r])).tolist()
+
+
+def test_passes_looked_at_near_the_beacons_only_are_the_whole_grid_s():
+    """`near_passes` takes a bearing only where a beam may pass its beacon; it finds the very
+    passes and first guesses that `passes` finds on the whole grid of bearings, bit for bit:
+    on wandering robots, on beams that point exactly at a beacon at a step's end (d = 0), on
+    turns of up to 3 rad a step, on phases of 10^4 rad, and beside a beacon at a millimetre."""
+    g = np.random.default_rng(8)
+    bx, by = BEACONS
+    found = exact = 0
+    for trial in range(300):
+        traj = random_trajectory(g, steps=int(g.integers(2, 60)), robots=int(g.integers(1, 5)))
+        x, y, h, phi = traj.x.copy(), traj.y.copy(), traj.h, traj.phi.copy()
+        if trial % 3 == 1:  # turns of up to 3 rad a step, far from phase 0
+            turn = np.broadcast_to(g.uniform(-3, 3, x.shape[1]), x.shape)  # rad a step, each robot its own
+            phi = g.uniform(-1e4, 1e4, x.shape[1]) + np.cumsum(turn, axis=0)
+        if trial % 5 == 2:  # a laser a millimetre from a beacon
+            x[:, 0], y[:, 0] = bx[1] - 1e-3, by[1] + 1e-3 * g.uniform(-1, 1, len(x))
+        dx, dy, grid = bearings(x, y, bx, by)
+        beam = h + phi
+        if trial % 2:  # some beams exactly on a beacon's bearing at step ends: d = 0 there
+            for i in g.integers(0, len(x), 4):
+                j, m = g.integers(0, x.shape[1]), g.integers(0, len(bx))
+                beam[i, j] = grid[i, j, m] + 2 * math.pi * g.integers(-3, 4)
+                exact += wrap_angle_numpy(beam[i, j] - grid[i, j, m]) == 0.0
+        want = crossings.passes(beam, grid, np.empty((0, 0, 0)), False)
+        got = crossings.near_passes(beam, dx, dy)
+        for w, v in zip(want, got):
+            assert w.dtype == v.dtype and np.array_equal(w, v)
+        found += len(want[0])
+    assert found > 500 and exact > 100  # the cases tell something
+
+
+def wrap_angle_numpy(a: float) -> float:
+    return a - 2 * math.pi * np.rint(a / (2 * math.pi))

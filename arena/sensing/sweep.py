@@ -1,5 +1,5 @@
 """A batch's beam-beacon hits, in one compiled call (`sense`, decision 0050) of the laser
-phases (spin), the bearing grid and three stages: `candidates` finds every crossing, drops
+phases (spin), the vectors to the beacons and three stages: `candidates` finds every crossing, drops
 those another robot's silhouette blocks or the kind's gates refuse, and gives each detector's
 response there; `response` lets each sweep's light vary (`light_noise`) and applies the optics
 (which sweeps fire, and how early); then `pulses` reads them as the hardware does (the last two
@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from arena.compiled import compiled, maximum, minimum, wrap_angle
-from arena.sensing.crossings import bearings, crossing_arrays
+from arena.sensing.crossings import crossing_arrays, laser_to_beacons
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
 from arena.sensing.pulses import pulses
@@ -77,7 +77,8 @@ def candidates(
     g: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The crossings of the beams leaving from (x, y, h, phi) at the step ends t (dx, dy: the
-    vectors from each laser to each beacon at each step end, and their `bearing`: `bearings`),
+    vectors from each laser to each beacon at each step end, and their `bearing`: `bearings`, or
+    none: crossings.near_passes),
     and which of them may fire: not blocked by another robot's body (at `body_x`, `body_y`, with each robot's
     `reach` in a batch and `silhouette`: occlusion.blocked; the beacons' radius is `g`'s last),
     and through the gates of `kind` (reflector: range and incidence; flash detector without light
@@ -220,13 +221,15 @@ def sense_candidates(
     g: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A batch's laser phases and crossings in one call: `spin.laser_phases` (the phases, the spin's
-    state moved on in place; its arguments from `omega` to `body_rate`), `bearings` from the
-    lasers at (x, y), then `candidates` (the bodies at `body_x`, `body_y`). Returns the phases
+    state moved on in place; its arguments from `omega` to `body_rate`), the vectors from the
+    lasers at (x, y) to the beacons, then `candidates` (no grid of bearings: one is taken only
+    where a beam may pass, crossings.near_passes) (the bodies at `body_x`, `body_y`). Returns the phases
     (steps + 1, robots), and `candidates`' robot, beacon and rows."""
     phi = laser_phases(
         omega, dt, phi0, h, noise, noise_at, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate
     )
-    dx, dy, bearing = bearings(x, y, bx, by)
+    dx, dy = laser_to_beacons(x, y, bx, by)
+    bearing = np.empty((0, 0, 0))  # none: taken only where a beam may pass (crossings.near_passes)
     robot, beacon, _, _, rows = candidates(
         x, y, h, phi, t, dx, dy, bearing, body_x, body_y, bx, by, facing, gain, offset, reach, silhouette, kind, g
     )
