@@ -16,14 +16,23 @@ How it works, in detail: docs/internals.md, `arena/compiled.py`.
 
 from __future__ import annotations
 
+import hashlib
+import os
+import pickle
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Literal, TypeVar, cast
 
+import llvmlite
+import numba
 import numpy as np
+from llvmlite.binding import ffi
 from numba import njit
 from numba.core import environment
-from numba.core.runtime import rtsys
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.runtime import nrtdynmod, rtsys
 
 from arena.angles import TWO_PI
 
@@ -54,15 +63,72 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
     None) without its refresh of the target context: numba refreshes the context (importing
     and installing every typing and lowering registry) so that it could compile, and compiling
     refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to. Its
-    environments are rebuilt without importing modules (`_environment`)."""
-    rtsys.initialize(target_context)
-    with cache._guard_against_spurious_io_errors():
-        rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
-        environment._rebuild_env = _environment
-        try:
-            return cache._load_overload(sig, target_context)
-        finally:
-            environment._rebuild_env = rebuild
+    environments are rebuilt without importing modules (`_environment`), LLVM is called
+    without numba's event at each call (`_unobserved`), and the runtime's own functions come
+    from the cache too (`_start_runtime`)."""
+    with _unobserved():
+        _start_runtime(target_context, Path(cache._cache_path))
+        with cache._guard_against_spurious_io_errors():
+            rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
+            environment._rebuild_env = _environment
+            try:
+                return cache._load_overload(sig, target_context)
+            finally:
+                environment._rebuild_env = rebuild
+
+
+def _start_runtime(target_context: Any, folder: Path) -> None:
+    """numba's runtime (`rtsys.initialize`), its few LLVM functions (reference counts, the
+    meminfo's data) loaded from the machine code an earlier process compiled into `folder`
+    (the kernels' cache): compiling them took 25-40 ms of every process that loads a kernel."""
+    if getattr(rtsys, "_init", True):
+        return
+    compile_functions = nrtdynmod.compile_nrt_functions
+    nrtdynmod.compile_nrt_functions = lambda context: _runtime_functions(context, folder)
+    try:
+        rtsys.initialize(target_context)
+    finally:
+        nrtdynmod.compile_nrt_functions = compile_functions
+
+
+def _runtime_functions(target_context: Any, folder: Path) -> Any:
+    """The library `nrtdynmod.compile_nrt_functions` makes, from `folder` where an earlier
+    process left it for this numba, LLVM and processor; else compiled, and left there."""
+    codegen = target_context.codegen()
+    key = repr((numba.__version__, llvmlite.__version__, codegen.magic_tuple()))
+    path = folder / f"numba-runtime-{hashlib.sha256(key.encode()).hexdigest()[:16]}.nbo"
+    try:
+        return codegen.unserialize_library(pickle.loads(path.read_bytes()))
+    except Exception:  # none yet, or unreadable (a write cut short, a numba laid out otherwise): compiled
+        pass
+    module, library = nrtdynmod.create_nrt_module(target_context)
+    library.enable_object_caching()
+    library.add_ir_module(module)
+    with global_compiler_lock:
+        library.finalize()
+    part = path.with_name(f"{path.name}.{os.getpid()}")
+    try:
+        part.write_bytes(pickle.dumps(library.serialize_using_object_code()))
+        os.replace(part, path)  # whole or not at all, whoever writes beside
+    except OSError:  # a cache folder this process cannot write: compiled again next time
+        part.unlink(missing_ok=True)
+    return library
+
+
+@contextmanager
+def _unobserved() -> Iterator[None]:
+    """LLVM's calls without the callbacks numba hangs on its lock: at each call, numba makes
+    two events for its compile-time statistics. Loading a cached kernel makes a few hundred
+    calls; their events were a sixth of the loading's time, and no one reads them then."""
+    lock = getattr(getattr(ffi, "lib", None), "_lock", None)
+    callbacks = list(getattr(lock, "_cblist", ()))
+    for callback in callbacks:
+        ffi.unregister_lock_callback(*callback)
+    try:
+        yield
+    finally:
+        for callback in callbacks:
+            ffi.register_lock_callback(*callback)
 
 
 def _environment(modname: str, consts: list, env_name: str) -> Any:

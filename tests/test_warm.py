@@ -126,3 +126,51 @@ def test_a_kernel_another_links_in_still_returns_its_arrays_alone():
         run = subprocess.run([sys.executable, "-c", LINKED, order], capture_output=True, text=True, timeout=600)
         assert run.returncode == 0, run.stderr
         assert np.allclose(json.loads(run.stdout), want, rtol=1e-12, atol=1e-12), run.stdout
+
+
+KERNEL = """
+import numpy as np
+from arena.compiled import compiled
+
+@compiled()
+def doubled(a):
+    out = np.empty(a.shape[0])  # an array returned: the runtime's reference counts at work
+    for i in range(a.shape[0]):
+        out[i] = 2.0 * a[i]
+    return out
+"""
+
+RUNTIME = """
+import sys
+from numba.core.runtime import nrtdynmod
+compile_module = nrtdynmod.create_nrt_module
+made = []
+nrtdynmod.create_nrt_module = lambda context: (made.append(1), compile_module(context))[1]
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+from kernel import doubled
+print(doubled(np.arange(3.0)).tolist(), "compiled the runtime:", bool(made))
+"""
+
+
+def test_the_runtime_s_functions_are_compiled_once_then_loaded_from_the_cache(tmp_path):
+    """numba's runtime compiles a few LLVM functions in each process that loads a kernel; here
+    the first process that looks in a kernel's cache leaves them there (arena.compiled), and
+    the next loads them from there. A file cut short is compiled again, and its kernels still
+    return their arrays."""
+    (tmp_path / "kernel.py").write_text(KERNEL)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run() -> str:
+        done = subprocess.run(
+            [sys.executable, "-c", RUNTIME, str(tmp_path)], env=env, capture_output=True, text=True, timeout=300
+        )
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip()
+
+    assert run() == "[0.0, 2.0, 4.0] compiled the runtime: True"  # as the cache was looked in; the kernel compiled too
+    (kept,) = (tmp_path / "cache").glob("*/numba-runtime-*.nbo")  # beside the kernel
+    assert run() == "[0.0, 2.0, 4.0] compiled the runtime: False"  # both loaded
+    kept.write_bytes(kept.read_bytes()[:100])  # a write cut short
+    assert run() == "[0.0, 2.0, 4.0] compiled the runtime: True"
+    assert run() == "[0.0, 2.0, 4.0] compiled the runtime: False"
