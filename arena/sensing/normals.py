@@ -22,10 +22,22 @@ class Normals:
         self.streams, self.ahead = streams, ahead
         self.values = np.zeros((len(streams), 0))
         self.at = np.zeros(len(streams), np.int64)
+        self.left = 0  # what every row still holds for sure: at the last look, less the needs handed out since
 
     def ready(self, need: int) -> tuple[np.ndarray, np.ndarray]:
         """The block and the positions, with at least `need` draws left in every robot's row
-        (what is left is moved to the row's start and the rest drawn anew)."""
+        (what is left is moved to the row's start and the rest drawn anew). A batch takes no
+        more than its need, so rows are looked at only when the needs handed out since the
+        last look may have used up what they held then."""
+        if self.left >= need:
+            self.left -= need
+            return self.values, self.at
+        values, at = self._refilled(need)
+        self.left = values.shape[1] - int(at.max(initial=0)) - need
+        return values, at
+
+    def _refilled(self, need: int) -> tuple[np.ndarray, np.ndarray]:
+        """`ready`'s look at every row: each with fewer than `need` left refilled."""
         width = self.values.shape[1]
         if width < self.ahead * need:
             wider = np.zeros((len(self.streams), self.ahead * need))
