@@ -216,7 +216,7 @@ class Sensing:
         timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)
         w0 = float(t[0])
         clock = self._clock  # the timing noise's scale, the window's start and end, the clock's rate and first tick
-        clock[1], clock[2], clock[4] = w0, t[-1], first_tick_after(w0, self.params)
+        clock[1], clock[2], clock[4] = w0, t[-1], first_tick_after(w0, self._clock_hz)
         spin = self.spin
         motion = (lx, ly, h, t, x, y, spin.omega, spin.dt, spin.phi, *spin.drive(len(t) - 1), *spin.state())
         sigma, optics = self._light_sigma, self._optics

@@ -29,11 +29,11 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
-def first_tick_after(t: float, p: Mapping[str, float]) -> float:
-    """The earliest time after `t` that the event clock can read (the next counter tick, or
-    the next float if there is no counter)."""
-    if p.get("clock_hz", 0.0) > 0:
-        return (math.floor(t * p["clock_hz"] + 1e-6) + 1) / p["clock_hz"]
+def first_tick_after(t: float, clock_hz: float) -> float:
+    """The earliest time after `t` that the event clock (a counter of `clock_hz`, or none if 0)
+    can read: the next counter tick, or the next float."""
+    if clock_hz > 0:
+        return (math.floor(t * clock_hz + 1e-6) + 1) / clock_hz
     return math.nextafter(t, math.inf)
 
 
