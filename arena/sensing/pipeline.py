@@ -208,9 +208,10 @@ class Sensing:
         """The batch's laser phases and pulses, in one compiled call (`sweep.sense`) from the
         step-end times `t`, the bodies' poses (x, y, h) and where the beams leave (lx, ly):
         the phases (spin), then the pulses as the hardware reads them, in `sweep.pulse_rows`'
-        two blocks, and per robot their count and whether two read one time. Where the level has obstacles, pymunk's segment
-        query runs between `sweep.sense_candidates` and `sweep.fire`. Each robot's light and
-        timing draws come from its own streams, drawn ahead (normals.Normals)."""
+        two blocks, and per robot their count and whether two read one time. Where the level
+        has obstacles, pymunk's segment query runs between `sweep.sense_candidates` and
+        `sweep.fire`. Each robot's light and timing draws come from its own streams, drawn
+        ahead (normals.Normals)."""
         need = (len(t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
         light, light_at = self._light.ready(need) if self._light else (_NO_ROWS, _NO_AT)
         timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)

@@ -1,7 +1,7 @@
 """A batch's beam-beacon hits, in one compiled call (`sense`, decision 0050) of the laser
-phases (spin), the vectors to the beacons and three stages: `candidates` finds every crossing, drops
-those another robot's silhouette blocks or the kind's gates refuse, and gives each detector's
-response there; `response` lets each sweep's light vary (`light_noise`) and applies the optics
+phases (spin), the vectors to the beacons and three stages: `candidates` finds every crossing,
+drops those another robot's silhouette blocks or the kind's gates refuse, and gives each
+detector's response there; `response` lets each sweep's light vary (`light_noise`) and applies the optics
 (which sweeps fire, and how early); then `pulses` reads them as the hardware does (the last two
 in one call, `fire`). Where a level has obstacles, pymunk's segment query runs between
 `sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead from
@@ -220,11 +220,12 @@ def sense_candidates(
     kind: int,
     g: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """A batch's laser phases and crossings in one call: `spin.laser_phases` (the phases, the spin's
-    state moved on in place; its arguments from `omega` to `body_rate`), the vectors from the
-    lasers at (x, y) to the beacons, then `candidates` (no grid of bearings: one is taken only
-    where a beam may pass, crossings.near_passes) (the bodies at `body_x`, `body_y`). Returns the phases
-    (steps + 1, robots), and `candidates`' robot, beacon and rows."""
+    """A batch's laser phases and crossings in one call: `spin.laser_phases` (the phases, the
+    spin's state moved on in place; its arguments from `omega` to `body_rate`), the vectors
+    from the lasers at (x, y) to the beacons, then `candidates` with the bodies at `body_x`,
+    `body_y` and no grid of bearings (one is taken only where a beam may pass:
+    crossings.near_passes). Returns the phases (steps + 1, robots), and `candidates`' robot,
+    beacon and rows."""
     phi = laser_phases(
         omega, dt, phi0, h, noise, noise_at, scale, a, powers, lag_decay, coupled, lag_powers, wobble, lag, body_rate
     )
