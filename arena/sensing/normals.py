@@ -18,7 +18,7 @@ class Normals:
     `at[r]` on and moves `at[r]` past what it took. A row holds `ahead` times a batch's need:
     a refill every `ahead - 1` batches at most (a Generator call per robot)."""
 
-    def __init__(self, streams: list[np.random.Generator], ahead: int = 2):
+    def __init__(self, streams: list[np.random.Generator], ahead: int = 16):
         self.streams, self.ahead = streams, ahead
         self.values = np.zeros((len(streams), 0))
         self.at = np.zeros(len(streams), np.int64)
@@ -33,7 +33,7 @@ class Normals:
             self.left -= need
             return self.values, self.at
         values, at = self._refilled(need)
-        self.left = values.shape[1] - int(at.max(initial=0)) - need
+        self.left = values.shape[1] - max(at.tolist(), default=0) - need
         return values, at
 
     def _refilled(self, need: int) -> tuple[np.ndarray, np.ndarray]:

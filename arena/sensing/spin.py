@@ -35,8 +35,7 @@ class Spin:
         self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
         self._drive: dict[int, tuple] = {}  # batch length -> `drive` but its draws
-        # the wobble's draws, drawn ahead: a batch takes a draw a step, all its need
-        self._noise = Normals(streams, ahead=16) if params["wobble"] > 0 else None
+        self._noise = Normals(streams) if params["wobble"] > 0 else None  # the wobble's draws, drawn ahead
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
