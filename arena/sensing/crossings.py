@@ -213,6 +213,16 @@ def bearing_grid(dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
     return bearing
 
 
+@compiled(inline="always")
+def passes_zero(d0: float, d1: float) -> bool:
+    """Whether the wrapped angle d from a beam to a bearing passes zero within a step, from d0
+    at its start to d1 at its end (the pass's first guess is then d0 / (d0 - d1)): it changes
+    sign by less than half a turn, and it arrives at zero in this step rather than leaving it,
+    so an exact hit at a step's end is counted once."""
+    s0 = sign(d0)
+    return s0 != 0.0 and sign(d1) != s0 and abs(d1 - d0) < math.pi
+
+
 NEAR = 1e-9  # of the range: how close to its beacon a beam may seem and still be looked at exactly
 
 
@@ -253,8 +263,7 @@ def near_passes(
                     continue
                 d0 = wrap_angle(beam[i, j] - math.atan2(ay, ax))
                 d1 = wrap_angle(beam[i + 1, j] - math.atan2(by_, bx_))
-                s0, s1 = sign(d0), sign(d1)
-                if s0 != 0.0 and s1 != s0 and abs(d1 - d0) < math.pi:
+                if passes_zero(d0, d1):
                     step[count], robot[count], beacon[count] = i, j, m
                     s[count] = d0 / (d0 - d1)
                     count += 1
@@ -286,8 +295,7 @@ def passes(
             for j in range(r):
                 for m in range(b):
                     d0, d1 = d[i, j, m], d[i + 1, j, m]
-                    s0, s1 = sign(d0), sign(d1)
-                    if s0 != 0.0 and s1 != s0 and abs(d1 - d0) < math.pi:
+                    if passes_zero(d0, d1):
                         if pass_ == 1:
                             step[count], robot[count], beacon[count] = i, j, m
                             s[count] = d0 / (d0 - d1)
