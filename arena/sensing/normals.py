@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+# no block: what a kernel takes where a robot draws none (its block has no rows, its positions none)
+NO_DRAWS = (np.zeros((0, 0)), np.zeros(0, np.int64))
+
 
 class Normals:
     """Standard normal draws per robot (`streams`, one Generator each), kept ahead in a block a

@@ -26,14 +26,13 @@ from arena.sensing import hardware, reflector, sensor_array, sweep
 from arena.sensing.crossings import Trajectory, find_phase_marks
 from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
-from arena.sensing.normals import Normals
+from arena.sensing.normals import NO_DRAWS, Normals
 from arena.sensing.occlusion import Occlusion
 from arena.sensing.readout import false_times, first_tick_after, quantize_angle
 from arena.sensing.spin import Spin
 from arena.world import World
 
 _NONE = np.zeros(0)  # a kernel's array argument that is not there
-_NO_ROWS, _NO_AT = np.zeros((0, 0)), np.zeros(0, np.int64)  # no draws
 
 
 class Sensing:
@@ -213,8 +212,8 @@ class Sensing:
         `sweep.fire`. Each robot's light and timing draws come from its own streams, drawn
         ahead (normals.Normals)."""
         need = (len(t) - 1) * len(self.ids)  # a robot's crossings in the batch, at most
-        light, light_at = self._light.ready(need) if self._light else (_NO_ROWS, _NO_AT)
-        timing, timing_at = self._timing.ready(need) if self._timing else (_NO_ROWS, _NO_AT)
+        light, light_at = self._light.ready(need) if self._light else NO_DRAWS
+        timing, timing_at = self._timing.ready(need) if self._timing else NO_DRAWS
         w0 = float(t[0])
         clock = self._clock  # the timing noise's scale, the window's start and end, the clock's rate and first tick
         clock[1], clock[2], clock[4] = w0, t[-1], first_tick_after(w0, self._clock_hz)

@@ -16,10 +16,9 @@ from collections.abc import Mapping
 import numpy as np
 
 from arena.compiled import compiled
-from arena.sensing.normals import Normals
+from arena.sensing.normals import NO_DRAWS, Normals
 
 _NO_ROWS = np.zeros((0, 0))  # a kernel's array argument that is not there
-_NO_AT = np.zeros(0, np.int64)  # no draws
 
 
 class Spin:
@@ -56,7 +55,7 @@ class Spin:
         if drive is None:
             drive = self._drive[steps] = self._drive_of(steps)
         if self._noise is None:
-            return (_NO_ROWS, _NO_AT, *drive)
+            return (*NO_DRAWS, *drive)
         return (*self._noise.ready(steps), *drive)
 
     def _drive_of(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
