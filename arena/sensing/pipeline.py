@@ -28,7 +28,7 @@ from arena.sensing.events import NEW_DETECTION, Detection, event_order
 from arena.sensing.light import Turrets
 from arena.sensing.normals import NO_DRAWS, Normals
 from arena.sensing.occlusion import Occlusion
-from arena.sensing.readout import false_times, first_tick_after, quantize_angle
+from arena.sensing.readout import FalseClock, first_tick_after, quantize_angle
 from arena.sensing.spin import Spin
 from arena.world import World
 
@@ -83,6 +83,9 @@ class Sensing:
         self.lines = sensor_array.SharedLines(len(items))
         self.table_false = rng.stream("beacons", "false")
         p = self.params
+        # when false pulses come: each robot's stream, and the table's under shared crosstalk
+        self._false = [FalseClock(g, p.get("false_rate", 0.0)) for g in self.rng["false"]]
+        self._table_false = FalseClock(self.table_false, p.get("false_rate", 0.0))
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
         self._clock_hz = float(p.get("clock_hz", 0.0))
@@ -289,7 +292,7 @@ class Sensing:
     def _false_returns(self, traj: Trajectory, r: int) -> list[Detection]:
         """Robot `r`'s spurious pulses in this batch, as its kind reports them."""
         g = self.rng["false"][r]
-        times = false_times(g, self.params["false_rate"], traj.t[0], traj.t[-1])
+        times = self._false[r].times(float(traj.t[0]), float(traj.t[-1]))
         if not len(times):
             return []
         if self.kind == "sensor_array":
@@ -298,7 +301,7 @@ class Sensing:
 
     def _table_false_pulses(self, traj: Trajectory) -> list[tuple]:
         """Shared crosstalk's false pulses in this batch, one stream for the whole table."""
-        times = false_times(self.table_false, self.params["false_rate"], traj.t[0], traj.t[-1])
+        times = self._table_false.times(float(traj.t[0]), float(traj.t[-1]))
         if not len(times):
             return []
         return sensor_array.table_false_pulses(times, self.table_false, self.ids, self.params)

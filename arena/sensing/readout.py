@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -44,3 +45,44 @@ def false_times(g: np.random.Generator, rate: float, t0: float, t1: float) -> np
     if not count:
         return np.zeros(0)
     return np.sort(g.uniform(t0, t1, size=count))
+
+
+_QUIET = np.zeros(0)  # no spurious pulse in a window
+_MULT_BELOW = 10.0  # NumPy's Poisson draws by multiplying uniforms below this mean (above: PTRS)
+
+
+class FalseClock:
+    """`false_times` window after window from one stream (`g`), the same numbers and the same
+    draws, at a fraction of a Generator call per window: most windows are quiet.
+
+    Below a mean of 10, NumPy's Poisson multiplies uniforms until the product is at most
+    exp(-mean): the count is 0 exactly when the first uniform is, and that uniform is the double
+    `Generator.random` gives. So a block of them is drawn ahead (the stream's state kept from
+    before it), and each quiet window takes the next. A window that is not quiet puts the stream
+    back where its draws begin (the saved state, then one double per quiet window before it) and
+    draws as `false_times` does; so may whatever the caller draws from `g` after it."""
+
+    def __init__(self, g: np.random.Generator, rate: float, ahead: int = 256):
+        self.g, self.rate, self.ahead = g, rate, ahead
+        self._saved: Mapping[str, Any] = {}
+        self._block: list[float] = []  # uniforms drawn ahead from `_saved` on
+        self._used = 0  # of them, by quiet windows
+
+    def times(self, t0: float, t1: float) -> np.ndarray:
+        """`false_times(g, rate, t0, t1)`: when spurious pulses come between `t0` and `t1`."""
+        mean = self.rate * (t1 - t0)
+        if mean == 0.0:  # NumPy draws nothing for a mean of 0
+            return _QUIET
+        if mean < _MULT_BELOW:
+            if self._used == len(self._block):
+                self._saved = self.g.bit_generator.state
+                self._block, self._used = self.g.random(self.ahead).tolist(), 0
+            if self._block[self._used] <= math.exp(-mean):
+                self._used += 1
+                return _QUIET
+        if self._block:  # the stream back to where this window's draws begin
+            self.g.bit_generator.state = self._saved
+            if self._used:
+                self.g.random(self._used)
+            self._block, self._used = [], 0
+        return false_times(self.g, self.rate, t0, t1)
