@@ -15,6 +15,7 @@ from helpers import BEACONS, random_trajectory
 from arena.sensing import crossings, hardware, occlusion, optics, spin, sweep
 from arena.sensing.crossings import bearings, find_crossings
 from arena.sensing.normals import Normals
+from arena.sensing.readout import first_tick_after
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
 KINDS = {
@@ -225,6 +226,68 @@ def test_one_call_senses_what_the_stages_do(kind):
             assert all(np.array_equal(w, v) for w, v in zip(want[3], got[3]))  # counts, ties
             assert all(np.array_equal(w, v) for w, v in zip(want_state, got_state))
             assert all(np.array_equal(w, v) for w, v in zip(want_at, got_at))
+    assert pulses_seen > 0
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS))
+def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
+    """`sense_period` (the state it moves on packed in blocks) gives what `batch_poses` then
+    `sense` give, bit for bit: the poses, the phases, the pulses, the counts, and the spin's
+    state, the draws' positions and the last state moved on alike; with and without gains,
+    beam offsets, wobble, spin lag, timing noise and an event clock."""
+    g = np.random.default_rng(31)
+    pulses_seen = 0
+    for trial in range(12):
+        c = sensing_case(g, kind, trial)
+        traj, dt = c["traj"], 1 / 240
+        robots, steps = traj.x.shape[1], traj.x.shape[0] - 1
+        states = np.stack([traj.x, traj.y, traj.h], axis=2).reshape(steps + 1, 3 * robots)
+        t0, t_end = float(traj.t[0]), float(traj.t[0]) + steps * dt + 1e-13
+        bx, by, facing, gain, _, reach, silhouette, code, gates = c["hardware"]
+        offset = g.uniform(-0.01, 0.01, robots) if trial % 4 == 1 else np.zeros(0)
+        noise, scale, decay, powers, lag_decay, coupled, lag_powers = c["drive"]
+        sigma, optics_ = c["fire"]
+        direction, merging, key = c["merging"]
+        merging = np.array([float(kind == "sensor_array"), len(bx), 0.3 if trial % 3 == 2 else 0.0])
+        timing_scale, clock_hz = (1e-5, 0.0) if trial % 2 else (0.0, 50.0)  # a coarse clock: its first tick matters
+        # by the stages: the poses laid out, the clock's window and first tick, then `sense`
+        last, xyh, t = states[0].copy(), np.empty((3, steps + 1, robots)), np.empty(steps + 1)
+        sweep.batch_poses(last, states[1:], t0, t_end, dt, xyh, t)
+        clock = np.array([timing_scale, t[0], t[-1], clock_hz, first_tick_after(float(t[0]), clock_hz)])
+        state = [v.copy() for v in c["state"]]
+        at = [c["noise_at"].copy(), np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
+        want = sweep.sense(
+            *xyh, t, xyh[0], xyh[1], c["omega"], dt, state[0], noise, at[0], scale, decay, powers, lag_decay,
+            coupled, lag_powers, *state[1:], bx, by, facing, gain, offset, reach, silhouette, code, gates,
+            c["light"], at[1], sigma, optics_, c["timing"], at[2], clock, direction, merging, key,
+        )  # fmt: skip
+        pulses_seen += want[1].shape[1]
+        # in one call, over packed state
+        live, places = np.array(c["state"]), np.zeros((3, robots), np.int64)
+        places[0, : len(c["noise_at"])] = c["noise_at"]
+        poses, times, counts = (
+            np.full((4, steps + 1, robots), np.nan),
+            np.full(steps + 1, np.nan),
+            np.zeros((2, robots), np.int64),
+        )
+        params = sweep.period_params(
+            dt, (scale, decay, lag_decay, coupled), code, sigma, timing_scale, clock_hz, merging,
+            (len(gain) > 0, len(offset) > 0), gates, optics_,
+        )  # fmt: skip
+        packed_robots = np.array(
+            [c["omega"], direction, reach, silhouette, offset if len(offset) else np.zeros(robots)]
+        )
+        packed_beacons = np.array([bx, by, facing, gain if len(gain) else np.ones(len(bx))])
+        first = states[0].copy()
+        ids, told = sweep.sense_period(
+            first, states[1:], t0, t_end, poses, times, live, places, noise, c["light"], c["timing"], powers,
+            lag_powers, packed_robots, packed_beacons, params, counts, key,
+        )  # fmt: skip
+        assert np.array_equal(poses[:3], xyh) and np.array_equal(times, t) and np.array_equal(first, last)
+        assert np.array_equal(poses[3], want[0])
+        assert np.array_equal(ids, want[1]) and np.array_equal(told, want[2]) and np.array_equal(counts, want[3])
+        assert np.array_equal(live, np.array(state))
+        assert np.array_equal(places[0, : len(at[0])], at[0]) and np.array_equal(places[1:], np.array(at[1:]))
     assert pulses_seen > 0
 
 

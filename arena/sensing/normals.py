@@ -21,10 +21,10 @@ class Normals:
     `at[r]` on and moves `at[r]` past what it took. A row holds `ahead` times a batch's need:
     a refill every `ahead - 1` batches at most (a Generator call per robot)."""
 
-    def __init__(self, streams: list[np.random.Generator], ahead: int = 16):
+    def __init__(self, streams: list[np.random.Generator], ahead: int = 16, at: np.ndarray | None = None):
         self.streams, self.ahead = streams, ahead
         self.values = np.zeros((len(streams), 0))
-        self.at = np.zeros(len(streams), np.int64)
+        self.at = np.zeros(len(streams), np.int64) if at is None else at  # `at`: kept where the caller says
         self.left = 0  # what every row still holds for sure: at the last look, less the needs handed out since
 
     def ready(self, need: int) -> tuple[np.ndarray, np.ndarray]:

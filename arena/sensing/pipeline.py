@@ -7,7 +7,8 @@ wobble and the lag when the body turns), where each beam leaves (the body's posi
 by the floor's tilt: arena.floor), exact crossing times (crossings), occlusion by other robots'
 silhouettes at the crossing instant and by obstacles (occlusion), the gates and optics of the
 level's beacon kind (hardware, optics), the pulses as the hardware reads them (pulses), then
-false pulses, index clicks, and the lights' scans (light).
+false pulses, index clicks, and the lights' scans (light). Where beams leave from the bodies and
+only robots block them, the poses, phases and pulses are one compiled call (sweep.sense_period).
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ class Sensing:
             name: [rng.stream("robot", r, name) for r in range(self.n)]
             for name in ("wobble", "detector", "timing", "false", "light")
         }
-        self.spin = Spin(self.omega, self.dt, self.params, self.rng["wobble"])
+        self._at = np.zeros((3, self.n), np.int64)  # each robot's place in its wobble, light and timing draws
+        self.spin = Spin(self.omega, self.dt, self.params, self.rng["wobble"], at=self._at[0])
         self.turrets = Turrets(self.params, self.direction, self.rng["light"], self.occlusion)
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
         # shared crosstalk: each array's one line, and the table's false pulses, one stream for every controller
@@ -94,9 +96,9 @@ class Sensing:
         self._optics = np.array(sweep.hardware(p))
         # each kept sweep's light, each pulse's timing: standard normals from each robot's streams
         lit = self._light_noise and self.kind in ("sensor_array", "flash_detector")
-        self._light = Normals(self.rng["detector"]) if lit else None
+        self._light = Normals(self.rng["detector"], at=self._at[1]) if lit else None
         self._light_sigma = self._light_noise if lit else 0.0
-        self._timing = Normals(self.rng["timing"]) if self._timing_noise else None
+        self._timing = Normals(self.rng["timing"], at=self._at[2]) if self._timing_noise else None
         # Bac's merged measurements (arena.sensing.sensor_array.merge), as `pulses` takes them
         merges = (self.kind == "sensor_array", float(p.get("merge_rate", 0.0)))
         self._merging = np.array([float(merges[0]), len(self.ids), merges[1]])
@@ -105,6 +107,14 @@ class Sensing:
         # what `sweep.sense_candidates` takes after the spin: the beacons, then the bodies and the gates
         beacons = (self.bx, self.by, self.facing, self._gains, self._axis_offsets)
         self._hardware = (*beacons, self.occlusion.reach, self.occlusion.silhouette, self._kind, self._gates)
+        # the same for `sweep.sense_period`, packed: where beams leave from the bodies and only robots block them
+        self._plain = self.kind != "light" and self.tilt is None and not self.occlusion.has_obstacles
+        offsets = self.beam_offset if len(self._axis_offsets) else np.zeros(self.n)
+        self._robots = np.array([self.omega, self.direction, self.occlusion.reach, self.occlusion.silhouette, offsets])
+        self._beacons = np.array([self.bx, self.by, self.facing, gains if len(self._gains) else np.ones(len(items))])
+        self._counts = np.zeros(
+            (2, self.n), np.int64
+        )  # per robot, its pulses in a period and whether two read one time
         # what a hit reports (`_hits`): the beacons' labels, the optics' rise time, and the head's encoder
         self._labels = self.ids if self.kind != "reflector" else None
         self._rise_time = float(p.get("rise_time", 0.0))
@@ -113,6 +123,7 @@ class Sensing:
         self._stepped = self.kind == "reflector" and bool(self._steps)  # a stepped head
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._batches: dict[int, tuple] = {}  # batch length -> buffers for its poses and times (`_batch`)
+        self._params: dict[int, np.ndarray] = {}  # batch length -> `sweep.sense_period`'s scalars
         self._last = np.array(world.state, float)  # where the next batch starts (`sweep.batch_poses` moves it on)
         self._last_t = world.time
         if not _loaded:
@@ -151,17 +162,15 @@ class Sensing:
             states = np.fromiter(chain.from_iterable(rows), float, len(rows) * 3 * self.n).reshape(len(rows), -1)
         else:  # runs of states, or both
             states = np.vstack(rows)
-        t, x, y, heading, xyh = self._batch(len(states))
-        sweep.batch_poses(self._last, states, self._last_t, self.world.time, self.dt, xyh, t)
-        self._last_t, self._rows = self.world.time, []
-        if self.kind == "light":
-            traj = Trajectory(t=t, x=x, y=y, h=heading, phi=self.spin.phases(heading))
-            sources = [self.turrets.scan(traj, traj if self.tilt is None else self._leaned(traj))]
+        t, x, y, heading, phi, poses = self._batch(len(states))
+        if self._plain:  # the poses, the phases and the hits in one compiled call
+            hits = self._detections(t, *self._sensed(states, t, poses))
         else:
-            lx, ly = (x, y) if self.tilt is None else self._lean(x, y)
-            phi, hits = self._hits(t, x, y, heading, lx, ly)
-            traj = Trajectory(t=t, x=x, y=y, h=heading, phi=phi)
-            sources = [hits]
+            sweep.batch_poses(self._last, states, self._last_t, self.world.time, self.dt, poses[:3], t)
+            hits = self._other(t, x, y, heading, phi)
+        self._last_t, self._rows = self.world.time, []
+        traj = Trajectory(t=t, x=x, y=y, h=heading, phi=phi)
+        sources = [hits]
         if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(traj)))
@@ -179,6 +188,42 @@ class Sensing:
             merged.sort(key=event_order)  # stable: what the sources yield in order stays so
             out.append(merged)
         return out
+
+    def _sensed(
+        self, states: np.ndarray, t: np.ndarray, poses: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The batch's poses, phases and pulses (`sweep.sense_period`, into `t` and `poses`) from
+        the world's `states`: `_pulses`' pulses, each robot's draws from its own streams."""
+        steps = len(states)
+        need = steps * len(self.ids)  # a robot's crossings in the batch, at most
+        light = self._light.ready(need)[0] if self._light else NO_DRAWS[0]
+        timing = self._timing.ready(need)[0] if self._timing else NO_DRAWS[0]
+        scale, decay, powers, lag_decay, coupled, lag_powers = self.spin.model(steps)
+        params = self._params.get(steps)
+        if params is None:
+            params = self._params[steps] = sweep.period_params(
+                self.dt, (scale, decay, lag_decay, coupled), self._kind, self._light_sigma, self._timing_noise,
+                self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
+                self._optics,
+            )  # fmt: skip
+        ids, told = sweep.sense_period(
+            self._last, states, self._last_t, self.world.time, poses, t, self.spin.live, self._at,
+            self.spin.draws(steps)[0], light, timing, powers, lag_powers, self._robots, self._beacons, params,
+            self._counts, self._merge_key,
+        )  # fmt: skip
+        return ids, told, self._counts[0], self._counts[1]
+
+    def _other(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray) -> list:
+        """The batch's phases (into `phi`) and hits or scans where `sweep.sense_period` does not
+        serve: light turrets, beams leaned by a tilted floor, obstacles."""
+        if self.kind == "light":
+            phi[:] = self.spin.phases(h)
+            traj = Trajectory(t=t, x=x, y=y, h=h, phi=phi)
+            return self.turrets.scan(traj, traj if self.tilt is None else self._leaned(traj))
+        lx, ly = (x, y) if self.tilt is None else self._lean(x, y)
+        phases, hits = self._hits(t, x, y, h, lx, ly)
+        phi[:] = phases
+        return hits
 
     def _lean(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Where the beams leave, step by step: each body's position (x, y), leaned by the
@@ -198,8 +243,8 @@ class Sensing:
         trajectory past its flush."""
         batch = self._batches.get(steps)
         if batch is None:
-            xyh = np.empty((3, steps + 1, self.n))
-            batch = self._batches[steps] = (np.empty(steps + 1), xyh[0], xyh[1], xyh[2], xyh)
+            poses = np.empty((4, steps + 1, self.n))
+            batch = self._batches[steps] = (np.empty(steps + 1), *poses, poses)
         return batch
 
     # ---- beam-beacon hits -----------------------------------------------------------------
@@ -241,11 +286,18 @@ class Sensing:
     ) -> tuple[np.ndarray, list[list[Detection]]]:
         """The batch's laser phases, and the beacons' pulses (`_pulses`) as detections, per
         robot in event order."""
+        phi, ids, told, (counts, tied) = self._pulses(t, x, y, h, lx, ly)
+        return phi, self._detections(t, ids, told, counts, tied)
+
+    def _detections(
+        self, t: np.ndarray, ids: np.ndarray, told: np.ndarray, counts_: np.ndarray, tied_: np.ndarray
+    ) -> list[list[Detection]]:
+        """The batch's pulses (`sweep.pulse_rows`' two blocks, and per robot their count and
+        whether two read one time) as detections, per robot in event order."""
         out: list[list[Detection]] = [[] for _ in range(self.n)]
-        phi, ids, told, (counts_, tied_) = self._pulses(t, x, y, h, lx, ly)
         m = ids.shape[1]
         if not m:
-            return phi, out
+            return out
         steps = self._steps
         robots, beacons = ids.tolist()
         times_, _, laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
@@ -258,7 +310,7 @@ class Sensing:
             low = [self._rise_time - 2 * o for o in offset]  # the optics' dwell, and the release
             kept = self.lines.flanks(times_, beacons, low)
             heard = [f for f, k in zip(zip(robots, times_, labels, angles, beams), kept) if k]
-            return phi, self._to_everyone(heard)
+            return self._to_everyone(heard)
         fields = zip(robots, times_, repeat("hit"), labels, angles, repeat(()), robots, beams)
         events = list(map(NEW_DETECTION, fields))
         # times never decrease within a robot; hits at one time go by their keys (a stepped head's
@@ -267,14 +319,14 @@ class Sensing:
         if self.n == 1:
             if tied_[0] or stepped:
                 events.sort(key=event_order)
-            return phi, [events]
+            return [events]
         start = 0
         for r, (k, tied) in enumerate(zip(counts_.tolist(), tied_.tolist())):
             out[r] = events[start : start + k]
             start += k
             if tied or stepped:
                 out[r].sort(key=event_order)
-        return phi, out
+        return out
 
     def _to_everyone(self, heard: list[tuple]) -> list[list[Detection]]:
         """Every controller gets every pulse (robot, time, label, angle, beam): an array's

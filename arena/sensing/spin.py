@@ -25,16 +25,26 @@ class Spin:
     """Every robot's laser phase, wobble and spin lag across batches (steady rate `omega`, rad/s;
     physics step `dt`; `streams`: each robot's wobble stream)."""
 
-    def __init__(self, omega: np.ndarray, dt: float, params: Mapping[str, float], streams: list[np.random.Generator]):
+    def __init__(
+        self,
+        omega: np.ndarray,
+        dt: float,
+        params: Mapping[str, float],
+        streams: list[np.random.Generator],
+        at: np.ndarray | None = None,
+    ):
         n = len(omega)
         self.omega, self.dt, self.params, self.streams = omega, dt, params, streams
-        self.wobble = np.zeros(n)
-        self.spin_lag = np.zeros(n)  # the laser's relative rate minus its steady value (rad/s)
-        self.body_rate = np.zeros(n)  # the body's yaw rate in the last step (rad/s)
-        self.phi = np.zeros(n)  # unwrapped laser phase; 0 = straight ahead at t = 0
+        # the state a batch moves on, as rows of one block (what sweep.sense_period takes):
+        self.live = np.zeros((4, n))
+        self.phi = self.live[0]  # unwrapped laser phase; 0 = straight ahead at t = 0
+        self.wobble = self.live[1]
+        self.spin_lag = self.live[2]  # the laser's relative rate minus its steady value (rad/s)
+        self.body_rate = self.live[3]  # the body's yaw rate in the last step (rad/s)
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
-        self._drive: dict[int, tuple] = {}  # batch length -> `drive` but its draws
-        self._noise = Normals(streams) if params["wobble"] > 0 else None  # the wobble's draws, drawn ahead
+        self._drive: dict[int, tuple] = {}  # batch length -> `model`
+        # the wobble's draws, drawn ahead (`at`: where to keep each robot's position in them)
+        self._noise = Normals(streams, at=at) if params["wobble"] > 0 else None
 
     def moved(self) -> None:
         """The robots were carried to new poses: no body turn carries over into the next batch."""
@@ -50,16 +60,23 @@ class Spin:
         the headings: the wobble's standard normals (normals.Normals' block and positions, each
         robot's from its own stream; none without wobble), their scale, decay and powers, then
         the spin lag's decay (negative: none), coupling and powers. All but the draws depend
-        only on `steps`: kept per batch length."""
-        drive = self._drive.get(steps)
-        if drive is None:
-            drive = self._drive[steps] = self._drive_of(steps)
-        if self._noise is None:
-            return (*NO_DRAWS, *drive)
-        return (*self._noise.ready(steps), *drive)
+        only on `steps` (`model`)."""
+        return (*self.draws(steps), *self.model(steps))
 
-    def _drive_of(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
-        """`drive` for batches of `steps` steps, but the draws."""
+    def model(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
+        """`drive` but the draws, for batches of `steps` steps: kept per batch length."""
+        model = self._drive.get(steps)
+        if model is None:
+            model = self._drive[steps] = self._model_of(steps)
+        return model
+
+    def draws(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """The wobble's block of draws and each robot's position in it, with a batch of `steps`
+        steps' need left (none without wobble: normals.NO_DRAWS)."""
+        return self._noise.ready(steps) if self._noise else NO_DRAWS
+
+    def _model_of(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
+        """`model`, made."""
         n = len(self.omega)
         p = self.params
         scale, decay, powers = 0.0, 0.0, _NO_ROWS

@@ -6,7 +6,9 @@ detector's response there; `response` lets each sweep's light vary (`light_noise
 in one call, `fire`). Where a level has obstacles, pymunk's segment query runs between
 `sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead from
 its own streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
-flash_detector, optics); here they run on one batch at once.
+flash_detector, optics); here they run on one batch at once. `sense_period` is a match's period
+in one call: the poses laid out (`batch_poses`), then `sense`, over state kept packed between
+periods, since numba takes each array argument at a cost.
 """
 
 from __future__ import annotations
@@ -344,3 +346,92 @@ def sense(
     )  # fmt: skip
     ids, told = pulse_rows(rows, shift, source, rob, bea, times, phase, bx, by)
     return phi, ids, told, counts
+
+
+# `sense_period`'s scalars, one array (`period_params`): where each is
+P_DT, P_SCALE, P_DECAY, P_LAG_DECAY, P_COUPLED, P_KIND, P_SIGMA, P_TIMING, P_CLOCK_HZ = range(9)
+P_MERGING = 9  # three: whether to merge, the number of arrays, the rate
+P_GAIN, P_OFFSET = 12, 13  # whether the beacons' gains, and the beams' offsets, are there
+P_GATES = 14  # `gates`' 13
+P_OPTICS = P_GATES + len(GATES) + 1  # `hardware`'s 5
+P_SIZE = P_OPTICS + 5
+
+
+def period_params(
+    dt: float,
+    drive: tuple[float, float, float, float],
+    kind: int,
+    sigma: float,
+    timing: float,
+    clock_hz: float,
+    merging: np.ndarray,
+    present: tuple[bool, bool],
+    gates_: np.ndarray,
+    optics: np.ndarray,
+) -> np.ndarray:
+    """`sense_period`'s scalars as one array: the step, the spin's `drive` (the wobble's scale
+    and decay, the lag's decay and coupling: spin.Spin.drive), the detector `kind`, the light
+    noise `sigma`, the timing noise's scale, the event clock's rate, the merges (`fire`'s
+    `merging`), whether gains and offsets are `present`, `gates_` (`gates`) and `optics`
+    (`hardware`)."""
+    p = np.empty(P_SIZE)
+    p[:P_MERGING] = (dt, *drive, kind, sigma, timing, clock_hz)
+    p[P_MERGING : P_MERGING + 3] = merging
+    p[P_GAIN], p[P_OFFSET] = present
+    p[P_GATES:P_OPTICS] = gates_
+    p[P_OPTICS:] = optics
+    return p
+
+
+@compiled()
+def sense_period(
+    last: np.ndarray,
+    states: np.ndarray,
+    t0: float,
+    t_end: float,
+    poses: np.ndarray,
+    t: np.ndarray,
+    spin: np.ndarray,
+    at: np.ndarray,
+    noise: np.ndarray,
+    light: np.ndarray,
+    timing: np.ndarray,
+    powers: np.ndarray,
+    lag_powers: np.ndarray,
+    robots: np.ndarray,
+    beacons: np.ndarray,
+    p: np.ndarray,
+    counts: np.ndarray,
+    key: np.uint64,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A control period's sensing where beams leave from the bodies and nothing but robots
+    blocks them, in one call over state kept between periods: `batch_poses` (from `last`,
+    `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`,
+    its phases into `poses`' fourth row and each robot's count of pulses, and whether two read
+    one time, into `counts` (2, robots). Its arguments are packed, as numba takes each array
+    at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on in
+    place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
+    `light` and `timing` (normals.Normals); `robots` (5, robots) the spin rates, spin signs,
+    reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y, facing and gain; `p`
+    the scalars (`period_params`). Returns `sense`'s pulses (`pulse_rows`' two blocks)."""
+    batch_poses(last, states, t0, t_end, p[P_DT], poses[:3], t)
+    x, y, h = poses[0], poses[1], poses[2]
+    none = np.empty(0)
+    gain = beacons[3] if p[P_GAIN] > 0 else none
+    offset = robots[4] if p[P_OFFSET] > 0 else none
+    clock_hz = p[P_CLOCK_HZ]
+    first = t[0]
+    if clock_hz > 0:
+        first = (np.floor(first * clock_hz + 1e-6) + 1.0) / clock_hz
+    else:
+        first = np.nextafter(first, np.inf)
+    clock = np.array([p[P_TIMING], t[0], t[t.shape[0] - 1], clock_hz, first])
+    phi, ids, told, count = sense(
+        x, y, h, t, x, y, robots[0], p[P_DT], spin[0], noise, at[0], p[P_SCALE], p[P_DECAY], powers,
+        p[P_LAG_DECAY], p[P_COUPLED], lag_powers, spin[1], spin[2], spin[3], beacons[0], beacons[1], beacons[2], gain,
+        offset, robots[2], robots[3], int(p[P_KIND]), p[P_GATES:P_OPTICS], light, at[1], p[P_SIGMA],
+        p[P_OPTICS:P_SIZE], timing, at[2], clock, robots[1], p[P_MERGING : P_MERGING + 3], key,
+    )  # fmt: skip
+    poses[3] = phi
+    counts[:] = count
+    return ids, told
