@@ -278,11 +278,14 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
             [c["omega"], direction, reach, silhouette, offset if len(offset) else np.zeros(robots)]
         )
         packed_beacons = np.array([bx, by, facing, gain if len(gain) else np.ones(len(bx))])
-        first = states[0].copy()
-        ids, told = sweep.sense_period(
+        first, room = states[0].copy(), steps * robots * len(bx)
+        ids, told = np.full((2, room), -1, np.int64), np.full((7, room), np.nan)
+        m = sweep.sense_period(
             first, states[1:], t0, t_end, poses, times, live, places, noise, c["light"], c["timing"], powers,
-            lag_powers, packed_robots, packed_beacons, params, counts, key,
+            lag_powers, packed_robots, packed_beacons, params, counts, ids, told, key,
         )  # fmt: skip
+        assert m == want[1].shape[1]
+        ids, told = ids[:, :m], told[:, :m]
         assert np.array_equal(poses[:3], xyh) and np.array_equal(times, t) and np.array_equal(first, last)
         assert np.array_equal(poses[3], want[0])
         assert np.array_equal(ids, want[1]) and np.array_equal(told, want[2]) and np.array_equal(counts, want[3])

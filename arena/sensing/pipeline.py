@@ -124,6 +124,7 @@ class Sensing:
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._batches: dict[int, tuple] = {}  # batch length -> buffers for its poses and times (`_batch`)
         self._params: dict[int, np.ndarray] = {}  # batch length -> `sweep.sense_period`'s scalars
+        self._pulse_rows: dict[int, tuple] = {}  # batch length -> where `sweep.sense_period` writes pulses
         self._last = np.array(world.state, float)  # where the next batch starts (`sweep.batch_poses` moves it on)
         self._last_t = world.time
         if not _loaded:
@@ -206,12 +207,22 @@ class Sensing:
                 self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
                 self._optics,
             )  # fmt: skip
-        ids, told = sweep.sense_period(
+        ids, told = self._found(steps)
+        m = sweep.sense_period(
             self._last, states, self._last_t, self.world.time, poses, t, self.spin.live, self._at,
             self.spin.draws(steps)[0], light, timing, powers, lag_powers, self._robots, self._beacons, params,
-            self._counts, self._merge_key,
+            self._counts, ids, told, self._merge_key,
         )  # fmt: skip
-        return ids, told, self._counts[0], self._counts[1]
+        return ids[:, :m], told[:, :m], self._counts[0], self._counts[1]
+
+    def _found(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Where `sweep.sense_period` writes a batch of `steps` steps' pulses: room for a pulse
+        per step, robot and beacon (a beam passes a beacon at most once a step), kept per length."""
+        found = self._pulse_rows.get(steps)
+        if found is None:
+            room = steps * self.n * len(self.ids)
+            found = self._pulse_rows[steps] = (np.empty((2, room), np.int64), np.empty((7, room)))
+        return found
 
     def _other(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray) -> list:
         """The batch's phases (into `phi`) and hits or scans where `sweep.sense_period` does not

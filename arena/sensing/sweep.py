@@ -402,18 +402,21 @@ def sense_period(
     beacons: np.ndarray,
     p: np.ndarray,
     counts: np.ndarray,
+    ids: np.ndarray,
+    told: np.ndarray,
     key: np.uint64,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> int:
     """A control period's sensing where beams leave from the bodies and nothing but robots
     blocks them, in one call over state kept between periods: `batch_poses` (from `last`,
     `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`,
     its phases into `poses`' fourth row and each robot's count of pulses, and whether two read
-    one time, into `counts` (2, robots). Its arguments are packed, as numba takes each array
-    at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on in
+    one time, into `counts` (2, robots), and the pulses (`pulse_rows`' two blocks) into the
+    first columns of `ids` and `told`, as many as there may be crossings. Its arguments are
+    packed and its results written in place, as numba takes and gives each array at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on in
     place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
     `light` and `timing` (normals.Normals); `robots` (5, robots) the spin rates, spin signs,
     reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y, facing and gain; `p`
-    the scalars (`period_params`). Returns `sense`'s pulses (`pulse_rows`' two blocks)."""
+    the scalars (`period_params`). Returns the number of pulses."""
     batch_poses(last, states, t0, t_end, p[P_DT], poses[:3], t)
     x, y, h = poses[0], poses[1], poses[2]
     none = np.empty(0)
@@ -426,7 +429,7 @@ def sense_period(
     else:
         first = np.nextafter(first, np.inf)
     clock = np.array([p[P_TIMING], t[0], t[t.shape[0] - 1], clock_hz, first])
-    phi, ids, told, count = sense(
+    phi, found, read, count = sense(
         x, y, h, t, x, y, robots[0], p[P_DT], spin[0], noise, at[0], p[P_SCALE], p[P_DECAY], powers,
         p[P_LAG_DECAY], p[P_COUPLED], lag_powers, spin[1], spin[2], spin[3], beacons[0], beacons[1], beacons[2], gain,
         offset, robots[2], robots[3], int(p[P_KIND]), p[P_GATES:P_OPTICS], light, at[1], p[P_SIGMA],
@@ -434,4 +437,7 @@ def sense_period(
     )  # fmt: skip
     poses[3] = phi
     counts[:] = count
-    return ids, told
+    m = found.shape[1]
+    ids[:, :m] = found
+    told[:, :m] = read
+    return m
