@@ -86,6 +86,7 @@ class Sensing:
         self.table_false = rng.stream("beacons", "false")
         p = self.params
         # when false pulses come: each robot's stream, and the table's under shared crosstalk
+        self._spurious = self.kind in ("reflector", "sensor_array") and p.get("false_rate", 0.0) > 0
         self._false = [FalseClock(g, p.get("false_rate", 0.0)) for g in self.rng["false"]]
         self._table_false = FalseClock(self.table_false, p.get("false_rate", 0.0))
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
@@ -172,11 +173,12 @@ class Sensing:
         self._last_t, self._rows = self.world.time, []
         traj = Trajectory(t=t, x=x, y=y, h=heading, phi=phi)
         sources = [hits]
-        if self.kind in ("reflector", "sensor_array") and self.params["false_rate"] > 0:
+        if self._spurious:
+            w0, w1 = float(t[0]), float(t[-1])
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
-                sources.append(self._to_everyone(self._table_false_pulses(traj)))
+                sources.append(self._to_everyone(self._table_false_pulses(w0, w1)))
             else:
-                sources.append([self._false_returns(traj, r) for r in range(self.n)])
+                sources.append([self._false_returns(traj, r, w0, w1) for r in range(self.n)])
         if self._any_index:
             sources.append(self._index(traj))
         out = []
@@ -305,17 +307,16 @@ class Sensing:
     ) -> list[list[Detection]]:
         """The batch's pulses (`sweep.pulse_rows`' two blocks, and per robot their count and
         whether two read one time) as detections, per robot in event order."""
-        out: list[list[Detection]] = [[] for _ in range(self.n)]
         m = ids.shape[1]
         if not m:
-            return out
+            return [[] for _ in range(self.n)]
         steps = self._steps
         robots, beacons = ids.tolist()
         times_, _, laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
         if self._stepped:  # a stepped head: what it reads is the step, and when it got there
             times_ = reflector.step_time(told[0], told[1], self.omega[ids[0]], steps, float(t[0])).tolist()
         angles = quantize_angle(told[1], steps).tolist() if self._latched else [None] * m
-        labels = [self._labels[b] for b in beacons] if self._labels else [None] * m
+        labels = list(map(self._labels.__getitem__, beacons)) if self._labels else [None] * m
         beams = zip(laser_x, laser_y, beacon_x, beacon_y)
         if self.crosstalk == "shared":
             low = [self._rise_time - 2 * o for o in offset]  # the optics' dwell, and the release
@@ -331,6 +332,7 @@ class Sensing:
             if tied_[0] or stepped:
                 events.sort(key=event_order)
             return [events]
+        out: list[list[Detection]] = [[] for _ in range(self.n)]
         start = 0
         for r, (k, tied) in enumerate(zip(counts_.tolist(), tied_.tolist())):
             out[r] = events[start : start + k]
@@ -352,19 +354,19 @@ class Sensing:
 
     # ---- false pulses and the index switch ---------------------------------------------------
 
-    def _false_returns(self, traj: Trajectory, r: int) -> list[Detection]:
-        """Robot `r`'s spurious pulses in this batch, as its kind reports them."""
-        g = self.rng["false"][r]
-        times = self._false[r].times(float(traj.t[0]), float(traj.t[-1]))
+    def _false_returns(self, traj: Trajectory, r: int, w0: float, w1: float) -> list[Detection]:
+        """Robot `r`'s spurious pulses in this batch (from `w0` to `w1`), as its kind reports them."""
+        times = self._false[r].times(w0, w1)
         if not len(times):
             return []
+        g = self.rng["false"][r]
         if self.kind == "sensor_array":
             return sensor_array.false_pulses(r, times, g, self.ids, self.params)
         return reflector.false_returns(traj, r, times, self.omega, self.params)
 
-    def _table_false_pulses(self, traj: Trajectory) -> list[tuple]:
-        """Shared crosstalk's false pulses in this batch, one stream for the whole table."""
-        times = self._table_false.times(float(traj.t[0]), float(traj.t[-1]))
+    def _table_false_pulses(self, w0: float, w1: float) -> list[tuple]:
+        """Shared crosstalk's false pulses in this batch (from `w0` to `w1`), one stream for the whole table."""
+        times = self._table_false.times(w0, w1)
         if not len(times):
             return []
         return sensor_array.table_false_pulses(times, self.table_false, self.ids, self.params)
