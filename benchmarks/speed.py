@@ -155,7 +155,9 @@ def grading(matches: int, spec: str = "ref:bac") -> dict:
 
 
 def process_cost(command: list[str], cwd: str | None = None) -> tuple[float, float]:
-    """Wall seconds and machine CPU seconds of `command`, a process of its own, to its end."""
+    """Wall seconds and machine CPU seconds of `command`, a process of its own, to its end. Run
+    it in a folder of its own (`cwd`), as a user would: `python -m` and `-c` then import the
+    installed package, its modules' bytecode compiled at install, not this checkout's sources."""
     c0, w0 = machine_cpu(), time.perf_counter()
     subprocess.run(command, check=True, capture_output=True, timeout=600, cwd=cwd)
     return time.perf_counter() - w0, machine_cpu() - c0
@@ -191,12 +193,12 @@ def command_line_run(spec: str = "ref:dead-reckoning") -> dict:
         result = Path(d) / "result.json"
         command = [sys.executable, "-m", "referee", "run", "asabe-race", *["--team", spec] * 4]
         command += ["--replay", str(Path(d) / "m.replay"), "--json", str(result), "--quiet"]
-        process_cost(command)  # untimed: the first reads the files from disk
+        process_cost(command, cwd=d)  # untimed: the first reads the files from disk
         simulated = json.loads(result.read_text())["end_time"]
         bare = [sys.executable, "-c", BARE_PROCESS.format(folder=str(Path(__file__).parent), seconds=simulated)]
-        before = process_cost(bare)
-        wall, used = process_cost(command)
-        after = process_cost(bare)
+        before = process_cost(bare, cwd=d)
+        wall, used = process_cost(command, cwd=d)
+        after = process_cost(bare, cwd=d)
     bare_wall, bare_cpu = (before[0] + after[0]) / 2, (before[1] + after[1]) / 2
     return {
         "simulated_s": simulated,
@@ -238,11 +240,12 @@ def command_line_fixed(spec: str = "ref:dead-reckoning") -> dict:
         level.write_text(text)
         command = [sys.executable, "-m", "referee", "run", str(level), *["--team", spec] * 4]
         command += ["--replay", str(Path(d) / "m.replay"), "--json", str(Path(d) / "r.json"), "--quiet"]
-        process_cost(command)  # untimed: the first reads the files from disk
+        process_cost(command, cwd=d)  # untimed: the first reads the files from disk
         walls = {}
         for name, code in FIXED_STAGES:
-            walls[name], _ = process_cost([sys.executable, "-c", code, str(level), spec, str(Path(d) / "s.replay")])
-        wall, used = process_cost(command)
+            stage = [sys.executable, "-c", code, str(level), spec, str(Path(d) / "s.replay")]
+            walls[name], _ = process_cost(stage, cwd=d)
+        wall, used = process_cost(command, cwd=d)
     out = {"wall_s": wall, "cpu_s": used}
     before = 0.0
     for name, took in (*walls.items(), ("isolation", wall)):
