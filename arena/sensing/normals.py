@@ -18,8 +18,9 @@ NO_DRAWS = (np.zeros((0, 0)), np.zeros(0, np.int64))
 class Normals:
     """Standard normal draws per robot (`streams`, one Generator each), kept ahead in a block a
     row per robot, with each robot's position in its row (`at`): a kernel reads row r from
-    `at[r]` on and moves `at[r]` past what it took. A row holds `ahead` times a batch's need:
-    a refill every `ahead - 1` batches at most (a Generator call per robot)."""
+    `at[r]` on and moves `at[r]` past what it took. A row holds `ahead` times a batch's need,
+    and a look refills every row that has used half of it (a Generator call per robot): after a
+    look each row holds at least half, so the next comes `ahead / 2 - 1` batches later at the soonest."""
 
     def __init__(self, streams: list[np.random.Generator], ahead: int = 16, at: np.ndarray | None = None):
         self.streams, self.ahead = streams, ahead
@@ -40,7 +41,7 @@ class Normals:
         return values, at
 
     def _refilled(self, need: int) -> tuple[np.ndarray, np.ndarray]:
-        """`ready`'s look at every row: each with fewer than `need` left refilled."""
+        """`ready`'s look at every row: each with less than half its width (and at least `need`) left refilled."""
         width = self.values.shape[1]
         if width < self.ahead * need:
             wider = np.zeros((len(self.streams), self.ahead * need))
@@ -51,8 +52,9 @@ class Normals:
             self.values, width = wider, self.ahead * need
             self.at[:] = 0
             return self.values, self.at
+        low = max(width // 2, need)
         for r, at in enumerate(self.at.tolist()):
-            if width - at < need:
+            if width - at < low:
                 left = width - at
                 self.values[r, :left] = self.values[r, at:]
                 self.streams[r].standard_normal(out=self.values[r, left:])
