@@ -339,16 +339,17 @@ def test_passes_looked_at_near_the_beacons_only_are_the_whole_grid_s():
     """`near_passes` takes a bearing only where a beam may pass its beacon; it finds the very
     passes and first guesses that `passes` finds on the whole grid of bearings, bit for bit:
     on wandering robots, on beams that point exactly at a beacon at a step's end (d = 0), on
-    turns of up to 3 rad a step, on phases of 10^4 rad, and beside a beacon at a millimetre."""
+    turns of up to 3 rad a step, on phases of up to 10^6 rad, and beside a beacon at a millimetre."""
     g = np.random.default_rng(8)
     bx, by = BEACONS
     found = exact = 0
     for trial in range(300):
         traj = random_trajectory(g, steps=int(g.integers(2, 60)), robots=int(g.integers(1, 5)))
         x, y, h, phi = traj.x.copy(), traj.y.copy(), traj.h, traj.phi.copy()
-        if trial % 3 == 1:  # turns of up to 3 rad a step, far from phase 0
+        if trial % 3 == 1:  # turns of up to 3 rad a step, far from phase 0: up to 10^6 rad, hours of spinning
             turn = np.broadcast_to(g.uniform(-3, 3, x.shape[1]), x.shape)  # rad a step, each robot its own
-            phi = g.uniform(-1e4, 1e4, x.shape[1]) + np.cumsum(turn, axis=0)
+            far = g.choice([-1.0, 1.0], x.shape[1]) * 10 ** g.uniform(2, 6, x.shape[1])
+            phi = far + np.cumsum(turn, axis=0)
         if trial % 5 == 2:  # a laser a millimetre from a beacon
             x[:, 0], y[:, 0] = bx[1] - 1e-3, by[1] + 1e-3 * g.uniform(-1, 1, len(x))
         dx, dy, grid = bearings(x, y, bx, by)
@@ -356,7 +357,8 @@ def test_passes_looked_at_near_the_beacons_only_are_the_whole_grid_s():
         if trial % 2:  # some beams exactly on a beacon's bearing at step ends: d = 0 there
             for i in g.integers(0, len(x), 4):
                 j, m = g.integers(0, x.shape[1]), g.integers(0, len(bx))
-                beam[i, j] = grid[i, j, m] + 2 * math.pi * g.integers(-3, 4)
+                turns = np.rint(beam[i, j] / (2 * math.pi)) + g.integers(-3, 4)  # as far from 0 as the beam
+                beam[i, j] = grid[i, j, m] + 2 * math.pi * turns
                 exact += wrap_angle_numpy(beam[i, j] - grid[i, j, m]) == 0.0
         want = crossings.passes(beam, grid, np.empty((0, 0, 0)), False)
         got = crossings.near_passes(beam, dx, dy)
