@@ -113,9 +113,8 @@ class Sensing:
         offsets = self.beam_offset if len(self._axis_offsets) else np.zeros(self.n)
         self._robots = np.array([self.omega, self.direction, self.occlusion.reach, self.occlusion.silhouette, offsets])
         self._beacons = np.array([self.bx, self.by, self.facing, gains if len(self._gains) else np.ones(len(items))])
-        self._counts = np.zeros(
-            (2, self.n), np.int64
-        )  # per robot, its pulses in a period and whether two read one time
+        # per robot, its pulses in a period and whether two read one time (`sweep.sense_period` writes it)
+        self._counts = np.zeros((2, self.n), np.int64)
         # what a hit reports (`_hits`): the beacons' labels, the optics' rise time, and the head's encoder
         self._labels = self.ids if self.kind != "reflector" else None
         self._rise_time = float(p.get("rise_time", 0.0))
@@ -251,9 +250,9 @@ class Sensing:
 
     def _batch(self, steps: int) -> tuple[np.ndarray, ...]:
         """Buffers for a batch of `steps` steps, kept per length and filled anew by each batch:
-        the step-end times, then x, y and heading (each (steps + 1, robots), contiguous: one
-        compiled form for every level), and the block they are rows of. Nothing keeps a batch's
-        trajectory past its flush."""
+        the step-end times, then x, y, heading and the laser's phase (each (steps + 1, robots),
+        contiguous: one compiled form for every level), and the block they are rows of. Nothing
+        keeps a batch's trajectory past its flush."""
         batch = self._batches.get(steps)
         if batch is None:
             poses = np.empty((4, steps + 1, self.n))
