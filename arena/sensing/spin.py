@@ -42,7 +42,7 @@ class Spin:
         self.spin_lag = self.live[2]  # the laser's relative rate minus its steady value (rad/s)
         self.body_rate = self.live[3]  # the body's yaw rate in the last step (rad/s)
         self._powers: dict[tuple[float, tuple], np.ndarray] = {}  # (a, batch shape) -> a^1..a^n per row
-        self._drive: dict[int, tuple] = {}  # batch length -> `model`
+        self._models: dict[int, tuple] = {}  # batch length -> `model`
         # the wobble's draws, drawn ahead (`at`: where to keep each robot's position in them)
         self._noise = Normals(streams, at=at) if params["wobble"] > 0 else None
 
@@ -65,9 +65,9 @@ class Spin:
 
     def model(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
         """`drive` but the draws, for batches of `steps` steps: kept per batch length."""
-        model = self._drive.get(steps)
+        model = self._models.get(steps)
         if model is None:
-            model = self._drive[steps] = self._model_of(steps)
+            model = self._models[steps] = self._model_of(steps)
         return model
 
     def draws(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
