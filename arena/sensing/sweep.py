@@ -408,12 +408,13 @@ def sense_period(
 ) -> int:
     """A control period's sensing where beams leave from the bodies and nothing but robots
     blocks them, in one call over state kept between periods: `batch_poses` (from `last`,
-    `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`,
-    its phases into `poses`' fourth row and each robot's count of pulses, and whether two read
-    one time, into `counts` (2, robots), and the pulses (`pulse_rows`' two blocks) into the
-    first columns of `ids` and `told`, as many as there may be crossings. Its arguments are
-    packed and its results written in place, as numba takes and gives each array at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on in
-    place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
+    `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`.
+    Its results are written in place: the phases into `poses`' fourth row; per robot its count
+    of pulses, and whether two read one time, into `counts` (2, robots); the pulses
+    (`pulse_rows`' two blocks) into the first columns of `ids` and `told`, which have room for
+    as many as there may be crossings. Its arguments are packed, as numba takes and gives each
+    array at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on
+    in place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
     `light` and `timing` (normals.Normals); `robots` (5, robots) the spin rates, spin signs,
     reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y, facing and gain; `p`
     the scalars (`period_params`). Returns the number of pulses."""
