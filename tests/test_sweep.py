@@ -15,7 +15,6 @@ from helpers import BEACONS, random_trajectory
 from arena.sensing import crossings, hardware, occlusion, optics, spin, sweep
 from arena.sensing.crossings import bearings, find_crossings
 from arena.sensing.normals import Normals
-from arena.sensing.readout import first_tick_after
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
 KINDS = {
@@ -253,7 +252,8 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         # by the stages: the poses laid out, the clock's window and first tick, then `sense`
         last, xyh, t = states[0].copy(), np.empty((3, steps + 1, robots)), np.empty(steps + 1)
         sweep.batch_poses(last, states[1:], t0, t_end, dt, xyh, t)
-        clock = np.array([timing_scale, t[0], t[-1], clock_hz, first_tick_after(float(t[0]), clock_hz)])
+        first = (math.floor(t[0] * clock_hz + 1e-6) + 1) / clock_hz if clock_hz else math.nextafter(t[0], math.inf)
+        clock = np.array([timing_scale, t[0], t[-1], clock_hz, first])
         state = [v.copy() for v in c["state"]]
         at = [c["noise_at"].copy(), np.zeros(robots, np.int64), np.zeros(robots, np.int64)]
         want = sweep.sense(

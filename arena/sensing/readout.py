@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from arena.angles import TWO_PI
+from arena.compiled import compiled
 
 
 def quantize_angle(phase: np.ndarray, steps: float) -> np.ndarray:
@@ -30,12 +31,14 @@ def counter_clock(t: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     return t
 
 
+@compiled(inline="always")
 def first_tick_after(t: float, clock_hz: float) -> float:
     """The earliest time after `t` that the event clock (a counter of `clock_hz`, or none if 0)
-    can read: the next counter tick, or the next float."""
+    can read: the next counter tick, or the next float. Compiled: a period's kernel reckons it
+    too (sweep.sense_period)."""
     if clock_hz > 0:
-        return (math.floor(t * clock_hz + 1e-6) + 1) / clock_hz
-    return math.nextafter(t, math.inf)
+        return (np.floor(t * clock_hz + 1e-6) + 1.0) / clock_hz
+    return np.nextafter(t, np.inf)
 
 
 def false_times(g: np.random.Generator, rate: float, t0: float, t1: float) -> np.ndarray:

@@ -23,6 +23,7 @@ from arena.sensing.crossings import crossing_arrays, laser_to_beacons
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
 from arena.sensing.pulses import pulses
+from arena.sensing.readout import first_tick_after
 from arena.sensing.spin import laser_phases
 
 REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
@@ -370,7 +371,7 @@ def period_params(
     optics: np.ndarray,
 ) -> np.ndarray:
     """`sense_period`'s scalars as one array: the step, the spin's `drive` (the wobble's scale
-    and decay, the lag's decay and coupling: spin.Spin.drive), the detector `kind`, the light
+    and decay, the lag's decay and coupling: spin.Spin.model), the detector `kind`, the light
     noise `sigma`, the timing noise's scale, the event clock's rate, the merges (`fire`'s
     `merging`), whether gains and offsets are `present`, `gates_` (`gates`) and `optics`
     (`hardware`)."""
@@ -424,12 +425,7 @@ def sense_period(
     gain = beacons[3] if p[P_GAIN] > 0 else none
     offset = robots[4] if p[P_OFFSET] > 0 else none
     clock_hz = p[P_CLOCK_HZ]
-    first = t[0]
-    if clock_hz > 0:
-        first = (np.floor(first * clock_hz + 1e-6) + 1.0) / clock_hz
-    else:
-        first = np.nextafter(first, np.inf)
-    clock = np.array([p[P_TIMING], t[0], t[t.shape[0] - 1], clock_hz, first])
+    clock = np.array([p[P_TIMING], t[0], t[t.shape[0] - 1], clock_hz, first_tick_after(t[0], clock_hz)])
     phi, found, read, count = sense(
         x, y, h, t, x, y, robots[0], p[P_DT], spin[0], noise, at[0], p[P_SCALE], p[P_DECAY], powers,
         p[P_LAG_DECAY], p[P_COUPLED], lag_powers, spin[1], spin[2], spin[3], beacons[0], beacons[1], beacons[2], gain,
