@@ -214,12 +214,14 @@ def _close_all() -> None:
 
 @functools.cache
 def unavailable() -> str | None:
-    """Why controllers cannot be forked from a template here (None: they can be tried)."""
+    """Why controllers cannot be forked from a template here (None: they can be tried). The
+    template's probe slot tries the sandbox itself (`ForkServer.wait_ready`), so a spawned
+    sandbox's trial (`kernel.unavailable`) runs only where the template fails."""
     if sys.platform != "linux" or not hasattr(os, "pidfd_open"):
         return "no pidfd on this system"
     if not switches_users():
         return "a template forks slots of their own uid: the referee must be root"
-    return kernel.unavailable()
+    return kernel.missing()
 
 
 def start() -> None:

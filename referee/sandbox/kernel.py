@@ -77,10 +77,9 @@ def init_pid(info: int, timeout: float = 1.0) -> int | None:
 
 
 @functools.cache
-def unavailable() -> str | None:
-    """Why no sandbox can be made here and what would make one (None when it can): probed once
-    per process by running `true` in one, so a kernel or container that forbids namespaces is
-    found before a match."""
+def missing() -> str | None:
+    """What a sandbox needs that this machine lacks, and what would give it (None: nothing),
+    found without trying one: Linux, bwrap, setpriv (root), the installation's staged view."""
     if sys.platform != "linux":
         return f"no Linux namespaces on {sys.platform}"
     bwrap = shutil.which("bwrap")
@@ -92,6 +91,16 @@ def unavailable() -> str | None:
         stage()
     except OSError as e:
         return f"cannot stage the sandbox's view of the installation: {e.strerror or e}"
+    return None
+
+
+@functools.cache
+def unavailable() -> str | None:
+    """Why no sandbox can be made here and what would make one (None when it can): probed once
+    per process by running `true` in one, so a kernel or container that forbids namespaces is
+    found before a match."""
+    if reason := missing():
+        return reason
     trial = launch(["true"], (), {"PATH": "/usr/bin:/bin"}, slot_uid(0) if switches_users() else None)
     try:  # a whole controller sandbox, bind mounts and privilege drop included, running `true`
         probe = subprocess.run(trial.argv, pass_fds=trial.pass_fds, capture_output=True, timeout=10)

@@ -75,30 +75,42 @@ def _joining(groups: list[int]) -> list[str]:
 
 def launch(plan: Plan, stderr: int, groups: list[int]) -> Launched:
     """Start the controller of `plan`, its stderr `stderr`, joining the control groups `groups`."""
+    server = forkserver.server() if plan.sandboxed and plan.forked and switches_users() else None
+    if server is not None:  # forked from the template (whose probe slot has tried the sandbox)
+        return _from_template(server, plan, stderr, groups)
     reason = kernel.unavailable() if plan.sandboxed else None
     if reason:
         root = "; controllers run as root: root cannot become nobody here" if is_root() and drop_to() is None else ""
         _warn_unsandboxed(reason + root)
-    limits = ["--memory", str(plan.memory)]
     if plan.sandboxed and not reason:
-        return _sandboxed(plan, limits, stderr, groups)
-    return _plain(plan, limits, stderr, groups)
+        return _sandboxed(plan, stderr, groups)
+    return _plain(plan, ["--memory", str(plan.memory)], stderr, groups)
 
 
-def _sandboxed(plan: Plan, limits: list[str], stderr: int, groups: list[int]) -> Launched:
+def _runner_argv(plan: Plan, uid: int | None) -> list[str]:
+    """The runner's arguments inside a sandbox: the team's entry under TEAM_DIR and its limits
+    (with a uid of its own, the kernel can count this slot's processes alone)."""
     entry = plan.team.entry
     if is_file_spec(entry):
         entry = f"{kernel.TEAM_DIR}/{entry}"
-    limits = [*limits, "--path", kernel.TEAM_DIR]
+    argv = [entry, "--memory", str(plan.memory), "--path", kernel.TEAM_DIR]
+    return argv if uid is None else [*argv, "--max-procs", str(MAX_PROCS)]
+
+
+def _from_template(server: forkserver.ForkServer, plan: Plan, stderr: int, groups: list[int]) -> Launched:
+    """The controller forked by the template, into namespaces of its own."""
+    uid = slot_uid(plan.slot)
+    config = {"uid": uid, "argv": _runner_argv(plan, uid), **({"cpus": plan.cpus} if plan.cpus else {})}
+    return Launched(_forked(server, plan.team, config, stderr, groups), in_sandbox=True)
+
+
+def _sandboxed(plan: Plan, stderr: int, groups: list[int]) -> Launched:
     uid = slot_uid(plan.slot) if switches_users() else None
-    if uid is not None:  # a uid of its own: the kernel can count this slot's processes alone
-        limits = [*limits, "--max-procs", str(MAX_PROCS)]
-    server = forkserver.server() if uid is not None and plan.forked else None
-    if server is not None:  # forked from the template, into namespaces of its own
-        config = {"uid": uid, "argv": [entry, *limits], **({"cpus": plan.cpus} if plan.cpus else {})}
-        return Launched(_forked(server, plan.team, config, stderr, groups), in_sandbox=True)
     launch = kernel.launch(
-        [kernel.python(), "-s", "-m", "robots._host.runner", entry, *limits], plan.team.files, kernel.SANDBOX_ENV, uid
+        [kernel.python(), "-s", "-m", "robots._host.runner", *_runner_argv(plan, uid)],
+        plan.team.files,
+        kernel.SANDBOX_ENV,
+        uid,
     )
     try:
         proc = subprocess.Popen(

@@ -4,6 +4,8 @@ no process but its own; and what one slot leaves there another cannot see. Its p
 forked as soon as it has imported."""
 
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -124,3 +126,27 @@ def test_the_probe_slot_is_forked_once_the_template_has_imported_without_being_w
     finally:
         template.close()
     assert not template.alive()
+
+
+MATCH_WITHOUT_TRIAL = """
+from hostile.hostile_kit import HONEST, short_race
+from referee.match.loop import play_match
+from referee.sandbox import forkserver, kernel
+from referee.sandbox.teams import resolve
+
+result = play_match(short_race(1.0), [resolve(HONEST)] * 4)
+assert not [r for r in result.robots if r.faults], result.robots
+assert forkserver.server() is not None  # the slots came from the template
+print(kernel.unavailable.cache_info().misses, kernel.missing.cache_info().misses)
+"""
+
+
+def test_slots_forked_from_the_template_wait_for_no_sandbox_trial_of_their_own():
+    # the template's probe slot has tried the sandbox: the spawned sandbox's trial (a bwrap
+    # running `true`, tens of milliseconds of every run's start) is left for where it fails
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run(
+        [sys.executable, "-c", MATCH_WITHOUT_TRIAL], cwd=tests, capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["0", "1"]  # never tried; its prerequisites looked up once
