@@ -16,6 +16,7 @@ How it works, in detail: docs/internals.md, `arena/compiled.py`.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import pickle
@@ -28,12 +29,14 @@ from typing import Any, Literal, TypeVar, cast
 import llvmlite
 import numba
 import numpy as np
+from llvmlite import binding as llvm
 from llvmlite.binding import ffi
 from numba import njit
 from numba.core import environment
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime import nrtdynmod, rtsys
 
+from arena._elf import defined_symbols
 from arena.angles import TWO_PI
 
 F = TypeVar("F", bound=Callable)
@@ -64,9 +67,13 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
     and installing every typing and lowering registry) so that it could compile, and compiling
     refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to. Its
     environments are rebuilt without importing modules (`_environment`), LLVM is called
-    without numba's event at each call (`_unobserved`), and the runtime's own functions come
-    from the cache too (`_start_runtime`)."""
+    without numba's event at each call (`_unobserved`), the runtime's own functions come
+    from the cache too (`_start_runtime`), and the machine code loads without its bitcode
+    parsed (`_from_object`)."""
     with _unobserved():
+        codegen = target_context.codegen()
+        if "unserialize_library" not in vars(codegen):  # this process's codegen: one per target
+            codegen.unserialize_library = functools.partial(_from_object, codegen)
         _start_runtime(target_context, Path(cache._cache_path))
         with cache._guard_against_spurious_io_errors():
             rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
@@ -75,6 +82,34 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
                 return cache._load_overload(sig, target_context)
             finally:
                 environment._rebuild_env = rebuild
+
+
+def _from_object(codegen: Any, serialized: tuple) -> Any:
+    """numba's `unserialize_library` for a cached kernel's machine code, without parsing the
+    LLVM bitcode cached beside it: numba parses it (0.7 MB for a match's kernels, 40-50 ms of
+    every run's start) to list the symbols the code defines, and to link the kernel into
+    another being compiled. The symbols are read from the object file's own table
+    (arena._elf); the bitcode is parsed only if a compile links the kernel (`_linkable`).
+    numba's own way where the code is no ELF object."""
+    name, kind, data = serialized
+    symbols = defined_symbols(data[0]) if kind == "object" else None
+    if symbols is None:
+        return type(codegen).unserialize_library(codegen, serialized)
+    library = codegen.create_library(name)
+    library.enable_object_caching()
+    library._set_compiled_object(data[0])
+    library._finalize_final_module()
+    codegen._engine._defined_symbols |= symbols
+    library._get_module_for_linking = functools.partial(_linkable, library, data[1])
+    return library
+
+
+def _linkable(library: Any, bitcode: bytes) -> Any:
+    """A kernel loaded by `_from_object`, as numba links it into another: its bitcode, parsed
+    on first need (numba's `_get_module_for_linking` of a library loaded from its cache)."""
+    if library._shared_module is None:
+        library._shared_module = llvm.parse_bitcode(bitcode)
+    return library._shared_module
 
 
 def _start_runtime(target_context: Any, folder: Path) -> None:

@@ -174,3 +174,84 @@ def test_the_runtime_s_functions_are_compiled_once_then_loaded_from_the_cache(tm
     kept.write_bytes(kept.read_bytes()[:100])  # a write cut short
     assert run() == "[0.0, 2.0, 4.0] compiled the runtime: True"
     assert run() == "[0.0, 2.0, 4.0] compiled the runtime: False"
+
+
+LINKING = """
+import sys
+import numpy as np
+from llvmlite import binding
+sys.path.insert(0, sys.argv[1])
+parsed = []
+parse = binding.parse_bitcode
+binding.parse_bitcode = lambda data, *a: (parsed.append(len(data)), parse(data, *a))[1]
+from linking import inner, outer
+print(inner(3.0), len(parsed))  # loaded from the cache: its bitcode untouched
+print(outer(3.0), len(parsed) > 0)  # compiled, linking the loaded one: its bitcode parsed now
+"""
+
+LINKING_KERNELS = """
+from arena.compiled import compiled
+
+@compiled()
+def inner(x):
+    return 2.0 * x + 1.0
+
+@compiled()
+def outer(x):
+    return inner(x) * 10.0
+"""
+
+
+def test_a_kernel_loaded_from_the_cache_is_linked_into_one_compiled_after_it(tmp_path):
+    """A cached kernel's machine code loads without its LLVM bitcode parsed (arena.compiled);
+    a kernel compiled later that calls it still links it in, the bitcode parsed then."""
+    (tmp_path / "linking.py").write_text(LINKING_KERNELS)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    first = subprocess.run([sys.executable, "-c", LINKING, str(tmp_path)], env=env, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr  # both compiled and cached
+    for kept in (tmp_path / "cache").glob("*/linking.outer-*"):
+        kept.unlink()  # `outer` compiles again; `inner` loads
+    again = subprocess.run(
+        [sys.executable, "-c", LINKING, str(tmp_path)], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert again.returncode == 0, again.stderr
+    assert again.stdout.split("\n")[:2] == ["7.0 0", "70.0 True"], again.stdout
+
+
+SYMBOLS = """
+import json
+import levels
+from llvmlite import binding
+import arena.compiled
+from arena import _elf
+from levels.loader import load_level
+from referee.match.loop import play_match
+from referee.sandbox.teams import resolve
+
+seen = []
+load = arena.compiled._from_object
+
+def spy(codegen, serialized):
+    name, kind, (code, bitcode) = serialized
+    module = binding.parse_bitcode(bitcode)
+    listed = {g.name for gs in (module.functions, module.global_variables) for g in gs if not g.is_declaration}
+    seen.append((name, sorted(_elf.defined_symbols(code)), sorted(listed)))
+    return load(codegen, serialized)
+
+arena.compiled._from_object = spy
+level = load_level(levels.path("asabe"))
+play_match(level, [resolve(level.default_controller)], isolate=False)
+print(json.dumps(seen))
+"""
+
+
+def test_the_symbols_read_from_a_kernel_s_machine_code_are_those_llvm_lists():
+    """arena._elf's reading of an object file's symbol table against LLVM's own list of what
+    the kernel's module defines, for every library a match loads from the install's cache
+    (numba's runtime and each kernel; the largest defines hundreds)."""
+    run = subprocess.run([sys.executable, "-P", "-c", SYMBOLS], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    seen = json.loads(run.stdout)
+    assert len(seen) >= 5 and max(len(listed) for _, _, listed in seen) > 100, [name for name, _, _ in seen]
+    for name, read, listed in seen:
+        assert read == listed, name
