@@ -184,3 +184,22 @@ def test_a_reader_gone_before_the_last_output_is_a_closed_pipe():
     proc = _entry(body, stdout=writer, stderr=subprocess.PIPE, env=buffered)
     os.close(writer)
     assert proc.stderr == b"" and proc.returncode == EXIT_PIPE
+
+
+LOADED = """
+import sys
+from referee.cli.main import main
+
+try:
+    main(sys.argv[1:])
+except SystemExit:
+    pass
+print(sorted(m for m in ("numpy", "numba", "pymunk", "referee.cli.commands") if m in sys.modules))
+"""
+
+
+@pytest.mark.parametrize("args", [["run", "--help"], ["run"], ["grade", "--bogus"]])
+def test_help_and_argument_errors_load_no_command(args):
+    # parsing answers before the commands' modules load (numpy and numba take a fifth of a second)
+    out = subprocess.run([sys.executable, "-c", LOADED, *args], capture_output=True, text=True, timeout=60)
+    assert out.stdout.splitlines()[-1] == "[]", out.stdout + out.stderr

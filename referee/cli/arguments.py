@@ -1,5 +1,5 @@
 """The `laserarena` command line's arguments: one sub-parser per command (`parser`), each
-handing its parsed arguments to its `cmd_NAME` in `referee.cli.commands`.
+handing its parsed arguments to its `cmd_NAME` in `referee.cli.commands`, loaded only then.
 
 A bad argument prints one line to stderr and exits 2, like every other bad input; `--help`
 still shows the usage.
@@ -8,9 +8,10 @@ still shows the usage.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import TYPE_CHECKING, NoReturn
 
-from referee.cli import commands
+from arena.heap import lasting
 from referee.errors import EXIT_BAD_INPUT, UserError
 from referee.version import __version__
 
@@ -25,6 +26,31 @@ class _Parser(argparse.ArgumentParser):
 
 if TYPE_CHECKING:  # argparse's class is generic to the type checker only
     Commands = argparse._SubParsersAction[_Parser]  # where each command adds its sub-parser
+
+
+class _Command:
+    """A command: its `cmd_NAME`, loaded when it runs (parsing, `--help` and a bad argument
+    load none of the commands' modules), after `before(args)`, which may start work that
+    overlaps that loading."""
+
+    def __init__(self, name: str, before: Callable[[argparse.Namespace], None] | None = None):
+        self.name, self.before = name, before
+
+    def __call__(self, args: argparse.Namespace) -> int:
+        if self.before is not None:
+            self.before(args)
+        with lasting():  # the commands' modules (numpy, the levels' loader, ...) live as long as the process
+            from referee.cli import commands
+        return int(getattr(commands, f"cmd_{self.name}")(args))
+
+
+def _template_soon(args: argparse.Namespace) -> None:
+    """A root referee's controller template, started before `run` loads its modules: it boots
+    on another CPU meanwhile (referee.sandbox.forkserver)."""
+    if not args.in_process:
+        from referee.sandbox import forkserver
+
+        forkserver.start()
 
 
 class _NoSecretOnTheCommandLine(argparse.Action):
@@ -106,14 +132,14 @@ def _run(sub: Commands) -> None:
     )
     s.add_argument("--no-limits", action="store_true", help="no time or memory limits for the controllers (debugging)")
     s.add_argument("--quiet", action="store_true", help="print nothing on success")
-    s.set_defaults(func=commands.cmd_run)
+    s.set_defaults(func=_Command("run", before=_template_soon))
 
 
 def _check(sub: Commands) -> None:
     """`laserarena check`: level files validated."""
     s = sub.add_parser("check", help="validate level files")
     s.add_argument("level", nargs="+")
-    s.set_defaults(func=commands.cmd_check)
+    s.set_defaults(func=_Command("check"))
 
 
 def _share(text: str) -> float:
@@ -167,7 +193,7 @@ def _grade(sub: Commands) -> None:
     _contest_flags(s)
     s.add_argument("--out", default="leaderboard.csv", help="the leaderboard CSV (.json and .md beside it)")
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=commands.cmd_grade)
+    s.set_defaults(func=_Command("grade"))
 
 
 def _tournament(sub: Commands) -> None:
@@ -186,7 +212,7 @@ def _tournament(sub: Commands) -> None:
         "--out", default="tournament", help="the report folder: index.html, standings, heats, replays, viewer pages"
     )
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=commands.cmd_tournament)
+    s.set_defaults(func=_Command("tournament"))
 
 
 def _cluster_keys(sub: Commands) -> None:
@@ -194,7 +220,7 @@ def _cluster_keys(sub: Commands) -> None:
     what = "make the organizer's CA, certificates and keys for a TLS Dask cluster"
     s = sub.add_parser("cluster-keys", help=what, description=f"{what[0].upper()}{what[1:]} (docs/cluster.md).")
     s.add_argument("dir", help="a new folder to make (0700): ca.pem and each role's ROLE.pem and ROLE-key.pem")
-    s.set_defaults(func=commands.cmd_cluster_keys)
+    s.set_defaults(func=_Command("cluster_keys"))
 
 
 def _render(sub: Commands) -> None:
@@ -208,7 +234,7 @@ def _render(sub: Commands) -> None:
     s.add_argument("--from", type=float, default=0.0, metavar="T", help="start time (s)")
     s.add_argument("--to", type=float, default=None, metavar="T", help="end time (s)")
     s.add_argument("--quiet", action="store_true")
-    s.set_defaults(func=commands.cmd_render)
+    s.set_defaults(func=_Command("render"))
 
 
 def _watch(sub: Commands) -> None:
@@ -220,7 +246,7 @@ def _watch(sub: Commands) -> None:
     s.add_argument("--speed", type=float, default=1.0, help="playback speed (x real time)")
     s.add_argument("--size", default="960x700")
     s.add_argument("--frames", type=int, help="close after this many frames (for scripts and tests)")
-    s.set_defaults(func=commands.cmd_watch)
+    s.set_defaults(func=_Command("watch"))
 
 
 def _map(sub: Commands) -> None:
@@ -230,7 +256,7 @@ def _map(sub: Commands) -> None:
     s.add_argument("--out", default="map.png")
     s.add_argument("--compare", metavar="LEVEL", help="a second layout, drawn beside on the same scale")
     s.add_argument("--cells", type=int, default=120, help="grid cells along the longer side")
-    s.set_defaults(func=commands.cmd_map)
+    s.set_defaults(func=_Command("map"))
 
 
 def _plot(sub: Commands) -> None:
@@ -239,7 +265,7 @@ def _plot(sub: Commands) -> None:
     s.add_argument("replay")
     s.add_argument("--out", default="errors.png", help="the PNG to write (default errors.png)")
     s.add_argument("--width", type=int, default=960, help="picture width in pixels")
-    s.set_defaults(func=commands.cmd_plot)
+    s.set_defaults(func=_Command("plot"))
 
 
 def _verify(sub: Commands) -> None:
@@ -250,7 +276,7 @@ def _verify(sub: Commands) -> None:
     key = s.add_mutually_exclusive_group()
     _secret_file(key, "check the replay's noise key against the run's secret in FILE")
     key.add_argument("--db", metavar="JOURNAL", help="check the noise key against the secret this journal made")
-    s.set_defaults(func=commands.cmd_verify)
+    s.set_defaults(func=_Command("verify"))
 
 
 def _secret(sub: Commands) -> None:
@@ -260,7 +286,7 @@ def _secret(sub: Commands) -> None:
     n = actions.add_parser("new", help="write 256 random bits to a new file, 0600")
     n.add_argument("file")
     n.add_argument("--force", action="store_true", help="replace the file if it exists")
-    n.set_defaults(func=commands.cmd_secret_new)
+    n.set_defaults(func=_Command("secret_new"))
 
 
 def _journal(sub: Commands) -> None:
@@ -272,7 +298,7 @@ def _journal(sub: Commands) -> None:
     )
     b.add_argument("db", help="the journal (grade's or tournament's --db)")
     b.add_argument("out", help="the copy: a new file")
-    b.set_defaults(func=commands.cmd_journal_backup)
+    b.set_defaults(func=_Command("journal_backup"))
 
 
 def _new(sub: Commands) -> None:
@@ -285,13 +311,13 @@ def _new(sub: Commands) -> None:
         metavar="WEIGHTS.npz",
         help="write a package team that plays this trained policy instead (docs/rl.md)",
     )
-    s.set_defaults(func=commands.cmd_new)
+    s.set_defaults(func=_Command("new"))
 
 
 def _levels(sub: Commands) -> None:
     """`laserarena levels`: the built-in levels listed."""
     s = sub.add_parser("levels", help="list the built-in levels")
-    s.set_defaults(func=commands.cmd_levels)
+    s.set_defaults(func=_Command("levels"))
 
 
 # every command's sub-parser, in the order `laserarena --help` lists them

@@ -25,7 +25,6 @@ from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
 from referee.records.canonical import dumps
 from referee.records.faults import located
-from referee.sandbox import forkserver
 from referee.sandbox.teams import controller_problem
 from referee.terminal import safe
 
@@ -89,8 +88,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     for path in (args.json, args.replay):
         if path and path != "-" and not Path(path).resolve().parent.is_dir():
             raise UserError(f"{path}: the folder does not exist")
-    if not args.in_process:  # a root referee's controller template boots on the other CPU meanwhile
-        forkserver.start()
     with lasting():  # numba and its compiled kernels' machinery: a third of the command's start
         import referee.match.loop  # noqa: F401
     announce_compiling(args.quiet)

@@ -11,7 +11,6 @@ import sys
 import warnings
 from typing import TextIO
 
-from arena.heap import lasting
 from levels.errors import LaserArenaError
 from referee.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_PIPE, LaserArenaWarning, UserError
 from referee.interrupts import Catcher, Interrupted, ignore
@@ -50,11 +49,10 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     try:
         try:
-            with lasting():  # the commands' modules (numpy, the levels' loader, ...) live as long as the process
-                from referee.cli.arguments import parser
+            from referee.cli.arguments import parser
 
             args = parser().parse_args(argv)
-            return int(args.func(args))
+            return args.func(args)
         except Exception:
             if INTERRUPT.raised:  # the interrupt, turned into another error by the C code it landed in
                 raise KeyboardInterrupt from None

@@ -21,6 +21,7 @@ import os
 import re
 import secrets
 import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -227,7 +228,12 @@ def _settle(settings: dict[str, object], folders: list[str]) -> None:
 
 class Run:
     """This referee process's groups: its own `referee` group in each hierarchy (it moves in),
-    weighing REFEREE_WEIGHT slots in the cpu hierarchy, and its slots' groups beside it."""
+    weighing REFEREE_WEIGHT slots in the cpu hierarchy, and its slots' groups beside it.
+
+    The move is made on a thread of its own: the kernel makes a process's first move wait a
+    read-copy-update grace period (10-40 ms) without using a CPU, which the referee's start
+    spends loading its modules meanwhile. Children started before it ends (a controller
+    template) stay where the referee was; each slot joins its own groups anyway."""
 
     def __init__(self, place: Place):
         self.place, self.pid = place, os.getpid()
@@ -245,10 +251,11 @@ class Run:
                 self.folders.append(f"{folder}/{self.name}-referee")
             if place.cpu:
                 _settle({self.cpu_key(): weight(self.nice, place.version, REFEREE_WEIGHT)}, self.folders)
-            self._enter()
         except OSError:
             self.close()
             raise
+        self._entering = threading.Thread(target=self._enter, name="laserarena-cgroup", daemon=True)
+        self._entering.start()
 
     def cpu_key(self) -> str:
         return "cpu.weight" if self.place.version == 2 else "cpu.shares"
@@ -283,6 +290,9 @@ class Run:
         for the next referee's sweep) and give the name up."""
         if os.getpid() != self.pid or self.lease.fd < 0:
             return
+        entering = getattr(self, "_entering", None)
+        if entering is not None:
+            entering.join()  # in, before it moves back out
         for home in self.homes:
             try:
                 _write(f"{home}/cgroup.procs", str(os.getpid()))
