@@ -261,3 +261,23 @@ def test_the_replay_written_while_controllers_compute_is_the_replay_written_at_o
         tick = sim.step([None if obs is None else bot.step(obs) for bot, obs in zip(bots, tick.observations)])
     sim.end()
     assert (tmp_path / "run.replay").read_bytes() == (tmp_path / "stepwise.replay").read_bytes()
+
+
+def test_the_controllers_boot_while_the_simulation_is_made(monkeypatch):
+    # a match's controllers are launched before its simulation core is built (a process's
+    # first match loads the compiled kernels then); making a Match starts no process
+    from referee.match import loop
+
+    launched = []
+    made = loop.Simulation.__init__
+
+    def noting(sim, *args, **kwargs):
+        launched.append([bot.started is not None for bot in match.fleet.bots])
+        made(sim, *args, **kwargs)
+
+    monkeypatch.setattr(loop.Simulation, "__init__", noting)
+    lv = parse_level(TWO.encode(), "two.yaml")
+    match = loop.Match(lv, [resolve("ref:idle")] * 2, seed=1)
+    assert [bot.started for bot in match.fleet.bots] == [None, None]
+    match.run()
+    assert launched == [[True, True]]

@@ -50,9 +50,9 @@ class Fleet:
         ]
         self.cpu: affinity.Claim | None = None
 
-    def start(self, briefs: list[Brief]) -> list[Fault | None]:
-        """Launch every controller (a lone process on the referee's CPU), then set each up
-        with its brief: each slot's setup fault, or None."""
+    def launch(self) -> None:
+        """Launch every controller not launched yet (a lone process on the referee's CPU):
+        they boot side by side, and meanwhile, this thread's own work."""
         processes = [bot for bot in self.bots if bot.isolated]
         if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
             self.cpu = affinity.claim()
@@ -60,6 +60,11 @@ class Fleet:
                 processes[0].pin([self.cpu.cpu])
         for bot in self.bots:
             bot.launch()
+
+    def start(self, briefs: list[Brief]) -> list[Fault | None]:
+        """Launch every controller (if `launch` has not), then set each up with its brief:
+        each slot's setup fault, or None."""
+        self.launch()
         return [bot.setup(brief) for bot, brief in zip(self.bots, briefs)]
 
     def close(self) -> None:

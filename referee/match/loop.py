@@ -10,6 +10,7 @@ its task or been stopped by a fault.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from levels.match import ControllerLimits
@@ -45,21 +46,28 @@ class Match:
         if len(teams) != len(level.robots):
             raise ValueError(f"{level.name} has {len(level.robots)} robot slots, got {len(teams)} teams")
         self.level, self.teams = level, teams
-        # first: a root referee's controller template starts now and imports while the world
-        # is made and a process's first match loads the compiled kernels
+        # first: a root referee's controller template starts now and imports meanwhile
         self.fleet = Fleet(teams, level.limits if limits is None else limits, logs, isolate)
         seed = level.seed if seed is None else seed
         if replay is not None:
             recorder = ReplayWriter(replay, replay_header(level, teams, seed, ideal, noise_key))
         self.recorder = recorder
-        labels = [t.label for t in teams]
-        # the replay's writes wait while the controllers compute (docs/decisions/0028)
-        self.simulation = Simulation(level, labels, seed, ideal, noise_key, recorder, defer=True)
+        self._made = (level, [t.label for t in teams], seed, ideal, noise_key, recorder)
+
+    @functools.cached_property
+    def simulation(self) -> Simulation:
+        """The match's simulation core, made on first use: `run` makes it once the controllers
+        are launched, so they boot while the world is made (and a process's first match loads
+        the compiled kernels). The replay's writes wait while the controllers compute
+        (docs/decisions/0028)."""
+        level, labels, seed, ideal, noise_key, recorder = self._made
+        return Simulation(level, labels, seed, ideal, noise_key, recorder, defer=True)
 
     def run(self) -> MatchResult:
         """Run the match to its end and return the result (see docs/results.md)."""
-        sim, bots = self.simulation, self.fleet.bots
         try:
+            self.fleet.launch()
+            sim, bots = self.simulation, self.fleet.bots
             tick = sim.start(self.fleet.start([brief_for(self.level, s) for s in range(len(self.teams))]))
             while not tick.ended:
                 tick = sim.step(exchange(bots, tick.observations, meanwhile=sim.flush))
