@@ -218,10 +218,10 @@ FIXED_STAGES = (
     ("interpreter", "pass"),
     ("numpy", _KEPT.format("numpy")),
     ("numba", _KEPT.format("numpy, numba")),
-    ("modules", _KEPT.format("numpy, numba, referee.cli.arguments, referee.match.loop")),
+    ("modules", _KEPT.format("numpy, numba, referee.cli.commands, referee.match.loop")),
     (
         "in_process",  # the same match in this process: the kernels' loading, the match, its replay
-        _KEPT.format("sys, levels.loader, referee.match.loop, referee.sandbox.teams, referee.cli.arguments")
+        _KEPT.format("sys, levels.loader, referee.match.loop, referee.sandbox.teams, referee.cli.commands")
         + "from pathlib import Path\n"
         + "level, teams = levels.loader.load_level(Path(sys.argv[1])), [referee.sandbox.teams.resolve(sys.argv[2])] * 4\n"
         + "referee.match.loop.play_match(level, teams, isolate=False, replay=Path(sys.argv[3]))",
