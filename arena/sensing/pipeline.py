@@ -123,8 +123,7 @@ class Sensing:
         self._stepped = self.kind == "reflector" and bool(self._steps)  # a stepped head
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._batches: dict[int, tuple] = {}  # batch length -> buffers for its poses and times (`_batch`)
-        self._params: dict[int, np.ndarray] = {}  # batch length -> `sweep.sense_period`'s scalars
-        self._pulse_rows: dict[int, tuple] = {}  # batch length -> where `sweep.sense_period` writes pulses
+        self._plans: dict[int, tuple] = {}  # batch length -> what `sweep.sense_period` takes (`_plan`)
         self._last = np.array(world.state, float)  # where the next batch starts (`sweep.batch_poses` moves it on)
         self._last_t = world.time
         if not _loaded:
@@ -164,22 +163,25 @@ class Sensing:
         else:  # runs of states, or both
             states = np.vstack(rows)
         t, x, y, heading, phi, poses = self._batch(len(states))
+        w0, w1 = self._last_t, self.world.time  # the batch's first and last times (`t[0]`, `t[-1]`)
         if self._plain:  # the poses, the phases and the hits in one compiled call
             hits = self._detections(t, *self._sensed(states, t, poses))
         else:
-            sweep.batch_poses(self._last, states, self._last_t, self.world.time, self.dt, poses[:3], t)
+            sweep.batch_poses(self._last, states, w0, w1, self.dt, poses[:3], t)
             hits = self._other(t, x, y, heading, phi)
-        self._last_t, self._rows = self.world.time, []
-        traj = Trajectory(t=t, x=x, y=y, h=heading, phi=phi)
+        self._last_t, self._rows = w1, []
         sources = [hits]
         if self._spurious:
-            w0, w1 = float(t[0]), float(t[-1])
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(w0, w1)))
             else:
-                sources.append([self._false_returns(traj, r, w0, w1) for r in range(self.n)])
+                false = [self._false_returns(t, x, y, heading, phi, r, w0, w1) for r in range(self.n)]
+                if any(false):  # most periods have none
+                    sources.append(false)
         if self._any_index:
-            sources.append(self._index(traj))
+            sources.append(self._index(Trajectory(t=t, x=x, y=y, h=heading, phi=phi)))
+        if len(sources) == 1:
+            return hits
         out = []
         for r in range(self.n):
             lists = [events[r] for events in sources if events[r]]
@@ -197,18 +199,12 @@ class Sensing:
         """The batch's poses, phases and pulses (`sweep.sense_period`, into `t` and `poses`) from
         the world's `states`: `_pulses`' pulses, each robot's draws from its own streams."""
         steps = len(states)
-        need = steps * len(self.ids)  # a robot's crossings in the batch, at most
+        plan = self._plans.get(steps)
+        if plan is None:
+            plan = self._plans[steps] = self._plan(steps)
+        params, ids, told, powers, lag_powers, need = plan
         light = self._light.ready(need)[0] if self._light else NO_DRAWS[0]
         timing = self._timing.ready(need)[0] if self._timing else NO_DRAWS[0]
-        scale, decay, powers, lag_decay, coupled, lag_powers = self.spin.model(steps)
-        params = self._params.get(steps)
-        if params is None:
-            params = self._params[steps] = sweep.period_params(
-                self.dt, (scale, decay, lag_decay, coupled), self._kind, self._light_sigma, self._timing_noise,
-                self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
-                self._optics,
-            )  # fmt: skip
-        ids, told = self._found(steps)
         m = sweep.sense_period(
             self._last, states, self._last_t, self.world.time, poses, t, self.spin.live, self._at,
             self.spin.draws(steps)[0], light, timing, powers, lag_powers, self._robots, self._beacons, params,
@@ -216,14 +212,20 @@ class Sensing:
         )  # fmt: skip
         return ids[:, :m], told[:, :m], self._counts[0], self._counts[1]
 
-    def _found(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
-        """Where `sweep.sense_period` writes a batch of `steps` steps' pulses: room for a pulse
-        per step, robot and beacon (a beam passes a beacon at most once a step), kept per length."""
-        found = self._pulse_rows.get(steps)
-        if found is None:
-            room = steps * self.n * len(self.ids)
-            found = self._pulse_rows[steps] = (np.empty((2, room), np.int64), np.empty((7, room)))
-        return found
+    def _plan(self, steps: int) -> tuple:
+        """What `_sensed` passes for a batch of `steps` steps, kept per length: `sweep.sense_period`'s
+        scalars; where it writes the pulses, with room for one per step, robot and beacon (a beam
+        passes a beacon at most once a step); the spin's powers (spin.Spin.model); and a robot's
+        need of light and timing draws (its crossings in the batch, at most)."""
+        scale, decay, powers, lag_decay, coupled, lag_powers = self.spin.model(steps)
+        params = sweep.period_params(
+            self.dt, (scale, decay, lag_decay, coupled), self._kind, self._light_sigma, self._timing_noise,
+            self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
+            self._optics,
+        )  # fmt: skip
+        room = steps * self.n * len(self.ids)
+        ids, told = np.empty((2, room), np.int64), np.empty((7, room))
+        return params, ids, told, powers, lag_powers, steps * len(self.ids)
 
     def _other(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray) -> list:
         """The batch's phases (into `phi`) and hits or scans where `sweep.sense_period` does not
@@ -353,15 +355,18 @@ class Sensing:
 
     # ---- false pulses and the index switch ---------------------------------------------------
 
-    def _false_returns(self, traj: Trajectory, r: int, w0: float, w1: float) -> list[Detection]:
-        """Robot `r`'s spurious pulses in this batch (from `w0` to `w1`), as its kind reports them."""
+    def _false_returns(
+        self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray, r: int, w0: float, w1: float
+    ) -> list[Detection]:
+        """Robot `r`'s spurious pulses in this batch (the trajectory `t` .. `phi`, from `w0` to
+        `w1`), as its kind reports them."""
         times = self._false[r].times(w0, w1)
         if not len(times):
             return []
         g = self.rng["false"][r]
         if self.kind == "sensor_array":
             return sensor_array.false_pulses(r, times, g, self.ids, self.params)
-        return reflector.false_returns(traj, r, times, self.omega, self.params)
+        return reflector.false_returns(Trajectory(t=t, x=x, y=y, h=h, phi=phi), r, times, self.omega, self.params)
 
     def _table_false_pulses(self, w0: float, w1: float) -> list[tuple]:
         """Shared crosstalk's false pulses in this batch (from `w0` to `w1`), one stream for the whole table."""
