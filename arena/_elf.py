@@ -17,10 +17,18 @@ _SYMBOL = struct.Struct("<IBBHQQ")  # Elf64_Sym
 
 def defined_symbols(obj: bytes) -> set[str] | None:
     """The names of the functions and variables `obj` defines (as LLVM lists a module's
-    definitions), or None where `obj` is no 64-bit little-endian ELF object (macOS, Windows:
-    the caller then asks LLVM)."""
+    definitions), or None where `obj` is no 64-bit little-endian ELF object this can read
+    (macOS, Windows, a file cut short: the caller then asks LLVM)."""
     if obj[:4] != b"\x7fELF" or obj[4:6] != b"\x02\x01":  # ELFCLASS64, ELFDATA2LSB
         return None
+    try:
+        return _symbols(obj)
+    except (struct.error, IndexError, ValueError):  # a table that runs past the file, a name not UTF-8
+        return None
+
+
+def _symbols(obj: bytes) -> set[str]:
+    """`defined_symbols` of an ELF64 little-endian object, read from its symbol tables."""
     shoff, _, _, _, _, shentsize, shnum, _ = _HEADER.unpack_from(obj, 0x28)
     sections = [_SECTION.unpack_from(obj, shoff + i * shentsize) for i in range(shnum)]
     names: set[str] = set()

@@ -90,7 +90,7 @@ def _from_object(codegen: Any, serialized: tuple) -> Any:
     every run's start) to list the symbols the code defines, and to link the kernel into
     another being compiled. The symbols are read from the object file's own table
     (arena._elf); the bitcode is parsed only if a compile links the kernel (`_linkable`).
-    numba's own way where the code is no ELF object."""
+    numba's own way where the code is no ELF object this reads."""
     name, kind, data = serialized
     symbols = defined_symbols(data[0]) if kind == "object" else None
     if symbols is None:

@@ -255,3 +255,18 @@ def test_the_symbols_read_from_a_kernel_s_machine_code_are_those_llvm_lists():
     assert len(seen) >= 5 and max(len(listed) for _, _, listed in seen) > 100, [name for name, _, _ in seen]
     for name, read, listed in seen:
         assert read == listed, name
+
+
+def test_an_object_the_symbol_reader_cannot_read_is_left_to_llvm():
+    """None, so the kernel loads numba's way: another format, or an ELF header whose tables run
+    past the file."""
+    import struct
+
+    from arena._elf import defined_symbols
+
+    assert defined_symbols(b"\xcf\xfa\xed\xfe" + bytes(60)) is None  # Mach-O
+    assert defined_symbols(b"\x7fELF\x01\x01" + bytes(58)) is None  # 32-bit
+    assert defined_symbols(b"\x7fELF\x02\x01" + bytes(10)) is None  # cut short in its header
+    header = bytearray(b"\x7fELF\x02\x01" + bytes(58))
+    struct.pack_into("<QIHHHHHH", header, 0x28, 1 << 20, 0, 64, 0, 0, 64, 3, 0)  # section headers past the end
+    assert defined_symbols(bytes(header)) is None
