@@ -12,9 +12,13 @@ import numpy as np
 import pytest
 from helpers import BEACONS, random_trajectory
 
+from arena.rng import RandomTree
 from arena.sensing import crossings, hardware, occlusion, optics, spin, sweep
 from arena.sensing.crossings import bearings, find_crossings
 from arena.sensing.normals import Normals
+from arena.sensing.pipeline import Sensing
+from arena.world import World
+from levels.loader import find_level
 
 FACING = np.array([0.8, 2.4, -2.4, -0.8, -1.57])
 KINDS = {
@@ -270,9 +274,10 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
             np.full(steps + 1, np.nan),
             np.zeros((2, robots), np.int64),
         )
+        needs = (steps, steps * len(bx))
         params = sweep.period_params(
             dt, (scale, decay, lag_decay, coupled), code, sigma, timing_scale, clock_hz, merging,
-            (len(gain) > 0, len(offset) > 0), gates, optics_,
+            (len(gain) > 0, len(offset) > 0), gates, optics_, needs,
         )  # fmt: skip
         packed_robots = np.array(
             [c["omega"], direction, reach, silhouette, offset if len(offset) else np.zeros(robots)]
@@ -280,11 +285,14 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         packed_beacons = np.array([bx, by, facing, gain if len(gain) else np.ones(len(bx))])
         first, room = states[0].copy(), steps * robots * len(bx)
         ids, told = np.full((2, room), -1, np.int64), np.full((7, room), np.nan)
-        m = sweep.sense_period(
+        m, short = sweep.sense_period(
             first, states[1:], t0, t_end, poses, times, live, places, noise, c["light"], c["timing"], powers,
             lag_powers, packed_robots, packed_beacons, params, counts, ids, told, key,
         )  # fmt: skip
         assert m == want[1].shape[1]
+        # short: some robot's row of some block now holds less than a period's need
+        blocks = zip((noise, c["light"], c["timing"]), places, (needs[0], needs[1], needs[1]))
+        assert short == any(len(v) and (v.shape[1] - at < need).any() for v, at, need in blocks)
         ids, told = ids[:, :m], told[:, :m]
         assert np.array_equal(poses[:3], xyh) and np.array_equal(times, t) and np.array_equal(first, last)
         assert np.array_equal(poses[3], want[0])
@@ -370,3 +378,35 @@ def test_passes_looked_at_near_the_beacons_only_are_the_whole_grid_s():
 
 def wrap_angle_numpy(a: float) -> float:
     return a - 2 * math.pi * np.rint(a / (2 * math.pi))
+
+
+@pytest.mark.parametrize("name, ahead", [("asabe", 1), ("asabe-race", 2), ("vannoy", 1)])
+def test_a_match_s_draws_are_refilled_when_the_period_says_a_row_runs_short(name, ahead):
+    """A match's periods look at their blocks of draws only when `sense_period` said a row ran
+    short (Sensing._period): with blocks one or two periods' need wide, refilled every few
+    periods, the detections are those of a match that refills every block before every
+    period, and no period reads past a row's end. Each stream's draws are taken in order
+    whenever its block is refilled (the test above), so a period that read a row past its
+    refilled part, or a stale block, would read other numbers."""
+    level = find_level(name)
+    every, lean = (Sensing(World(level), RandomTree(8)) for _ in range(2))
+    blocks = [b for b in (lean.spin._noise, lean._light, lean._timing) if b is not None]
+    assert lean._plain and len(blocks) >= 2  # the wobble's draws, and the light's or the timing's
+    for block in blocks:
+        block.ahead = ahead
+    refills = 0
+    for sensing in (every, lean):
+        for slot in range(len(level.robots)):
+            sensing.world.command(slot, 0.05 + 0.02 * slot, 0.12)
+    for _ in range(120):
+        every._draws = ()  # made ready before every period
+        got = []
+        for sensing in (every, lean):
+            states, _ = sensing.world.run(level.steps_per_control)
+            sensing.record_many(states)
+            refills += sensing is lean and not sensing._draws
+            got.append(sensing.flush())
+        assert got[0] == got[1]
+        for block in blocks:
+            assert (block.at <= block.values.shape[1]).all()
+    assert refills >= 10

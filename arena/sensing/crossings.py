@@ -343,7 +343,7 @@ def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ex, ey
 
 
-@compiled()
+@compiled(inline="always")
 def first_guesses(
     beam: np.ndarray,
     bearing: np.ndarray,

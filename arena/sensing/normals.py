@@ -36,6 +36,11 @@ class Normals:
         if self.left >= need:
             self.left -= need
             return self.values, self.at
+        return self.refill(need)
+
+    def refill(self, need: int) -> tuple[np.ndarray, np.ndarray]:
+        """`ready`, looking at every row now: for a caller that reads the positions itself and
+        knows when a row runs short (sweep.sense_period says so), and so calls nothing here otherwise."""
         values, at = self._refilled(need)
         self.left = values.shape[1] - max(at.tolist(), default=0) - need
         return values, at

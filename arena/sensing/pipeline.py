@@ -124,6 +124,7 @@ class Sensing:
         self._rows: list[tuple | np.ndarray] = []  # a state (`record`) or a run's states (`record_many`)
         self._batches: dict[int, tuple] = {}  # batch length -> buffers for its poses and times (`_batch`)
         self._plans: dict[int, tuple] = {}  # batch length -> what `sweep.sense_period` takes (`_plan`)
+        self._draws: tuple = ()  # the batch length the blocks of draws are ready for, and the blocks (`_ready`)
         self._last = np.array(world.state, float)  # where the next batch starts (`sweep.batch_poses` moves it on)
         self._last_t = world.time
         if not _loaded:
@@ -162,11 +163,12 @@ class Sensing:
             states = np.fromiter(chain.from_iterable(rows), float, len(rows) * 3 * self.n).reshape(len(rows), -1)
         else:  # runs of states, or both
             states = np.vstack(rows)
-        t, x, y, heading, phi, poses = self._batch(len(states))
         w0, w1 = self._last_t, self.world.time  # the batch's first and last times (`t[0]`, `t[-1]`)
+        batch = self._batch(len(states))
         if self._plain:  # the poses, the phases and the hits in one compiled call
-            hits = self._detections(t, *self._sensed(states, t, poses))
+            hits = self._period(states, w1)
         else:
+            t, x, y, heading, phi, poses = batch
             sweep.batch_poses(self._last, states, w0, w1, self.dt, poses[:3], t)
             hits = self._other(t, x, y, heading, phi)
         self._last_t, self._rows = w1, []
@@ -175,11 +177,16 @@ class Sensing:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(w0, w1)))
             else:
-                false = [self._false_returns(t, x, y, heading, phi, r, w0, w1) for r in range(self.n)]
-                if any(false):  # most periods have none
+                false: list[list[Detection]] | None = None
+                for r, clock in enumerate(self._false):
+                    times = clock.times(w0, w1)
+                    if len(times):  # most periods have none
+                        false = false or [[] for _ in range(self.n)]
+                        false[r] = self._false_returns(Trajectory(*batch[:5]), r, times)
+                if false:
                     sources.append(false)
         if self._any_index:
-            sources.append(self._index(Trajectory(t=t, x=x, y=y, h=heading, phi=phi)))
+            sources.append(self._index(Trajectory(*batch[:5])))
         if len(sources) == 1:
             return hits
         out = []
@@ -193,39 +200,52 @@ class Sensing:
             out.append(merged)
         return out
 
-    def _sensed(
-        self, states: np.ndarray, t: np.ndarray, poses: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The batch's poses, phases and pulses (`sweep.sense_period`, into `t` and `poses`) from
-        the world's `states`: `_pulses`' pulses, each robot's draws from its own streams."""
+    def _period(self, states: np.ndarray, w1: float) -> list[list[Detection]]:
+        """The batch's poses, phases (into its buffers: `_batch`) and hits, from the world's
+        `states` up to the time `w1`, in one compiled call (`sweep.sense_period`): `_pulses`'
+        pulses as detections, each robot's draws from its own streams."""
         steps = len(states)
         plan = self._plans.get(steps)
         if plan is None:
             plan = self._plans[steps] = self._plan(steps)
-        params, ids, told, powers, lag_powers, need = plan
-        light = self._light.ready(need)[0] if self._light else NO_DRAWS[0]
-        timing = self._timing.ready(need)[0] if self._timing else NO_DRAWS[0]
-        m = sweep.sense_period(
-            self._last, states, self._last_t, self.world.time, poses, t, self.spin.live, self._at,
-            self.spin.draws(steps)[0], light, timing, powers, lag_powers, self._robots, self._beacons, params,
-            self._counts, ids, told, self._merge_key,
+        t, poses, params, ids, told, powers, lag_powers, need = plan
+        draws = self._draws
+        if not draws or draws[0] != steps:
+            draws = self._ready(steps, need)
+        m, short = sweep.sense_period(
+            self._last, states, self._last_t, w1, poses, t, self.spin.live, self._at, draws[1], draws[2], draws[3],
+            powers, lag_powers, self._robots, self._beacons, params, self._counts, ids, told, self._merge_key,
         )  # fmt: skip
-        return ids[:, :m], told[:, :m], self._counts[0], self._counts[1]
+        if short:
+            self._draws = ()
+        return self._detections(t, ids[:, :m], told[:, :m], *self._counts.tolist())
+
+    def _ready(self, steps: int, need: int) -> tuple:
+        """The blocks of draws `_period` passes, every robot's row holding a batch of `steps`
+        steps' need (the wobble's: `steps`; the light's and the timing's: `need`), kept until
+        `sweep.sense_period` says a row runs short, or a batch of another length comes."""
+        light = self._light.refill(need)[0] if self._light else NO_DRAWS[0]
+        timing = self._timing.refill(need)[0] if self._timing else NO_DRAWS[0]
+        self._draws = (steps, self.spin.refill(steps)[0], light, timing)
+        return self._draws
 
     def _plan(self, steps: int) -> tuple:
-        """What `_sensed` passes for a batch of `steps` steps, kept per length: `sweep.sense_period`'s
-        scalars; where it writes the pulses, with room for one per step, robot and beacon (a beam
-        passes a beacon at most once a step); the spin's powers (spin.Spin.model); and a robot's
-        need of light and timing draws (its crossings in the batch, at most)."""
+        """What `_period` passes for a batch of `steps` steps, kept per length: its buffers of
+        times and poses (`_batch`); `sweep.sense_period`'s scalars; where it writes the pulses,
+        with room for one per step, robot and beacon (a beam passes a beacon at most once a
+        step); the spin's powers (spin.Spin.model); and a robot's need of light and timing draws
+        (its crossings in the batch, at most)."""
         scale, decay, powers, lag_decay, coupled, lag_powers = self.spin.model(steps)
+        need = steps * len(self.ids)
         params = sweep.period_params(
             self.dt, (scale, decay, lag_decay, coupled), self._kind, self._light_sigma, self._timing_noise,
             self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
-            self._optics,
+            self._optics, (steps, need),
         )  # fmt: skip
         room = steps * self.n * len(self.ids)
         ids, told = np.empty((2, room), np.int64), np.empty((7, room))
-        return params, ids, told, powers, lag_powers, steps * len(self.ids)
+        t, *_, poses = self._batch(steps)
+        return t, poses, params, ids, told, powers, lag_powers, need
 
     def _other(self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray) -> list:
         """The batch's phases (into `phi`) and hits or scans where `sweep.sense_period` does not
@@ -301,10 +321,10 @@ class Sensing:
         """The batch's laser phases, and the beacons' pulses (`_pulses`) as detections, per
         robot in event order."""
         phi, ids, told, (counts, tied) = self._pulses(t, x, y, h, lx, ly)
-        return phi, self._detections(t, ids, told, counts, tied)
+        return phi, self._detections(t, ids, told, counts.tolist(), tied.tolist())
 
     def _detections(
-        self, t: np.ndarray, ids: np.ndarray, told: np.ndarray, counts_: np.ndarray, tied_: np.ndarray
+        self, t: np.ndarray, ids: np.ndarray, told: np.ndarray, counts: list[int], ties: list[int]
     ) -> list[list[Detection]]:
         """The batch's pulses (`sweep.pulse_rows`' two blocks, and per robot their count and
         whether two read one time) as detections, per robot in event order."""
@@ -330,12 +350,12 @@ class Sensing:
         # times, moved back to their steps, may reorder two returns of one step: sorted too)
         stepped = self._stepped
         if self.n == 1:
-            if tied_[0] or stepped:
+            if ties[0] or stepped:
                 events.sort(key=event_order)
             return [events]
         out: list[list[Detection]] = [[] for _ in range(self.n)]
         start = 0
-        for r, (k, tied) in enumerate(zip(counts_.tolist(), tied_.tolist())):
+        for r, (k, tied) in enumerate(zip(counts, ties)):
             out[r] = events[start : start + k]
             start += k
             if tied or stepped:
@@ -355,18 +375,13 @@ class Sensing:
 
     # ---- false pulses and the index switch ---------------------------------------------------
 
-    def _false_returns(
-        self, t: np.ndarray, x: np.ndarray, y: np.ndarray, h: np.ndarray, phi: np.ndarray, r: int, w0: float, w1: float
-    ) -> list[Detection]:
-        """Robot `r`'s spurious pulses in this batch (the trajectory `t` .. `phi`, from `w0` to
-        `w1`), as its kind reports them."""
-        times = self._false[r].times(w0, w1)
-        if not len(times):
-            return []
+    def _false_returns(self, traj: Trajectory, r: int, times: np.ndarray) -> list[Detection]:
+        """Robot `r`'s spurious pulses at `times` in this batch (its trajectory `traj`: its
+        clock's, `FalseClock.times`), as its kind reports them."""
         g = self.rng["false"][r]
         if self.kind == "sensor_array":
             return sensor_array.false_pulses(r, times, g, self.ids, self.params)
-        return reflector.false_returns(Trajectory(t=t, x=x, y=y, h=h, phi=phi), r, times, self.omega, self.params)
+        return reflector.false_returns(traj, r, times, self.omega, self.params)
 
     def _table_false_pulses(self, w0: float, w1: float) -> list[tuple]:
         """Shared crosstalk's false pulses in this batch (from `w0` to `w1`), one stream for the whole table."""

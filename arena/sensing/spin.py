@@ -75,6 +75,10 @@ class Spin:
         steps' need left (none without wobble: normals.NO_DRAWS)."""
         return self._noise.ready(steps) if self._noise else NO_DRAWS
 
+    def refill(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """`draws`, every robot's row looked at now (normals.Normals.refill)."""
+        return self._noise.refill(steps) if self._noise else NO_DRAWS
+
     def _model_of(self, steps: int) -> tuple[float, float, np.ndarray, float, float, np.ndarray]:
         """`model`, made."""
         n = len(self.omega)
@@ -162,7 +166,8 @@ def laser_phases(
     steps, n = heading.shape[0] - 1, omega.shape[0]
     rate = np.empty((steps, n))
     for k in range(steps):
-        rate[k] = omega
+        for r in range(n):  # element by element: a row's view would cost a reference count each step
+            rate[k, r] = omega[r]
     if noise.shape[0]:
         drive = np.empty((steps, n))
         for r in range(n):

@@ -7,8 +7,11 @@ in one call, `fire`). Where a level has obstacles, pymunk's segment query runs b
 `sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead from
 its own streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
 flash_detector, optics); here they run on one batch at once. `sense_period` is a match's period
-in one call: the poses laid out (`batch_poses`), then `sense`, over state kept packed between
-periods, since numba takes each array argument at a cost.
+in one call: the poses laid out (`batch_poses`), then `sense`'s stages, over state kept packed
+between periods, since numba takes each array argument at a cost. The stages that only pass
+arrays on (`sense_candidates`, `candidates`, `fire`, `response`) are inlined where they are
+called (and crossings.first_guesses): numba counts a reference to each array a call passes, on
+the way in and out.
 """
 
 from __future__ import annotations
@@ -57,7 +60,7 @@ def hardware(p: Mapping[str, float]) -> tuple[float, float, float, float, float]
     return tuple(float(p.get(name, 0.0)) for name in names)  # type: ignore[return-value]
 
 
-@compiled()
+@compiled(inline="always")
 def candidates(
     x: np.ndarray,
     y: np.ndarray,
@@ -125,7 +128,7 @@ def candidates(
     return robot, beacon, step, s, out
 
 
-@compiled()
+@compiled(inline="always")
 def response(
     robot: np.ndarray,
     rows: np.ndarray,
@@ -158,7 +161,7 @@ def response(
     return detected, offset
 
 
-@compiled()
+@compiled(inline="always")
 def fire(
     robot: np.ndarray,
     beacon: np.ndarray,
@@ -191,7 +194,7 @@ def fire(
     return rows, shift, source, rob, bea, times, phase, counts
 
 
-@compiled()
+@compiled(inline="always")
 def sense_candidates(
     x: np.ndarray,
     y: np.ndarray,
@@ -355,7 +358,8 @@ P_MERGING = 9  # three: whether to merge, the number of arrays, the rate
 P_GAIN, P_OFFSET = 12, 13  # whether the beacons' gains, and the beams' offsets, are there
 P_GATES = 14  # `gates`' 13
 P_OPTICS = P_GATES + len(GATES) + 1  # `hardware`'s 5
-P_SIZE = P_OPTICS + 5
+P_NEEDS = P_OPTICS + 5  # two: a robot's need of wobble draws, and of light and timing draws, in a period
+P_SIZE = P_NEEDS + 2
 
 
 def period_params(
@@ -369,19 +373,34 @@ def period_params(
     present: tuple[bool, bool],
     gates_: np.ndarray,
     optics: np.ndarray,
+    needs: tuple[int, int],
 ) -> np.ndarray:
     """`sense_period`'s scalars as one array: the step, the spin's `drive` (the wobble's scale
     and decay, the lag's decay and coupling: spin.Spin.model), the detector `kind`, the light
     noise `sigma`, the timing noise's scale, the event clock's rate, the merges (`fire`'s
-    `merging`), whether gains and offsets are `present`, `gates_` (`gates`) and `optics`
-    (`hardware`)."""
+    `merging`), whether gains and offsets are `present`, `gates_` (`gates`), `optics`
+    (`hardware`), and a robot's `needs` of draws in a period: of the wobble's, and of the
+    light's and the timing's (normals.Normals)."""
     p = np.empty(P_SIZE)
     p[:P_MERGING] = (dt, *drive, kind, sigma, timing, clock_hz)
     p[P_MERGING : P_MERGING + 3] = merging
     p[P_GAIN], p[P_OFFSET] = present
     p[P_GATES:P_OPTICS] = gates_
-    p[P_OPTICS:] = optics
+    p[P_OPTICS:P_NEEDS] = optics
+    p[P_NEEDS:] = needs
     return p
+
+
+@compiled(inline="always")
+def short(values: np.ndarray, at: np.ndarray, need: float) -> bool:
+    """Whether a robot's row of a block of draws (normals.Normals: `values`, each row read from
+    `at[r]` on) holds less than `need` (a block of no rows: none is drawn)."""
+    if values.shape[0] == 0:
+        return False
+    for r in range(at.shape[0]):
+        if values.shape[1] - at[r] < need:
+            return True
+    return False
 
 
 @compiled()
@@ -406,10 +425,12 @@ def sense_period(
     ids: np.ndarray,
     told: np.ndarray,
     key: np.uint64,
-) -> int:
+) -> tuple[int, bool]:
     """A control period's sensing where beams leave from the bodies and nothing but robots
     blocks them, in one call over state kept between periods: `batch_poses` (from `last`,
-    `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`.
+    `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`'s
+    stages (`sense_candidates`, `fire`, `pulse_rows`: `sense` itself takes too many arguments
+    for numba to inline).
     Its results are written in place: the phases into `poses`' fourth row; per robot its count
     of pulses, and whether two read one time, into `counts` (2, robots); the pulses
     (`pulse_rows`' two blocks) into the first columns of `ids` and `told`, which have room for
@@ -418,7 +439,9 @@ def sense_period(
     in place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
     `light` and `timing` (normals.Normals); `robots` (5, robots) the spin rates, spin signs,
     reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y, facing and gain; `p`
-    the scalars (`period_params`). Returns the number of pulses."""
+    the scalars (`period_params`). Returns the number of pulses, and whether a robot's row of
+    draws now holds less than a period's need (`short`: the caller refills the blocks before
+    the next period, and need not look at them otherwise)."""
     batch_poses(last, states, t0, t_end, p[P_DT], poses[:3], t)
     x, y, h = poses[0], poses[1], poses[2]
     none = np.empty(0)
@@ -426,15 +449,21 @@ def sense_period(
     offset = robots[4] if p[P_OFFSET] > 0 else none
     clock_hz = p[P_CLOCK_HZ]
     clock = np.array([p[P_TIMING], t[0], t[t.shape[0] - 1], clock_hz, first_tick_after(t[0], clock_hz)])
-    phi, found, read, count = sense(
-        x, y, h, t, x, y, robots[0], p[P_DT], spin[0], noise, at[0], p[P_SCALE], p[P_DECAY], powers,
-        p[P_LAG_DECAY], p[P_COUPLED], lag_powers, spin[1], spin[2], spin[3], beacons[0], beacons[1], beacons[2], gain,
-        offset, robots[2], robots[3], int(p[P_KIND]), p[P_GATES:P_OPTICS], light, at[1], p[P_SIGMA],
-        p[P_OPTICS:P_SIZE], timing, at[2], clock, robots[1], p[P_MERGING : P_MERGING + 3], key,
+    bx, by, omega, kind = beacons[0], beacons[1], robots[0], int(p[P_KIND])
+    phi, robot, beacon, rows = sense_candidates(
+        x, y, h, t, x, y, omega, p[P_DT], spin[0], noise, at[0], p[P_SCALE], p[P_DECAY], powers, p[P_LAG_DECAY],
+        p[P_COUPLED], lag_powers, spin[1], spin[2], spin[3], bx, by, beacons[2], gain, offset, robots[2], robots[3],
+        kind, p[P_GATES:P_OPTICS],
     )  # fmt: skip
+    rows, shift, source, rob, bea, times, phase, count = fire(
+        robot, beacon, rows, kind, light, at[1], p[P_SIGMA], p[P_OPTICS:P_NEEDS], timing, at[2], clock, omega,
+        robots[1], p[P_MERGING : P_MERGING + 3], key,
+    )  # fmt: skip
+    found, read = pulse_rows(rows, shift, source, rob, bea, times, phase, bx, by)
     poses[3] = phi
     counts[:] = count
     m = found.shape[1]
     ids[:, :m] = found
     told[:, :m] = read
-    return m
+    need, hits = p[P_NEEDS], p[P_NEEDS + 1]
+    return m, short(noise, at[0], need) or short(light, at[1], hits) or short(timing, at[2], hits)
