@@ -150,7 +150,7 @@ def test_occlusion_is_numpys_bit_for_bit():
         args = (c.robot, c.step, c.s, c.x, c.y, bx[c.beacon], by[c.beacon])
         want = numpy_blocked(traj, *args, 0.02, reach, silhouette)
         got = occlusion.blocked(
-            c.x, c.y, bx[c.beacon], by[c.beacon], 0.02, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
+            c.x, c.y, bx, by, c.beacon, 0.02, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
         )
         for w, v in zip(want, got):
             assert w.tobytes() == v.tobytes()

@@ -40,7 +40,7 @@ def numpy_hits(traj, kind, p, gain, reach, silhouette, radius, light):
     bx, by = BEACONS
     c = find_crossings(traj, bx, by)
     hidden, _, _ = occlusion.blocked(
-        c.x, c.y, bx[c.beacon], by[c.beacon], radius, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
+        c.x, c.y, bx, by, c.beacon, radius, c.robot, c.step, c.s, traj.x, traj.y, reach, silhouette
     )
     keep = ~hidden & hardware.visible(kind, c, FACING, p)
     if kind == "reflector":

@@ -170,7 +170,7 @@ def crossing_arrays(
             ratio_ = offset_ratio(ex, ey, o)
             for c in range(n):
                 turn[c] = math.asin(ratio_[c])
-        s, ex, ey = newton_step(rows, s, ex, ey, toward_beacon, o, turn, shifted)
+        newton_step(rows, s, ex, ey, toward_beacon, o, turn, shifted)
     values = crossing_values(rows, s, ex, ey, step, beacon, t, bx, by)
     out = np.empty((7, n))
     for c in range(n):
@@ -337,10 +337,16 @@ def toward(rows: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Laser -> beacon at fraction `s` of each crossing's step."""
     n = s.shape[0]
     ex, ey = np.empty(n), np.empty(n)
-    for c in range(n):
+    toward_into(rows, s, ex, ey)
+    return ex, ey
+
+
+@compiled(inline="always")
+def toward_into(rows: np.ndarray, s: np.ndarray, ex: np.ndarray, ey: np.ndarray) -> None:
+    """`toward`, written into `ex` and `ey`."""
+    for c in range(s.shape[0]):
         ex[c] = rows[0, c] - s[c] * rows[2, c]
         ey[c] = rows[1, c] - s[c] * rows[3, c]
-    return ex, ey
 
 
 @compiled(inline="always")
@@ -387,11 +393,10 @@ def newton_step(
     offset: np.ndarray,
     shift: np.ndarray,
     shifted: bool,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One Newton step of each crossing's instant, clipped to its step (`find_crossings`), and
-    laser -> beacon there (`toward`)."""
+) -> None:
+    """One Newton step of each crossing's instant `s`, clipped to its step (`find_crossings`),
+    and laser -> beacon there (`toward`: `ex`, `ey`), each moved on in place."""
     n = s.shape[0]
-    out = np.empty(n)
     for c in range(n):
         ddx, ddy, da = rows[2, c], rows[3, c], rows[4, c]
         r2 = ex[c] * ex[c] + ey[c] * ey[c]
@@ -403,9 +408,8 @@ def newton_step(
             f = f + shift[c]
             slope = slope + o * (ex[c] * ddx + ey[c] * ddy) / (r2 * r * math.sqrt(maximum(1.0 - o * o / r2, 1e-12)))
         f = wrap_angle(f)
-        out[c] = minimum(maximum(s[c] - f / (1.0 if slope == 0.0 else slope), 0.0), 1.0)
-    ex, ey = toward(rows, out)
-    return out, ex, ey
+        s[c] = minimum(maximum(s[c] - f / (1.0 if slope == 0.0 else slope), 0.0), 1.0)
+    toward_into(rows, s, ex, ey)
 
 
 @compiled()

@@ -49,7 +49,7 @@ class Occlusion:
         """Whether the segment from each laser (px, py) to each beacon's near edge is blocked by
         another robot of `traj` (at fraction `s` of step `step`) or an obstacle."""
         blocked_, qx, qy = blocked(
-            px, py, self.bx[beacon], self.by[beacon], self.beacon_radius, robot, step, s,
+            px, py, self.bx, self.by, beacon, self.beacon_radius, robot, step, s,
             traj.x, traj.y, self.reach, self.silhouette,
         )  # fmt: skip
         if self.has_obstacles:
@@ -69,12 +69,13 @@ class Occlusion:
                 rows[11, i] = 0.0
 
 
-@compiled()
+@compiled(inline="always")
 def blocked(
     px: np.ndarray,
     py: np.ndarray,
     bx: np.ndarray,
     by: np.ndarray,
+    beacon: np.ndarray,
     radius: float,
     robot: np.ndarray,
     step: np.ndarray,
@@ -84,8 +85,8 @@ def blocked(
     reach: np.ndarray,
     silhouette: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Whether each segment from a laser (px, py) to the near edge (qx, qy) of a beacon of
-    `radius` at (bx, by) passes through another robot's silhouette at that instant (fraction
+    """Whether each segment from a laser (px, py) to the near edge (qx, qy) of its beacon
+    (`beacon`, of `radius`, at (bx, by) by index) passes through another robot's silhouette at that instant (fraction
     `s` of step `step` of the trajectory x, y). A robot whose circle, grown by its `reach`
     in the batch, misses the segment at the batch start is not tested exactly. Returns
     (blocked, qx, qy)."""
@@ -93,7 +94,7 @@ def blocked(
     qx, qy = np.empty(n), np.empty(n)
     out = np.zeros(n, np.bool_)
     for i in range(n):
-        vx, vy = bx[i] - px[i], by[i] - py[i]
+        vx, vy = bx[beacon[i]] - px[i], by[beacon[i]] - py[i]
         d = math.hypot(vx, vy)
         shrink = (d - radius) / maximum(d, TINY) if d > radius else 0.0
         qx[i], qy[i] = px[i] + vx * shrink, py[i] + vy * shrink

@@ -164,11 +164,10 @@ class Sensing:
         else:  # runs of states, or both
             states = np.vstack(rows)
         w0, w1 = self._last_t, self.world.time  # the batch's first and last times (`t[0]`, `t[-1]`)
-        batch = self._batch(len(states))
         if self._plain:  # the poses, the phases and the hits in one compiled call
             hits = self._period(states, w1)
         else:
-            t, x, y, heading, phi, poses = batch
+            t, x, y, heading, phi, poses = self._batch(len(states))
             sweep.batch_poses(self._last, states, w0, w1, self.dt, poses[:3], t)
             hits = self._other(t, x, y, heading, phi)
         self._last_t, self._rows = w1, []
@@ -182,11 +181,11 @@ class Sensing:
                     times = clock.times(w0, w1)
                     if len(times):  # most periods have none
                         false = false or [[] for _ in range(self.n)]
-                        false[r] = self._false_returns(Trajectory(*batch[:5]), r, times)
+                        false[r] = self._false_returns(Trajectory(*self._batch(len(states))[:5]), r, times)
                 if false:
                     sources.append(false)
         if self._any_index:
-            sources.append(self._index(Trajectory(*batch[:5])))
+            sources.append(self._index(Trajectory(*self._batch(len(states))[:5])))
         if len(sources) == 1:
             return hits
         out = []
@@ -336,8 +335,9 @@ class Sensing:
         times_, _, laser_x, laser_y, beacon_x, beacon_y, offset = told.tolist()
         if self._stepped:  # a stepped head: what it reads is the step, and when it got there
             times_ = reflector.step_time(told[0], told[1], self.omega[ids[0]], steps, float(t[0])).tolist()
-        angles = quantize_angle(told[1], steps).tolist() if self._latched else [None] * m
-        labels = list(map(self._labels.__getitem__, beacons)) if self._labels else [None] * m
+        # each hit's angle and label, as each is taken
+        angles = iter(quantize_angle(told[1], steps).tolist()) if self._latched else repeat(None)
+        labels = map(self._labels.__getitem__, beacons) if self._labels else repeat(None)
         beams = zip(laser_x, laser_y, beacon_x, beacon_y)
         if self.crosstalk == "shared":
             low = [self._rise_time - 2 * o for o in offset]  # the optics' dwell, and the release

@@ -89,10 +89,9 @@ def pulses(
         for a in range(m):
             turn[a] = np.floor(phi[source[order[a]]] * direction[rob[a]] / TWO_PI)
         times, _ = merge(times, rob, bea, turn, n_beacons, rate, key)
-    counts = np.zeros(n_robots, np.int64)
-    tied = np.zeros(n_robots, np.bool_)
+    counts = np.zeros((2, n_robots), np.int64)  # per robot: its pulses, and whether two read one time
     for a in range(m):
-        counts[rob[a]] += 1
+        counts[0, rob[a]] += 1
         if a and rob[a] == rob[a - 1] and times[a] == times[a - 1]:
-            tied[rob[a]] = True
-    return source[order], rob, bea, times, phase, np.stack((counts, tied.astype(np.int64)))
+            counts[1, rob[a]] = 1
+    return source[order], rob, bea, times, phase, counts
