@@ -1,12 +1,13 @@
 """The false pulses' clock drawn ahead (readout.FalseClock) against NumPy drawing each window
 itself (`readout.false_times`): the same times, window after window, from two Generators of
 one seed, with the caller's own draws (an array's label per pulse) between windows, for quiet
-rates, busy ones, means of 10 and over (NumPy's other Poisson method) and empty windows."""
+rates, busy ones, means of 10 and over (NumPy's other Poisson method) and empty windows; and
+the quiet windows a compiled pass takes (`readout.quiet`) against the clocks' own."""
 
 import numpy as np
 import pytest
 
-from arena.sensing.readout import FalseClock, false_times
+from arena.sensing.readout import FalseClock, false_times, quiet
 
 
 def windows(seed: int, count: int, longest: float) -> list[tuple[float, float]]:
@@ -33,3 +34,29 @@ def test_the_same_times_as_drawing_each_window(rate: float, longest: float, ahea
             busy += 1
             assert ahead_g.integers(7, size=len(got)).tolist() == direct.integers(7, size=len(want)).tolist()
     assert 0 < busy < len(spans)  # both kinds of window were tried
+
+
+@pytest.mark.parametrize(("rate", "clocks", "ahead"), [(0.02, 1, 256), (2.0, 4, 8), (30.0, 3, 4), (60.0, 2, 16)])
+def test_compiled_quiet_windows_are_the_clocks_own(rate: float, clocks: int, ahead: int):
+    """`quiet` (what a period's kernel asks of its robots' clocks) takes a window only where
+    every clock's `times` would find it quiet, taking the same uniform: clocks whose quiet
+    windows it took, and `times` for the rest, give each window what clocks left to `times`
+    alone give, drawing alike. Rates from rare to busy; means of 10 and over; blocks used up."""
+    seeds = range(5, 5 + clocks)
+    alone = [FalseClock(np.random.default_rng(s), rate, ahead) for s in seeds]
+    blocks, used = np.zeros((clocks, ahead)), np.zeros(clocks, np.int64)
+    shared = [
+        FalseClock(np.random.default_rng(s), rate, ahead, blocks[r], used[r : r + 1]) for r, s in enumerate(seeds)
+    ]
+    taken = 0
+    for t0, t1 in windows(clocks + ahead, 2000, 0.4 if rate < 50 else 0.3):
+        want = [clock.times(t0, t1).tolist() for clock in alone]
+        if quiet(blocks, used, rate, t0, t1):
+            taken += 1
+            got = [[] for _ in shared]
+        else:
+            got = [clock.times(t0, t1).tolist() for clock in shared]
+        assert got == want, (t0, t1)
+        for a, b, pulses in zip(alone, shared, want):  # the caller draws for each pulse, alike
+            assert a.g.integers(7, size=len(pulses)).tolist() == b.g.integers(7, size=len(pulses)).tolist()
+    assert 0 < taken < 2000

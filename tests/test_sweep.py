@@ -267,7 +267,7 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         )  # fmt: skip
         pulses_seen += want[1].shape[1]
         # in one call, over packed state
-        live, places = np.array(c["state"]), np.zeros((3, robots), np.int64)
+        live, places = np.array(c["state"]), np.zeros((4, robots), np.int64)
         places[0, : len(c["noise_at"])] = c["noise_at"]
         poses, times, counts = (
             np.full((4, steps + 1, robots), np.nan),
@@ -277,7 +277,7 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         needs = (steps, steps * len(bx))
         params = sweep.period_params(
             dt, (scale, decay, lag_decay, coupled), code, sigma, timing_scale, clock_hz, merging,
-            (len(gain) > 0, len(offset) > 0), gates, optics_, needs,
+            (len(gain) > 0, len(offset) > 0), gates, optics_, needs, 0.0,
         )  # fmt: skip
         packed_robots = np.array(
             [c["omega"], direction, reach, silhouette, offset if len(offset) else np.zeros(robots)]
@@ -285,10 +285,11 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         packed_beacons = np.array([bx, by, facing, gain if len(gain) else np.ones(len(bx))])
         first, room = states[0].copy(), steps * robots * len(bx)
         ids, told = np.full((2, room), -1, np.int64), np.full((7, room), np.nan)
-        m, short = sweep.sense_period(
-            first, states[1:], t0, t_end, poses, times, live, places, noise, c["light"], c["timing"], powers,
-            lag_powers, packed_robots, packed_beacons, params, counts, ids, told, key,
+        m, short, quiet = sweep.sense_period(
+            first, states[1:], t0, t_end, poses, times, live, places, noise, c["light"], c["timing"], np.zeros((0, 0)),
+            powers, lag_powers, packed_robots, packed_beacons, params, counts, ids, told, key,
         )  # fmt: skip
+        assert quiet  # no clocks
         assert m == want[1].shape[1]
         # short: some robot's row of some block now holds less than a period's need
         blocks = zip((noise, c["light"], c["timing"]), places, (needs[0], needs[1], needs[1]))
@@ -298,7 +299,7 @@ def test_a_period_in_one_call_is_batch_poses_then_sense(kind):
         assert np.array_equal(poses[3], want[0])
         assert np.array_equal(ids, want[1]) and np.array_equal(told, want[2]) and np.array_equal(counts, want[3])
         assert np.array_equal(live, np.array(state))
-        assert np.array_equal(places[0, : len(at[0])], at[0]) and np.array_equal(places[1:], np.array(at[1:]))
+        assert np.array_equal(places[0, : len(at[0])], at[0]) and np.array_equal(places[1:3], np.array(at[1:]))
     assert pulses_seen > 0
 
 

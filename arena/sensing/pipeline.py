@@ -34,6 +34,7 @@ from arena.sensing.spin import Spin
 from arena.world import World
 
 _NONE = np.zeros(0)  # a kernel's array argument that is not there
+_NO_ROWS = np.zeros((0, 0))  # the same, of two dimensions
 
 
 class Sensing:
@@ -77,7 +78,8 @@ class Sensing:
             name: [rng.stream("robot", r, name) for r in range(self.n)]
             for name in ("wobble", "detector", "timing", "false", "light")
         }
-        self._at = np.zeros((3, self.n), np.int64)  # each robot's place in its wobble, light and timing draws
+        # each robot's place in its wobble, light and timing draws, and in its false pulses' uniforms
+        self._at = np.zeros((4, self.n), np.int64)
         self.spin = Spin(self.omega, self.dt, self.params, self.rng["wobble"], at=self._at[0])
         self.turrets = Turrets(self.params, self.direction, self.rng["light"], self.occlusion)
         self.merge_key = int(rng.stream("beacons", "merge").integers(1 << 62))
@@ -87,8 +89,15 @@ class Sensing:
         p = self.params
         # when false pulses come: each robot's stream, and the table's under shared crosstalk
         self._spurious = self.kind in ("reflector", "sensor_array") and p.get("false_rate", 0.0) > 0
-        self._false = [FalseClock(g, p.get("false_rate", 0.0)) for g in self.rng["false"]]
-        self._table_false = FalseClock(self.table_false, p.get("false_rate", 0.0))
+        self._false_rate = float(p.get("false_rate", 0.0))
+        clocks = np.zeros((self.n, 256))  # each robot's false pulses' uniforms, drawn ahead (FalseClock)
+        self._false = [
+            FalseClock(g, self._false_rate, len(row), row, self._at[3, r : r + 1])
+            for r, (g, row) in enumerate(zip(self.rng["false"], clocks))
+        ]
+        self._table_false = FalseClock(self.table_false, self._false_rate)
+        # the clocks `sweep.sense_period` takes quiet periods from: each robot's, unless a table's is shared
+        self._clocks = clocks if self._spurious and self.crosstalk != "shared" else _NO_ROWS
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
         self._clock_hz = float(p.get("clock_hz", 0.0))
@@ -164,18 +173,18 @@ class Sensing:
         else:  # runs of states, or both
             states = np.vstack(rows)
         w0, w1 = self._last_t, self.world.time  # the batch's first and last times (`t[0]`, `t[-1]`)
-        if self._plain:  # the poses, the phases and the hits in one compiled call
-            hits = self._period(states, w1)
+        if self._plain:  # the poses, the phases, the hits and most quiet periods in one compiled call
+            hits, quiet = self._period(states, w1)
         else:
             t, x, y, heading, phi, poses = self._batch(len(states))
             sweep.batch_poses(self._last, states, w0, w1, self.dt, poses[:3], t)
-            hits = self._other(t, x, y, heading, phi)
+            hits, quiet = self._other(t, x, y, heading, phi), False
         self._last_t, self._rows = w1, []
         sources = [hits]
         if self._spurious:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(w0, w1)))
-            else:
+            elif not quiet:
                 false: list[list[Detection]] | None = None
                 for r, clock in enumerate(self._false):
                     times = clock.times(w0, w1)
@@ -199,10 +208,11 @@ class Sensing:
             out.append(merged)
         return out
 
-    def _period(self, states: np.ndarray, w1: float) -> list[list[Detection]]:
+    def _period(self, states: np.ndarray, w1: float) -> tuple[list[list[Detection]], bool]:
         """The batch's poses, phases (into its buffers: `_batch`) and hits, from the world's
         `states` up to the time `w1`, in one compiled call (`sweep.sense_period`): `_pulses`'
-        pulses as detections, each robot's draws from its own streams."""
+        pulses as detections, each robot's draws from its own streams; and whether the batch
+        was quiet for every robot's false pulses' clock (readout.quiet: each took its uniform)."""
         steps = len(states)
         plan = self._plans.get(steps)
         if plan is None:
@@ -211,13 +221,14 @@ class Sensing:
         draws = self._draws
         if not draws or draws[0] != steps:
             draws = self._ready(steps, need)
-        m, short = sweep.sense_period(
+        m, short, quiet = sweep.sense_period(
             self._last, states, self._last_t, w1, poses, t, self.spin.live, self._at, draws[1], draws[2], draws[3],
-            powers, lag_powers, self._robots, self._beacons, params, self._counts, ids, told, self._merge_key,
+            self._clocks, powers, lag_powers, self._robots, self._beacons, params, self._counts, ids, told,
+            self._merge_key,
         )  # fmt: skip
         if short:
             self._draws = ()
-        return self._detections(t, ids[:, :m], told[:, :m], *self._counts.tolist())
+        return self._detections(t, ids[:, :m], told[:, :m], *self._counts.tolist()), quiet
 
     def _ready(self, steps: int, need: int) -> tuple:
         """The blocks of draws `_period` passes, every robot's row holding a batch of `steps`
@@ -239,7 +250,7 @@ class Sensing:
         params = sweep.period_params(
             self.dt, (scale, decay, lag_decay, coupled), self._kind, self._light_sigma, self._timing_noise,
             self._clock_hz, self._merging, (len(self._gains) > 0, len(self._axis_offsets) > 0), self._gates,
-            self._optics, (steps, need),
+            self._optics, (steps, need), self._false_rate,
         )  # fmt: skip
         room = steps * self.n * len(self.ids)
         ids, told = np.empty((2, room), np.int64), np.empty((7, room))

@@ -63,29 +63,65 @@ class FalseClock:
     `Generator.random` gives. So a block of them is drawn ahead (the stream's state kept from
     before it), and each quiet window takes the next. A window that is not quiet puts the stream
     back where its draws begin (the saved state, then one double per quiet window before it) and
-    draws as `false_times` does; so may whatever the caller draws from `g` after it."""
+    draws as `false_times` does; so may whatever the caller draws from `g` after it.
 
-    def __init__(self, g: np.random.Generator, rate: float, ahead: int = 256):
+    The block and the count of it taken may live in the caller's arrays (`block`, a row of
+    `ahead`; `used`, one element; `ahead` taken: none left), so that a compiled pass takes its
+    quiet windows itself (`quiet`: sweep.sense_period) and calls nothing here."""
+
+    def __init__(
+        self,
+        g: np.random.Generator,
+        rate: float,
+        ahead: int = 256,
+        block: np.ndarray | None = None,
+        used: np.ndarray | None = None,
+    ):
         self.g, self.rate, self.ahead = g, rate, ahead
         self._saved: Mapping[str, Any] = {}
-        self._block: list[float] = []  # uniforms drawn ahead from `_saved` on
-        self._used = 0  # of them, by quiet windows
+        self.block = np.zeros(ahead) if block is None else block  # uniforms drawn ahead from `_saved` on
+        self.used = np.zeros(1, np.int64) if used is None else used  # of them, by quiet windows
+        self.used[0] = ahead  # none drawn yet
+        self._drawn = False  # whether the stream has moved past a block not yet given back (`times`)
 
     def times(self, t0: float, t1: float) -> np.ndarray:
         """`false_times(g, rate, t0, t1)`: when spurious pulses come between `t0` and `t1`."""
         mean = self.rate * (t1 - t0)
         if mean == 0.0:  # NumPy draws nothing for a mean of 0
             return _QUIET
+        used = int(self.used[0])
         if mean < _MULT_BELOW:
-            if self._used == len(self._block):
+            if used == self.ahead:
                 self._saved = self.g.bit_generator.state
-                self._block, self._used = self.g.random(self.ahead).tolist(), 0
-            if self._block[self._used] <= math.exp(-mean):
-                self._used += 1
+                self.g.random(out=self.block)
+                self._drawn, used = True, 0
+            if self.block[used] <= math.exp(-mean):
+                self.used[0] = used + 1
                 return _QUIET
-        if self._block:  # the stream back to where this window's draws begin
+        if self._drawn:  # the stream back to where this window's draws begin
             self.g.bit_generator.state = self._saved
-            if self._used:
-                self.g.random(self._used)
-            self._block, self._used = [], 0
+            if used:
+                self.g.random(used)
+            self._drawn = False
+        self.used[0] = self.ahead
         return false_times(self.g, self.rate, t0, t1)
+
+
+@compiled(inline="always")
+def quiet(blocks: np.ndarray, used: np.ndarray, rate: float, t0: float, t1: float) -> bool:
+    """Whether the window from `t0` to `t1` is quiet for every `FalseClock` of `blocks` (a row
+    each, `used[r]` of it taken), as `FalseClock.times` would find it; if so, each takes its
+    uniform. All or none: where one window is not quiet, or a block is used up, nothing is
+    taken, and `FalseClock.times` of each clock says what comes."""
+    mean = rate * (t1 - t0)
+    if blocks.shape[0] == 0 or mean == 0.0:
+        return True
+    if not mean < _MULT_BELOW:
+        return False
+    limit = math.exp(-mean)
+    for r in range(blocks.shape[0]):
+        if used[r] >= blocks.shape[1] or not blocks[r, used[r]] <= limit:
+            return False
+    for r in range(blocks.shape[0]):
+        used[r] += 1
+    return True

@@ -27,7 +27,7 @@ from arena.sensing.crossings import crossing_arrays, laser_to_beacons
 from arena.sensing.occlusion import blocked
 from arena.sensing.optics import sweep_optics
 from arena.sensing.pulses import pulses
-from arena.sensing.readout import first_tick_after
+from arena.sensing.readout import first_tick_after, quiet
 from arena.sensing.spin import laser_phases
 
 REFLECTOR, SENSOR_ARRAY, FLASH_DETECTOR = 0, 1, 2
@@ -359,7 +359,8 @@ P_GAIN, P_OFFSET = 12, 13  # whether the beacons' gains, and the beams' offsets,
 P_GATES = 14  # `gates`' 13
 P_OPTICS = P_GATES + len(GATES) + 1  # `hardware`'s 5
 P_NEEDS = P_OPTICS + 5  # two: a robot's need of wobble draws, and of light and timing draws, in a period
-P_SIZE = P_NEEDS + 2
+P_FALSE_RATE = P_NEEDS + 2  # false pulses per second (readout.FalseClock)
+P_SIZE = P_FALSE_RATE + 1
 
 
 def period_params(
@@ -374,20 +375,22 @@ def period_params(
     gates_: np.ndarray,
     optics: np.ndarray,
     needs: tuple[int, int],
+    false_rate: float,
 ) -> np.ndarray:
     """`sense_period`'s scalars as one array: the step, the spin's `drive` (the wobble's scale
     and decay, the lag's decay and coupling: spin.Spin.model), the detector `kind`, the light
     noise `sigma`, the timing noise's scale, the event clock's rate, the merges (`fire`'s
     `merging`), whether gains and offsets are `present`, `gates_` (`gates`), `optics`
-    (`hardware`), and a robot's `needs` of draws in a period: of the wobble's, and of the
-    light's and the timing's (normals.Normals)."""
+    (`hardware`), a robot's `needs` of draws in a period (of the wobble's, and of the light's
+    and the timing's: normals.Normals), and the `false_rate` of false pulses."""
     p = np.empty(P_SIZE)
     p[:P_MERGING] = (dt, *drive, kind, sigma, timing, clock_hz)
     p[P_MERGING : P_MERGING + 3] = merging
     p[P_GAIN], p[P_OFFSET] = present
     p[P_GATES:P_OPTICS] = gates_
     p[P_OPTICS:P_NEEDS] = optics
-    p[P_NEEDS:] = needs
+    p[P_NEEDS : P_NEEDS + 2] = needs
+    p[P_FALSE_RATE] = false_rate
     return p
 
 
@@ -416,6 +419,7 @@ def sense_period(
     noise: np.ndarray,
     light: np.ndarray,
     timing: np.ndarray,
+    clocks: np.ndarray,
     powers: np.ndarray,
     lag_powers: np.ndarray,
     robots: np.ndarray,
@@ -425,7 +429,7 @@ def sense_period(
     ids: np.ndarray,
     told: np.ndarray,
     key: np.uint64,
-) -> tuple[int, bool]:
+) -> tuple[int, bool, bool]:
     """A control period's sensing where beams leave from the bodies and nothing but robots
     blocks them, in one call over state kept between periods: `batch_poses` (from `last`,
     `states` and the times `t0`, `t_end` into `poses`' first three rows and `t`), then `sense`'s
@@ -436,12 +440,15 @@ def sense_period(
     (`pulse_rows`' two blocks) into the first columns of `ids` and `told`, which have room for
     as many as there may be crossings. Its arguments are packed, as numba takes and gives each
     array at a cost: `spin` (4, robots) is the spin's phase, wobble, lag and body rate, moved on
-    in place (spin.Spin); `at` (3, robots) each robot's position in the blocks of draws `noise`,
-    `light` and `timing` (normals.Normals); `robots` (5, robots) the spin rates, spin signs,
-    reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y, facing and gain; `p`
-    the scalars (`period_params`). Returns the number of pulses, and whether a robot's row of
-    draws now holds less than a period's need (`short`: the caller refills the blocks before
-    the next period, and need not look at them otherwise)."""
+    in place (spin.Spin); `at` (4, robots) each robot's position in the blocks of draws `noise`,
+    `light` and `timing` (normals.Normals), then in its false pulses' block of uniforms, a row
+    of `clocks` (readout.FalseClock; no rows: the caller's clocks); `robots` (5, robots) the
+    spin rates, spin signs, reaches, silhouettes and beam offsets; `beacons` (4, beacons) x, y,
+    facing and gain; `p` the scalars (`period_params`). Returns the number of pulses; whether a
+    robot's row of draws now holds less than a period's need (`short`: the caller refills the
+    blocks before the next period, and need not look at them otherwise); and whether the
+    period was quiet for every false pulses' clock (readout.quiet: if not, the caller asks
+    each clock)."""
     batch_poses(last, states, t0, t_end, p[P_DT], poses[:3], t)
     x, y, h = poses[0], poses[1], poses[2]
     none = np.empty(0)
@@ -466,4 +473,5 @@ def sense_period(
     ids[:, :m] = found
     told[:, :m] = read
     need, hits = p[P_NEEDS], p[P_NEEDS + 1]
-    return m, short(noise, at[0], need) or short(light, at[1], hits) or short(timing, at[2], hits)
+    running_short = short(noise, at[0], need) or short(light, at[1], hits) or short(timing, at[2], hits)
+    return m, running_short, quiet(clocks, at[3], p[P_FALSE_RATE], t0, t_end)
