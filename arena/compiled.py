@@ -32,9 +32,10 @@ import numpy as np
 from llvmlite import binding as llvm
 from llvmlite.binding import ffi
 from numba import njit
-from numba.core import environment
+from numba.core import environment, errors, types
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime import nrtdynmod, rtsys
+from numba.np import numpy_support
 
 from arena._elf import defined_symbols
 from arena.angles import TWO_PI
@@ -49,16 +50,36 @@ def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
     the user's cache folder); where neither can be written, compiled afresh in each process instead."""
 
     def wrap(f: F) -> F:
+        kernel: Any
         try:
             kernel = njit(cache=True, error_model="numpy", inline=inline)(f)
         except RuntimeError:  # "cannot cache function ...: no locator available"
-            return cast(F, njit(error_model="numpy", inline=inline)(f))
+            kernel = njit(error_model="numpy", inline=inline)(f)
         cache: Any = getattr(kernel, "_cache", None)  # numba's cache of this kernel
         if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
             cache.load_overload = lambda sig, target_context: _load_cached(cache, sig, target_context)
+        if hasattr(kernel, "_types_active_call"):
+            kernel.typeof_pyval = functools.partial(_typeof_argument, kernel)
         return cast(F, kernel)
 
     return wrap
+
+
+def _typeof_argument(kernel: Any, value: Any) -> Any:
+    """numba's `Dispatcher.typeof_pyval` (an argument's type, where the kernel's compiled
+    dispatch has not met its kind yet), but that numba's type of an array first imports
+    numpy.ma to refuse masked arrays, 10-20 ms of a run's start. No masked
+    array exists before numpy.ma is imported, so until then a plain array's type is read here,
+    as numba reads it."""
+    if type(value) is not np.ndarray or "numpy.ma" in sys.modules:
+        return type(kernel).typeof_pyval(kernel, value)
+    try:
+        dtype = numpy_support.from_dtype(value.dtype)
+    except errors.NumbaNotImplementedError:
+        return type(kernel).typeof_pyval(kernel, value)  # numba's own error
+    kind = types.Array(dtype, value.ndim, numpy_support.map_layout(value), readonly=not value.flags.writeable)
+    kernel._types_active_call.add(kind)
+    return kind
 
 
 def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:

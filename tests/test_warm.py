@@ -2,7 +2,8 @@
 kernel a match calls: after it, with its cache alone (a cache folder of the test's own), other
 matches of every level, with noise and ideal, their replays written, load every kernel and compile none, so a user's
 first match never waits for the compiler. They load them without readying numba to compile
-(decision 0045), and numba still compiles what is new afterwards. Without it, the first
+(decision 0045), nor numpy.ma for their arguments' types, and numba still compiles what is
+new afterwards. Without it, the first
 `laserarena run` says, before anything else, that it compiles and how long that takes; a
 warmed one does not."""
 
@@ -23,6 +24,7 @@ RUN = [LASERARENA, "run", "bac-static", "--team", "ref:idle"]
 
 PROBE = """
 import dataclasses
+import sys
 import tempfile
 from pathlib import Path
 import levels
@@ -43,6 +45,7 @@ with event.install_recorder("numba:compile") as compiled, tempfile.TemporaryDire
         teams = [resolve(level.default_controller)] * len(level.robots)
         for ideal in (False, True):
             play_match(level, teams, seed=7, ideal=ideal, isolate=False, replay=Path(folder) / "m.replay")
+print("numpy.ma imported:", "numpy.ma" in sys.modules)
 print("readied to compile:", len(refreshed))
 print("a new function:", njit(lambda a: np.sum(a * 2.0))(np.arange(4.0)), "readied:", len(refreshed) > 0)
 print(sorted({e.data["dispatcher"].py_func.__qualname__ for _, e in compiled.buffer if e.is_start}))
@@ -72,6 +75,7 @@ def test_after_the_warm_up_a_match_compiles_nothing(tmp_path):
     assert probe.returncode == 0, probe.stderr
     lines = probe.stdout.splitlines()
     assert lines[-1] == "[]", probe.stdout  # the kernels it had to compile
+    assert lines[-4] == "numpy.ma imported: False", probe.stdout  # numba's typeof of an array would import it
     assert lines[-3] == "readied to compile: 0", probe.stdout
     assert lines[-2] == "a new function: 12.0 readied: True", probe.stdout
     # warmed: a run says nothing of compiling (the table on stdout, nothing on stderr)
@@ -270,3 +274,41 @@ def test_an_object_the_symbol_reader_cannot_read_is_left_to_llvm():
     header = bytearray(b"\x7fELF\x02\x01" + bytes(58))
     struct.pack_into("<QIHHHHHH", header, 0x28, 1 << 20, 0, 64, 0, 0, 64, 3, 0)  # section headers past the end
     assert defined_symbols(bytes(header)) is None
+
+
+TYPES = """
+import sys
+import numpy as np
+from arena.sensing import sweep
+base = np.arange(24.0).reshape(2, 3, 4)
+readonly = np.zeros(5)
+readonly.flags.writeable = False
+arrays = [
+    np.zeros(3), base, base[:, 1], np.asfortranarray(base[0]), base[..., ::2], readonly,
+    np.zeros((2, 2), np.int64), np.zeros(4, np.bool_), np.zeros(2, np.uint64), np.zeros(3, np.complex128),
+    np.zeros(0), np.zeros((0, 0)), np.float64(2.5), 3, True,
+]
+ours = [sweep.sense_period.typeof_pyval(a) for a in arrays]
+print("numpy.ma imported:", "numpy.ma" in sys.modules)
+from numba import typeof
+from numba.core.typing.typeof import Purpose
+print("as numba types them:", ours == [typeof(a, Purpose.argument) for a in arrays])
+import numpy.ma
+try:
+    sweep.batch_poses(np.ma.zeros(3), np.zeros((0, 3)), 0.0, 0.0, 0.1, np.zeros((3, 1, 1)), np.zeros(1))
+except Exception as e:
+    print("a masked array:", type(e).__name__, "MaskedArray" in str(e))
+"""
+
+
+def test_a_kernel_types_its_array_arguments_as_numba_does_without_numpy_ma():
+    """The kernels type an array argument they have not met yet as numba does, without
+    importing numpy.ma (numba imports it to refuse masked arrays): every layout, dtype and
+    flag alike; once numpy.ma is loaded, a masked array is refused with numba's own error."""
+    out = subprocess.run([sys.executable, "-c", TYPES], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == [
+        "numpy.ma imported: False",
+        "as numba types them: True",
+        "a masked array: NumbaTypeError True",
+    ], out.stdout

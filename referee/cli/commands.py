@@ -30,7 +30,7 @@ from referee.terminal import safe
 
 # s: about what a first match after installing spends compiling the kernels (the `first-run`
 # row of docs/performance.json; tests/test_warm.py holds the two together)
-COMPILING_S = 30
+COMPILING_S = 20
 
 
 def announce_compiling(quiet: bool) -> None:
