@@ -203,3 +203,10 @@ def test_help_and_argument_errors_load_no_command(args):
     # parsing answers before the commands' modules load (numpy and numba take a fifth of a second)
     out = subprocess.run([sys.executable, "-c", LOADED, *args], capture_output=True, text=True, timeout=60)
     assert out.stdout.splitlines()[-1] == "[]", out.stdout + out.stderr
+
+
+def test_a_run_loads_no_toolkit_in_the_referee():
+    # the starter kit, and through it the team's toolkit, load for `laserarena new` alone (16 ms of a run's start)
+    probe = "import sys, referee.cli.commands, referee.match.loop; print([m for m in sys.modules if m.startswith('robots.toolkit')])"
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.splitlines()[-1] == "[]", out.stdout + out.stderr

@@ -20,7 +20,6 @@ import levels
 from arena.heap import lasting
 from levels.loader import find_level, load_level
 from referee import api
-from referee.cli.starter_kit import create, create_from_policy
 from referee.cli.summary import table
 from referee.errors import LaserArenaWarning, UserError
 from referee.records.canonical import dumps
@@ -345,6 +344,8 @@ def cmd_map(args: argparse.Namespace) -> int:
 
 
 def cmd_new(args: argparse.Namespace) -> int:
+    from referee.cli.starter_kit import create, create_from_policy  # a run needs neither: loaded here alone
+
     if args.from_policy:
         folder = create_from_policy(args.name, Path(args.from_policy), Path(args.dir))
         print(f"wrote {folder}/: __init__.py, policy.npz, README.md")
