@@ -1,18 +1,14 @@
 """A batch's beam-beacon hits, in one compiled call (`sense`, decision 0050) of the laser
 phases (spin), the vectors to the beacons and three stages: `candidates` finds every crossing,
 drops those another robot's silhouette blocks or the kind's gates refuse, and gives each
-detector's response there; `response` lets each sweep's light vary (`light_noise`) and applies the optics
-(which sweeps fire, and how early); then `pulses` reads them as the hardware does (the last two
-in one call, `fire`). Where a level has obstacles, pymunk's segment query runs between
-`sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead from
-its own streams (normals.Normals). The models are the kind modules' (reflector, sensor_array,
-flash_detector, optics); here they run on one batch at once. `sense_period` is a match's period
-in one call: the poses laid out (`batch_poses`), then `sense`'s stages, over state kept packed
-between periods, since numba takes each array argument at a cost. The stages that only pass
-arrays on (`sense_candidates`, `candidates`, `fire`, `response`, crossings.first_guesses) and
-short loops over many arrays (`batch_poses`, `pulse_rows`, occlusion.blocked) are inlined where
-they are called: numba counts a reference to each array a call passes, on the way in and out.
-Inlining the long loops as well gains nothing measurable and doubles the first compile.
+detector's response there; `response` lets each sweep's light vary (`light_noise`) and applies
+the optics (which sweeps fire, and how early); then `pulses` reads them as the hardware does
+(the last two in one call, `fire`). Where a level has obstacles, pymunk's segment query runs
+between `sense_candidates` and `fire`. Each robot's draws come in order from blocks drawn ahead
+from its own streams (normals.Normals). The models are the kind modules' (reflector,
+sensor_array, flash_detector, optics); here they run on one batch at once. `sense_period` is a
+match's period in one call over state kept packed between periods, its glue and short loops
+inlined: numba takes each array argument at a cost (decision 0053).
 """
 
 from __future__ import annotations
