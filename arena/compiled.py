@@ -67,10 +67,9 @@ def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
 
 def _typeof_argument(kernel: Any, value: Any) -> Any:
     """numba's `Dispatcher.typeof_pyval` (an argument's type, where the kernel's compiled
-    dispatch has not met its kind yet), but that numba's type of an array first imports
-    numpy.ma to refuse masked arrays, 10-20 ms of a run's start. No masked
-    array exists before numpy.ma is imported, so until then a plain array's type is read here,
-    as numba reads it."""
+    dispatch has not met its kind yet), without the import of numpy.ma that numba's typeof of
+    an array makes to refuse masked arrays (10-20 ms of a run's start). No masked array exists
+    before numpy.ma is imported, so until then a plain array is typed here as numba types it."""
     if type(value) is not np.ndarray or "numpy.ma" in sys.modules:
         return type(kernel).typeof_pyval(kernel, value)
     try:

@@ -90,14 +90,14 @@ class Sensing:
         # when false pulses come: each robot's stream, and the table's under shared crosstalk
         self._spurious = self.kind in ("reflector", "sensor_array") and p.get("false_rate", 0.0) > 0
         self._false_rate = float(p.get("false_rate", 0.0))
-        clocks = np.zeros((self.n, 256))  # each robot's false pulses' uniforms, drawn ahead (FalseClock)
+        uniforms = np.zeros((self.n, 256))  # each robot's false pulses' uniforms, drawn ahead (FalseClock)
         self._false = [
             FalseClock(g, self._false_rate, len(row), row, self._at[3, r : r + 1])
-            for r, (g, row) in enumerate(zip(self.rng["false"], clocks))
+            for r, (g, row) in enumerate(zip(self.rng["false"], uniforms))
         ]
         self._table_false = FalseClock(self.table_false, self._false_rate)
-        # the clocks `sweep.sense_period` takes quiet periods from: each robot's, unless a table's is shared
-        self._clocks = clocks if self._spurious and self.crosstalk != "shared" else _NO_ROWS
+        # the clocks' uniforms `sweep.sense_period` takes quiet periods from: each robot's, unless a table's is shared
+        self._false_uniforms = uniforms if self._spurious and self.crosstalk != "shared" else _NO_ROWS
         self._light_noise = float(p.get("light_noise", 0.0)) if p.get("light_noise", 0.0) > 0 else 0.0
         self._timing_noise = p["timing_noise"] if p.get("timing_noise", 0.0) > 0 else 0.0
         self._clock_hz = float(p.get("clock_hz", 0.0))
@@ -223,7 +223,7 @@ class Sensing:
             draws = self._ready(steps, need)
         m, short, quiet = sweep.sense_period(
             self._last, states, self._last_t, w1, poses, t, self.spin.live, self._at, draws[1], draws[2], draws[3],
-            self._clocks, powers, lag_powers, self._robots, self._beacons, params, self._counts, ids, told,
+            self._false_uniforms, powers, lag_powers, self._robots, self._beacons, params, self._counts, ids, told,
             self._merge_key,
         )  # fmt: skip
         if short:
