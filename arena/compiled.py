@@ -32,7 +32,7 @@ import numpy as np
 from llvmlite import binding as llvm
 from llvmlite.binding import ffi
 from numba import njit
-from numba.core import environment, errors, types
+from numba.core import entrypoints, environment, errors, types
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime import nrtdynmod, rtsys
 from numba.np import numpy_support
@@ -58,6 +58,8 @@ def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
         cache: Any = getattr(kernel, "_cache", None)  # numba's cache of this kernel
         if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
             cache.load_overload = lambda sig, target_context: _load_cached(cache, sig, target_context)
+            if hasattr(kernel, "_compilation_chain_init_hook"):
+                kernel._compilation_chain_init_hook = _no_extensions_yet
         if hasattr(kernel, "_types_active_call"):
             kernel.typeof_pyval = functools.partial(_typeof_argument, kernel)
         return cast(F, kernel)
@@ -81,6 +83,13 @@ def _typeof_argument(kernel: Any, value: Any) -> Any:
     return kind
 
 
+def _no_extensions_yet() -> None:
+    """A cached kernel's `_compilation_chain_init_hook`: numba loads its extensions (every
+    installed package's entry points scanned: 3-10 ms of a run's start) before a kernel's
+    first call, so that a compile knows their types. Loading cached code needs none of them;
+    `_load_cached` loads them where it finds no code and numba compiles."""
+
+
 def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
     """numba's `Cache.load_overload` (the kernel's machine code for `sig` from its cache, or
     None) without its refresh of the target context: numba refreshes the context (importing
@@ -90,6 +99,7 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
     without numba's event at each call (`_unobserved`), the runtime's own functions come
     from the cache too (`_start_runtime`), and the machine code loads without its bitcode
     parsed (`_from_object`)."""
+    loaded = None
     with _unobserved():
         codegen = target_context.codegen()
         if "unserialize_library" not in vars(codegen):  # this process's codegen: one per target
@@ -99,9 +109,12 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
             rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
             environment._rebuild_env = _environment
             try:
-                return cache._load_overload(sig, target_context)
+                loaded = cache._load_overload(sig, target_context)
             finally:
                 environment._rebuild_env = rebuild
+    if loaded is None:
+        entrypoints.init_all()  # numba compiles next: its extensions first, as its own hook would
+    return loaded
 
 
 def _from_object(codegen: Any, serialized: tuple) -> Any:

@@ -188,9 +188,10 @@ sys.path.insert(0, sys.argv[1])
 parsed = []
 parse = binding.parse_bitcode
 binding.parse_bitcode = lambda data, *a: (parsed.append(len(data)), parse(data, *a))[1]
+from numba.core import entrypoints
 from linking import inner, outer
-print(inner(3.0), len(parsed))  # loaded from the cache: its bitcode untouched
-print(outer(3.0), len(parsed) > 0)  # compiled, linking the loaded one: its bitcode parsed now
+print(inner(3.0), len(parsed), entrypoints._already_initialized)  # loaded from the cache: its bitcode untouched
+print(outer(3.0), len(parsed) > 0, entrypoints._already_initialized)  # compiled, linking the loaded one: its bitcode parsed now
 """
 
 LINKING_KERNELS = """
@@ -207,8 +208,9 @@ def outer(x):
 
 
 def test_a_kernel_loaded_from_the_cache_is_linked_into_one_compiled_after_it(tmp_path):
-    """A cached kernel's machine code loads without its LLVM bitcode parsed (arena.compiled);
-    a kernel compiled later that calls it still links it in, the bitcode parsed then."""
+    """A cached kernel's machine code loads without its LLVM bitcode parsed, nor numba's
+    extensions loaded (arena.compiled); a kernel compiled later that calls it still links it
+    in, the bitcode parsed then, and the extensions loaded before it compiles."""
     (tmp_path / "linking.py").write_text(LINKING_KERNELS)
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     first = subprocess.run([sys.executable, "-c", LINKING, str(tmp_path)], env=env, capture_output=True, text=True)
@@ -219,7 +221,7 @@ def test_a_kernel_loaded_from_the_cache_is_linked_into_one_compiled_after_it(tmp
         [sys.executable, "-c", LINKING, str(tmp_path)], env=env, capture_output=True, text=True, timeout=300
     )
     assert again.returncode == 0, again.stderr
-    assert again.stdout.split("\n")[:2] == ["7.0 0", "70.0 True"], again.stdout
+    assert again.stdout.split("\n")[:2] == ["7.0 0 False", "70.0 True True"], again.stdout
 
 
 SYMBOLS = """
