@@ -244,6 +244,7 @@ class Run:
             raise OSError(f"the control group name {self.name} is held")
         self.lease, self.folders = lease, list[str]()
         self.homes = list[str]()  # the groups this process left for its `referee` groups
+        self._leaving: threading.Thread | None = None  # its move back (`leave`)
         self.nice = os.getpriority(os.PRIO_PROCESS, 0)  # the organizer's, carried to every group
         try:
             for folder in place.folders:
@@ -285,11 +286,21 @@ class Run:
             raise
         return made
 
-    def close(self) -> None:
-        """Back to where this process was; remove its groups (what cannot be removed is left
-        for the next referee's sweep) and give the name up."""
-        if os.getpid() != self.pid or self.lease.fd < 0:
+    def leave(self) -> None:
+        """Back to where this process was, on a thread of its own: the move waits a grace
+        period, as the move in did (`close` joins it, or moves back itself where Python
+        starts no thread at its exit, as 3.12 does)."""
+        if os.getpid() != self.pid or self._leaving is not None:
             return
+        leaving = threading.Thread(target=self._go_home, name="laserarena-cgroup-out", daemon=True)
+        try:
+            leaving.start()
+        except RuntimeError:  # "can't create new thread at interpreter shutdown"
+            return
+        self._leaving = leaving
+
+    def _go_home(self) -> None:
+        """Move this process back into the groups it left (where it moved in at all)."""
         entering = getattr(self, "_entering", None)
         if entering is not None:
             entering.join()  # in, before it moves back out
@@ -298,6 +309,17 @@ class Run:
                 _write(f"{home}/cgroup.procs", str(os.getpid()))
             except OSError:
                 pass
+
+    def close(self) -> None:
+        """Back to where this process was; remove its groups (what cannot be removed is left
+        for the next referee's sweep) and give the name up."""
+        if os.getpid() != self.pid or self.lease.fd < 0:
+            return
+        self.leave()
+        if self._leaving is None:
+            self._go_home()
+        else:
+            self._leaving.join()
         for folder in self.folders:
             _remove_tree(Path(folder))
         self.lease.release()
@@ -315,6 +337,13 @@ def run() -> Run:
             raise OSError(place)
         current = _runs[os.getpid()] = Run(place)
     return current
+
+
+def leave_soon() -> None:
+    """This process leaves its groups now, at exit, while other work ends (`Run.leave`)."""
+    current = _runs.get(os.getpid())
+    if current is not None:
+        current.leave()
 
 
 @atexit.register

@@ -142,3 +142,37 @@ def test_a_referee_whose_leases_are_out_of_sight_keeps_its_groups(tmp_path):
             referee.wait(30)
     assert referee.returncode == 0, err
     assert all(not r["faults"] for r in json.loads(out)["robots"])
+
+
+ENDING = """
+import atexit, json, sys, threading
+from hostile.hostile_kit import HONEST, short_race
+from referee.match.loop import play_match
+from referee.sandbox import cgroup
+from referee.sandbox.teams import resolve
+
+def refuse(thread):
+    raise RuntimeError("can't create new thread at interpreter shutdown")
+
+result = play_match(short_race(2.0), [resolve(HONEST)] * 4, seed=2)
+print(json.dumps({"name": cgroup.run().name, "faults": [r["faults"] for r in result.to_dict()["robots"]]}))
+if sys.argv[1] == "refused":  # at exit, no thread starts, as in Python 3.12 (run first: registered last)
+    atexit.register(lambda: setattr(threading.Thread, "start", refuse))
+"""
+
+
+@pytest.mark.parametrize("threads_at_exit", ["started", "refused"])
+def test_a_referee_that_ends_leaves_none_of_its_groups(threads_at_exit):
+    """At exit the referee moves back to the groups it came from (on a thread, while its
+    template ends; itself, where Python starts no thread then) and removes its own."""
+    place = cgroup.available()
+    assert not isinstance(place, str), place
+    done = subprocess.run(
+        [sys.executable, "-c", ENDING, threads_at_exit], capture_output=True, text=True, timeout=300,
+        cwd=Path(__file__).parent.parent,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout)
+    assert out["faults"] == [[]] * 4
+    assert out["name"].startswith("laserarena-")
+    assert [p for f in place.folders for p in f.glob(f"{out['name']}-*")] == []
