@@ -22,7 +22,7 @@ import os
 import pickle
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any, Literal, TypeVar, cast
 
@@ -33,6 +33,7 @@ from llvmlite import binding as llvm
 from llvmlite.binding import ffi
 from numba import njit
 from numba.core import entrypoints, environment, errors, types
+from numba.core.caching import FunctionCache, NullCache
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.runtime import nrtdynmod, rtsys
 from numba.np import numpy_support
@@ -50,21 +51,49 @@ def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
     the user's cache folder); where neither can be written, compiled afresh in each process instead."""
 
     def wrap(f: F) -> F:
-        kernel: Any
-        try:
-            kernel = njit(cache=True, error_model="numpy", inline=inline)(f)
-        except RuntimeError:  # "cannot cache function ...: no locator available"
-            kernel = njit(error_model="numpy", inline=inline)(f)
-        cache: Any = getattr(kernel, "_cache", None)  # numba's cache of this kernel
-        if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
-            cache.load_overload = lambda sig, target_context: _load_cached(cache, sig, target_context)
-            if hasattr(kernel, "_compilation_chain_init_hook"):
-                kernel._compilation_chain_init_hook = _no_extensions_yet
-        if hasattr(kernel, "_types_active_call"):
+        kernel: Any = njit(error_model="numpy", inline=inline)(f)
+        if hasattr(kernel, "_compilation_chain_init_hook") and hasattr(kernel, "_types_active_call"):
+            kernel._cache = _Cache(kernel.py_func)
+            kernel._compilation_chain_init_hook = _no_extensions_yet
             kernel.typeof_pyval = functools.partial(_typeof_argument, kernel)
+        else:  # a numba laid out otherwise: its own cache, where it finds a folder
+            with suppress(RuntimeError):  # "cannot cache function ...: no locator available"
+                kernel.enable_caching()
         return cast(F, kernel)
 
     return wrap
+
+
+class _Cache:
+    """numba's cache of one kernel (its `FunctionCache`), made at the kernel's first call:
+    making it looks for a folder it may write and writes a file there to be sure (0.13 ms),
+    and a run calls 7 of the 48 kernels from Python. Its machine code loads by `_load_cached`;
+    numba's extensions load only where none is found, before numba compiles."""
+
+    def __init__(self, py_func: Callable):
+        self._py_func = py_func
+        self._made: Any = None
+
+    def _cache(self) -> Any:
+        if self._made is None:
+            try:
+                self._made = FunctionCache(self._py_func)
+            except RuntimeError:  # "cannot cache function ...: no locator available"
+                self._made = NullCache()  # compiled afresh in each process
+        return self._made
+
+    def __getattr__(self, name: str) -> Any:  # what numba asks of its cache, but loading
+        if name in ("_py_func", "_made"):
+            raise AttributeError(name)
+        return getattr(self._cache(), name)
+
+    def load_overload(self, sig: Any, target_context: Any) -> Any:
+        cache, loaded = self._cache(), None
+        if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
+            loaded = _load_cached(cache, sig, target_context)
+        if loaded is None:
+            entrypoints.init_all()  # numba compiles next: its extensions first, as its own hook would
+        return loaded
 
 
 def _typeof_argument(kernel: Any, value: Any) -> Any:
@@ -84,10 +113,9 @@ def _typeof_argument(kernel: Any, value: Any) -> Any:
 
 
 def _no_extensions_yet() -> None:
-    """A cached kernel's `_compilation_chain_init_hook`: numba loads its extensions (every
-    installed package's entry points scanned: 3-10 ms of a run's start) before a kernel's
-    first call, so that a compile knows their types. Loading cached code needs none of them;
-    `_load_cached` loads them where it finds no code and numba compiles."""
+    """A kernel's `_compilation_chain_init_hook`: numba loads its extensions (every installed
+    package's entry points scanned: 3-10 ms of a run's start) before a kernel's first call,
+    so that a compile knows their types. Loading cached code needs none (`_Cache`)."""
 
 
 def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
@@ -112,8 +140,6 @@ def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
                 loaded = cache._load_overload(sig, target_context)
             finally:
                 environment._rebuild_env = rebuild
-    if loaded is None:
-        entrypoints.init_all()  # numba compiles next: its extensions first, as its own hook would
     return loaded
 
 

@@ -224,6 +224,33 @@ def test_a_kernel_loaded_from_the_cache_is_linked_into_one_compiled_after_it(tmp
     assert again.stdout.split("\n")[:2] == ["7.0 0 False", "70.0 True True"], again.stdout
 
 
+FIRST_CALL = """
+import sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[1])
+from linking import inner, outer
+cache = Path(sys.argv[2])
+print(sorted(p.name for p in cache.rglob("*")))
+print(inner(3.0))
+print(sorted(p.suffix for p in cache.rglob("linking.inner-*")), sorted(p.name for p in cache.rglob("linking.outer-*")))
+"""
+
+
+def test_a_kernel_s_cache_is_made_at_its_first_call(tmp_path):
+    """numba makes a kernel's cache by looking for a folder it may write and writing a file
+    there: made at a kernel's first call (arena.compiled), a run pays it for the few kernels it
+    calls, not for every kernel it imports."""
+    (tmp_path / "linking.py").write_text(LINKING_KERNELS)
+    cache = tmp_path / "cache"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+    done = subprocess.run(
+        [sys.executable, "-c", FIRST_CALL, str(tmp_path), str(cache)], env=env, capture_output=True, text=True,
+        timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["[]", "7.0", "['.nbc', '.nbi'] []"], done.stdout
+
+
 SYMBOLS = """
 import json
 import levels
