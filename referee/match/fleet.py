@@ -52,12 +52,15 @@ class Fleet:
 
     def launch(self) -> None:
         """Launch every controller not launched yet (a lone process on the referee's CPU):
-        they boot side by side, and meanwhile, this thread's own work."""
+        they boot side by side, and meanwhile, this thread's own work. Every slot is prepared
+        before any process starts (ProcessBot.prepare)."""
         processes = [bot for bot in self.bots if bot.isolated]
         if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
             self.cpu = affinity.claim()
             if self.cpu is not None:
                 processes[0].pin([self.cpu.cpu])
+        for bot in self.bots:
+            bot.prepare()
         for bot in self.bots:
             bot.launch()
 

@@ -58,6 +58,9 @@ class Bot(Protocol):
     def pin(self, cpus: list[int]) -> None:
         """Before `launch`: run its controller's process on `cpus` only (nothing in this process)."""
 
+    def prepare(self) -> None:
+        """Make what the controller needs before it starts (every bot's, before any starts)."""
+
     def launch(self) -> None:
         """Start the controller (every bot is launched before any is set up: start-ups overlap)."""
 

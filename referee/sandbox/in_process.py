@@ -31,6 +31,9 @@ class InProcessBot:
     def pin(self, cpus: list[int]) -> None:
         """Nothing to pin: the controller runs on the referee's own thread."""
 
+    def prepare(self) -> None:
+        """Nothing to make: the controller lives in this process."""
+
     def launch(self) -> None:
         """Nothing to start: the controller lives in this process."""
 

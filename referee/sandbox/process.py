@@ -128,14 +128,22 @@ class ProcessBot:
         """Before `launch`: the controller's process runs on `cpus` only."""
         self.cpus = list(cpus)
 
+    def prepare(self) -> None:
+        """What the slot needs before its process starts: the pipe its output comes by, and its
+        control groups. A match prepares every slot before it starts any (`Fleet.launch`): a
+        group made while another slot's process joins its own waited for that move's grace
+        period (12-20 ms of every match's start)."""
+        if self.team_log is None:  # the team's output: a pipe this process reads and caps (a file too with --logs)
+            self.team_log = TeamLog(int(self.limits.log_bytes), self.log)
+        if self.group is None and not isinstance(cgroup.available(), str):  # all the slot holds, within memory_mb
+            self.group = cgroup.SlotGroup(int(self.limits.memory), MAX_PROCS)
+
     def launch(self) -> None:
         """Start the process (all bots are launched before any is set up: start-ups overlap)."""
         if self.started is not None:
             return
-        # the team's output: a pipe this process reads and caps (kept in a file of its own with --logs)
-        self.team_log = TeamLog(int(self.limits.log_bytes), self.log)
-        if not isinstance(cgroup.available(), str):  # all the slot holds, its tmpfs and pipes too, within memory_mb
-            self.group = cgroup.SlotGroup(int(self.limits.memory), MAX_PROCS)
+        self.prepare()
+        assert self.team_log is not None
         groups = self.group.procs() if self.group else []
         plan = Plan(self.team, int(self.limits.memory), self.slot, self.sandboxed, self.forked, self.cpus)
         try:

@@ -1,6 +1,8 @@
 """Names a root referee holds cannot collide: two referees that each see themselves as pid 1
 (each in a PID namespace of its own, as in a container) hold no slot uid in common, and the
-control groups a killed referee left behind never fail the next run (docs/security.md)."""
+control groups a killed referee left behind never fail the next run (docs/security.md). A
+match makes its slots' groups before it starts their processes, and a referee that ends
+leaves none of its groups."""
 
 import json
 import os
@@ -12,8 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from hostile.hostile_kit import slot_uids, team_file, wait_until_gone
-from referee.sandbox import cgroup
+from hostile.hostile_kit import HONEST, short_race, slot_uids, team_file, wait_until_gone
+from referee.match.loop import play_match
+from referee.sandbox import cgroup, launch, process
+from referee.sandbox.teams import resolve
 
 pytestmark = pytest.mark.skipif(os.geteuid() != 0, reason="slot uids and control groups are a root referee's")
 
@@ -176,3 +180,24 @@ def test_a_referee_that_ends_leaves_none_of_its_groups(threads_at_exit):
     assert out["faults"] == [[]] * 4
     assert out["name"].startswith("laserarena-")
     assert [p for f in place.folders for p in f.glob(f"{out['name']}-*")] == []
+
+
+def test_a_match_makes_every_slot_s_groups_before_it_starts_a_controller(monkeypatch):
+    """A group made while another slot's process joins its own waits for that move's grace
+    period: every slot's groups come first (ProcessBot.prepare), then the processes."""
+    events = []
+    make, start = cgroup.SlotGroup.__init__, launch.launch
+
+    def made(group, *args):
+        make(group, *args)
+        events.append("group")
+
+    def started(*args):
+        events.append("process")
+        return start(*args)
+
+    monkeypatch.setattr(cgroup.SlotGroup, "__init__", made)
+    monkeypatch.setattr(process, "launch", started)
+    result = play_match(short_race(1.0), [resolve(HONEST)] * 4, seed=2)
+    assert all(not r["faults"] for r in result.to_dict()["robots"])
+    assert events == ["group"] * 4 + ["process"] * 4
