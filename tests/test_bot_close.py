@@ -1,7 +1,9 @@
 """Ending a controller process: `close` may run any number of times, and it never signals a
 process it has already reaped (its number may by then name an unrelated process group). The
-controllers' template ends at once when its referee closes it."""
+controllers' template ends at once when its referee closes it. A match tells its controllers
+it is over before it writes its result and replay, so they end meanwhile."""
 
+import dataclasses
 import os
 import socket
 import subprocess
@@ -15,6 +17,8 @@ import levels
 from levels.loader import load_level
 from levels.match import ControllerLimits
 from referee.errors import UserError
+from referee.match import loop
+from referee.match.simulation import Simulation
 from referee.match.views import brief_for
 from referee.sandbox.process import ProcessBot
 from referee.sandbox.teams import resolve
@@ -107,3 +111,19 @@ def test_a_view_of_the_last_observation_held_elsewhere_does_not_stop_the_next():
         held.release()
     finally:
         bot.close()
+
+
+def test_the_controllers_are_told_the_match_is_over_before_its_result_is_written(monkeypatch, tmp_path):
+    told_at_end = []
+    end = Simulation.end
+
+    def ending(sim):
+        told_at_end.extend(bot.told_to_end for bot in match.fleet.bots)
+        return end(sim)
+
+    monkeypatch.setattr(Simulation, "end", ending)
+    level = dataclasses.replace(load_level(levels.path("asabe-race")), time_limit=1.0)
+    match = loop.Match(level, [resolve("ref:dead-reckoning")] * 4, seed=1, replay=tmp_path / "m.replay", limits=FAST)
+    result = match.run()
+    assert told_at_end == [True] * 4
+    assert all(not r["faults"] for r in result.to_dict()["robots"])

@@ -70,12 +70,17 @@ class Fleet:
         self.launch()
         return [bot.setup(brief) for bot, brief in zip(self.bots, briefs)]
 
+    def ask_to_end(self) -> None:
+        """Tell every controller the match is over, without waiting: told all at once, they end
+        side by side, while this thread writes the result and the replay (`close` waits)."""
+        for bot in self.bots:
+            bot.ask_to_end()
+
     def close(self) -> None:
         """End every controller (their processes, if isolated) and give back the CPU, if one was claimed."""
         try:
             try:
-                for bot in self.bots:  # told all at once, they end side by side
-                    bot.ask_to_end()
+                self.ask_to_end()
             finally:
                 for bot in self.bots:
                     bot.close()

@@ -71,6 +71,7 @@ class Match:
             tick = sim.start(self.fleet.start([brief_for(self.level, s) for s in range(len(self.teams))]))
             while not tick.ended:
                 tick = sim.step(exchange(bots, tick.observations, meanwhile=sim.flush))
+            self.fleet.ask_to_end()
             return sim.end()
         except BaseException:
             if self.recorder is not None:
