@@ -50,11 +50,15 @@ def assert_others_unharmed(result: dict, bad: int = 0) -> None:
             assert r["localization"]["fraction"] == 1.0 and r["localization"]["ticks"] > 0
 
 
-def assert_contained(result: dict, kind: str = "exception", words: str = "contained") -> dict:
-    """The hostile slot stopped with one typed fault whose one-line message holds `words`."""
+def assert_contained(result: dict, kind: str = "exception", words: str = "contained", slow: bool = False) -> dict:
+    """The hostile slot stopped with one typed fault whose one-line message holds `words`
+    (`slow`: skipped ticks may come first, where the attack may outlast a step's deadline on a
+    loaded machine)."""
     bad = result["robots"][0]
-    assert [f["kind"] for f in bad["faults"]] == [kind], bad["faults"]
-    message = bad["faults"][0]["message"]
+    kinds = [f["kind"] for f in bad["faults"]]
+    skipped = kinds[:-1] if slow and set(kinds[:-1]) <= {"skipped_tick"} else []
+    assert kinds[len(skipped) :] == [kind], bad["faults"]
+    message = bad["faults"][-1]["message"]
     assert words in message and "\n" not in message, message
     assert bad["stopped"]
     assert_others_unharmed(result)

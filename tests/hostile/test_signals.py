@@ -100,5 +100,5 @@ def test_a_fork_bomb_stops_at_the_slots_process_limit(tmp_path):
                 return Command(0.05, 0.05)
     """,
     )
-    bad = assert_contained(result)
-    assert "fork refused after" in bad["faults"][0]["message"]
+    bad = assert_contained(result, slow=True)  # a hundred forks may outlast a step's deadline when loaded
+    assert "fork refused after" in bad["faults"][-1]["message"]
