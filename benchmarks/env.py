@@ -42,8 +42,12 @@ def bare(name: str, periods: int, clock: Clock, how: str = "pymunk") -> float:
     sensing = Sensing(world, RandomTree(level.seed)) if how == "sensed" else None
     for slot in range(len(level.robots)):
         world.command(slot, *WHEELS)
-    world.run(5 * level.steps_per_control)  # the wheels up to speed: pymunk then keeps them there
     space, dt, steps = world.space, world.dt, level.steps_per_control
+    for _ in range(5):  # the wheels up to speed (pymunk then keeps them there); sensing's first
+        states, _ = world.run(steps)  # period, which makes its plan and its blocks of draws once
+        if sensing:
+            sensing.record_many(states)
+            sensing.flush()
     start = clock()
     for _ in range(periods):
         if how == "pymunk":
