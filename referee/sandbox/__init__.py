@@ -7,7 +7,7 @@
   debugger's call site;
 - `process`: a controller process, started by `launch` (forked by `forkserver`, or a bwrap
   sandbox of `kernel`'s, from the installation `stage` staged), spoken to over `channel`,
-  within its time `allowance`;
+  within its time `allowance`; `exits`: a child's end, seen as it comes;
 - `privacy`: the privilege drop; `uids`, `cgroup` and `log`: each slot's user, control groups
   and log pipe, held by `leases`; `affinity`: one CPU for a referee and its lone controller.
 

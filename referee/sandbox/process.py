@@ -19,7 +19,7 @@ from pathlib import Path
 
 from levels.match import ControllerLimits
 from referee.records.results import Fault
-from referee.sandbox import cgroup, forkserver, kernel
+from referee.sandbox import cgroup, exits, forkserver, kernel
 from referee.sandbox.allowance import Allowance
 from referee.sandbox.bot import Reply
 from referee.sandbox.channel import Channel, Trouble
@@ -62,19 +62,15 @@ def exit_status(proc: subprocess.Popen[bytes] | forkserver.Forked, timeout: floa
             return proc.wait(timeout)
         except subprocess.TimeoutExpired:
             return None
-    deadline, delay = time.monotonic() + timeout, 0.0005
-    while True:
-        try:
-            ended = os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
-        except ChildProcessError:  # reaped already
-            return proc.poll()
-        if ended is not None:
-            return -ended.si_status if ended.si_code in (os.CLD_KILLED, os.CLD_DUMPED) else ended.si_status
-        left = deadline - time.monotonic()
-        if left <= 0:
-            return None
-        delay = min(delay * 2, left, 0.05)
-        time.sleep(delay)
+    if not exits.ended(proc, timeout):
+        return None
+    try:
+        status = os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+    except ChildProcessError:  # reaped already
+        return proc.poll()
+    if status is None:
+        return None
+    return -status.si_status if status.si_code in (os.CLD_KILLED, os.CLD_DUMPED) else status.si_status
 
 
 class ProcessBot:

@@ -150,19 +150,3 @@ def test_slots_forked_from_the_template_wait_for_no_sandbox_trial_of_their_own()
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["0", "1"]  # never tried; its prerequisites looked up once
-
-
-def test_a_template_s_end_is_seen_as_it_comes_and_not_before():
-    """`forkserver._ends` (the template waited for at exit, by its pidfd): True once a process
-    has ended, reaped or not; False while it runs past the timeout."""
-    running = subprocess.Popen(["sleep", "30"])
-    try:
-        assert forkserver._ends(running, 0.05) is False
-        assert running.poll() is None
-    finally:
-        running.kill()
-    assert forkserver._ends(running, 30.0) is True  # killed: seen without waiting the 30 s
-    assert running.wait(timeout=30) == -9
-    assert forkserver._ends(running, 30.0) is True  # reaped already
-    quick = subprocess.Popen(["true"])
-    assert forkserver._ends(quick, 30.0) is True and quick.wait(timeout=30) == 0
