@@ -88,6 +88,7 @@ class _Cache:
         return getattr(self._cache(), name)
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
+        """The kernel's machine code for `sig` from the cache (`_load_cached`), or None."""
         cache, loaded = self._cache(), None
         if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
             loaded = _load_cached(cache, sig, target_context)

@@ -181,6 +181,7 @@ class Sensing:
             hits, quiet = self._other(t, x, y, heading, phi), False
         self._last_t, self._rows = w1, []
         sources = [hits]
+        traj: Trajectory | None = None  # the batch's, made for the first source that needs it
         if self._spurious:
             if self.crosstalk == "shared":  # a false pulse is an array's, seen by all
                 sources.append(self._to_everyone(self._table_false_pulses(w0, w1)))
@@ -190,11 +191,12 @@ class Sensing:
                     times = clock.times(w0, w1)
                     if len(times):  # most periods have none
                         false = false or [[] for _ in range(self.n)]
-                        false[r] = self._false_returns(Trajectory(*self._batch(len(states))[:5]), r, times)
+                        traj = traj or Trajectory(*self._batch(len(states))[:5])
+                        false[r] = self._false_returns(traj, r, times)
                 if false:
                     sources.append(false)
         if self._any_index:
-            sources.append(self._index(Trajectory(*self._batch(len(states))[:5])))
+            sources.append(self._index(traj or Trajectory(*self._batch(len(states))[:5])))
         if len(sources) == 1:
             return hits
         out = []
