@@ -16,249 +16,140 @@ How it works, in detail: docs/internals.md, `arena/compiled.py`.
 
 from __future__ import annotations
 
-import functools
-import hashlib
-import os
-import pickle
-import sys
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, suppress
-from pathlib import Path
+import threading
+from collections.abc import Callable
 from typing import Any, Literal, TypeVar, cast
 
-import llvmlite
-import numba
 import numpy as np
-from llvmlite import binding as llvm
-from llvmlite.binding import ffi
-from numba import njit
-from numba.core import entrypoints, environment, errors, types
-from numba.core.caching import FunctionCache, NullCache
-from numba.core.compiler_lock import global_compiler_lock
-from numba.core.runtime import nrtdynmod, rtsys
-from numba.np import numpy_support
 
-from arena._elf import defined_symbols
+from arena import _machine
 from arena.angles import TWO_PI
+
+__all__ = ["Kernel", "cached", "compiled", "maximum", "minimum", "sign", "wrap_angle"]
 
 F = TypeVar("F", bound=Callable)
 
 PER_TURN = 1.0 / TWO_PI
 
+_kernels: list[Kernel] = []  # every kernel made in this process (their sources stamp the tables)
 
-def compiled(inline: Literal["never", "always"] = "never") -> Callable[[F], F]:
-    """numba's `njit` with NumPy's division rule, cached beside the function's module (or in
-    the user's cache folder); where neither can be written, compiled afresh in each process instead."""
+
+def compiled(
+    inline: Literal["never", "always"] = "never", names: Callable[[], dict[str, Any]] | None = None
+) -> Callable[[F], F]:
+    """numba's `njit` with NumPy's division rule (`Kernel`): cached beside the function's
+    module (or in the user's cache folder), and run without numba where an earlier process
+    left its machine code for the arguments' types (arena._machine). `names` gives what the
+    function's code names from numba itself (intrinsics), bound into its module where numba
+    compiles it."""
 
     def wrap(f: F) -> F:
-        kernel: Any = njit(error_model="numpy", inline=inline)(f)
-        if hasattr(kernel, "_compilation_chain_init_hook") and hasattr(kernel, "_types_active_call"):
-            kernel._cache = _Cache(kernel.py_func)
-            kernel._compilation_chain_init_hook = _no_extensions_yet
-            kernel.typeof_pyval = functools.partial(_typeof_argument, kernel)
-        else:  # a numba laid out otherwise: its own cache, where it finds a folder
-            with suppress(RuntimeError):  # "cannot cache function ...: no locator available"
-                kernel.enable_caching()
-        return cast(F, kernel)
+        return cast(F, Kernel(f, inline, names))
 
     return wrap
 
 
-class _Cache:
-    """numba's cache of one kernel (its `FunctionCache`), made at the kernel's first call:
-    making it looks for a folder it may write and writes a file there to be sure (0.13 ms),
-    and a run calls 7 of the 48 kernels from Python. Its machine code loads by `_load_cached`;
-    numba's extensions load only where none is found, before numba compiles."""
-
-    def __init__(self, py_func: Callable):
-        self._py_func = py_func
-        self._made: Any = None
-
-    def _cache(self) -> Any:
-        if self._made is None:
-            try:
-                self._made = FunctionCache(self._py_func)
-            except RuntimeError:  # "cannot cache function ...: no locator available"
-                self._made = NullCache()  # compiled afresh in each process
-        return self._made
-
-    def __getattr__(self, name: str) -> Any:  # what numba asks of its cache, but loading
-        if name in ("_py_func", "_made"):
-            raise AttributeError(name)
-        return getattr(self._cache(), name)
-
-    def load_overload(self, sig: Any, target_context: Any) -> Any:
-        """The kernel's machine code for `sig` from the cache (`_load_cached`), or None."""
-        cache, loaded = self._cache(), None
-        if hasattr(cache, "_load_overload") and hasattr(cache, "_guard_against_spurious_io_errors"):
-            loaded = _load_cached(cache, sig, target_context)
-        if loaded is None:
-            entrypoints.init_all()  # numba compiles next: its extensions first, as its own hook would
-        return loaded
+def _any(*args: Any) -> bool:
+    return True
 
 
-def _typeof_argument(kernel: Any, value: Any) -> Any:
-    """numba's `Dispatcher.typeof_pyval` (an argument's type, where the kernel's compiled
-    dispatch has not met its kind yet), without the import of numpy.ma that numba's typeof of
-    an array makes to refuse masked arrays (10-20 ms of a run's start). No masked array exists
-    before numpy.ma is imported, so until then a plain array is typed here as numba types it."""
-    if type(value) is not np.ndarray or "numpy.ma" in sys.modules:
-        return type(kernel).typeof_pyval(kernel, value)
-    try:
-        dtype = numpy_support.from_dtype(value.dtype)
-    except errors.NumbaNotImplementedError:
-        return type(kernel).typeof_pyval(kernel, value)  # numba's own error
-    kind = types.Array(dtype, value.ndim, numpy_support.map_layout(value), readonly=not value.flags.writeable)
-    kernel._types_active_call.add(kind)
-    return kind
+class Kernel:
+    """A compiled function. A call runs the machine code of the arguments' types: loaded
+    without numba from the kernel's table (arena._machine) where it holds them, else numba's
+    (`dispatcher`, made on first need: importing numba takes a tenth of a second). Once numba
+    has served a kernel in a process, it serves all its calls there, and what it compiled or
+    loaded is added to the table (arena._numba.export)."""
 
+    def __init__(
+        self, py_func: Callable, inline: Literal["never", "always"], names: Callable[[], dict[str, Any]] | None = None
+    ):
+        self.py_func, self.inline, self.names = py_func, inline, names
+        self.__name__, self.__qualname__ = py_func.__name__, py_func.__qualname__
+        self.__doc__, self.__module__, self.__wrapped__ = py_func.__doc__, py_func.__module__, py_func
+        self._dispatcher: Any = None
+        self._table: _machine.Table | None | bool = False  # False: not read yet
+        self._forms: dict[tuple[str, ...], tuple[Callable, Callable, list]] = {}  # loaded entries
+        self._fast: tuple[Callable[..., bool], Callable] | None = None  # the last form called
+        self._lock = threading.Lock()
+        _kernels.append(self)
 
-def _no_extensions_yet() -> None:
-    """A kernel's `_compilation_chain_init_hook`: numba loads its extensions (every installed
-    package's entry points scanned: 3-10 ms of a run's start) before a kernel's first call,
-    so that a compile knows their types. Loading cached code needs none (`_Cache`)."""
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        fast = self._fast
+        if fast is not None and not kwargs and fast[0](*args):
+            return fast[1](*args)
+        if not kwargs and self._dispatcher is None:
+            form = self._form(args)
+            if form is not None:
+                return form(*args)
+        self._fast = (_any, self._by_numba)
+        return self._by_numba(*args, **kwargs)
 
+    def __repr__(self) -> str:
+        return f"<compiled kernel {self.__module__}.{self.__qualname__}>"
 
-def _load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
-    """numba's `Cache.load_overload` (the kernel's machine code for `sig` from its cache, or
-    None) without its refresh of the target context: numba refreshes the context (importing
-    and installing every typing and lowering registry) so that it could compile, and compiling
-    refreshes it anyway; rebuilding cached code needs only the runtime (NRT) it links to. Its
-    environments are rebuilt without importing modules (`_environment`), LLVM is called
-    without numba's event at each call (`_unobserved`), the runtime's own functions come
-    from the cache too (`_start_runtime`), and the machine code loads without its bitcode
-    parsed (`_from_object`)."""
-    loaded = None
-    with _unobserved():
-        codegen = target_context.codegen()
-        if "unserialize_library" not in vars(codegen):  # this process's codegen: one per target
-            codegen.unserialize_library = functools.partial(_from_object, codegen)
-        _start_runtime(target_context, Path(cache._cache_path))
-        with cache._guard_against_spurious_io_errors():
-            rebuild = environment._rebuild_env  # what the cache's pickles call, looked up as they load
-            environment._rebuild_env = _environment
-            try:
-                loaded = cache._load_overload(sig, target_context)
-            finally:
-                environment._rebuild_env = rebuild
-    return loaded
+    @property
+    def dispatcher(self) -> Any:
+        """numba's dispatcher of this kernel (numba imported, and its cache made, on first use)."""
+        if self._dispatcher is None:
+            from arena import _numba
 
+            with self._lock:
+                if self._dispatcher is None:
+                    self._dispatcher = _numba.dispatcher(self)
+        return self._dispatcher
 
-def _from_object(codegen: Any, serialized: tuple) -> Any:
-    """numba's `unserialize_library` for a cached kernel's machine code, without parsing the
-    LLVM bitcode cached beside it: numba parses it (0.7 MB for a match's kernels, 40-50 ms of
-    every run's start) to list the symbols the code defines, and to link the kernel into
-    another being compiled. The symbols are read from the object file's own table
-    (arena._elf); the bitcode is parsed only if a compile links the kernel (`_linkable`).
-    numba's own way where the code is no ELF object this reads."""
-    name, kind, data = serialized
-    symbols = defined_symbols(data[0]) if kind == "object" else None
-    if symbols is None:
-        return type(codegen).unserialize_library(codegen, serialized)
-    library = codegen.create_library(name)
-    library.enable_object_caching()
-    library._set_compiled_object(data[0])
-    library._finalize_final_module()
-    codegen._engine._defined_symbols |= symbols
-    library._get_module_for_linking = functools.partial(_linkable, library, data[1])
-    return library
+    @property
+    def targetoptions(self) -> dict:
+        """The options numba compiled it with (numba inlines a callee by them)."""
+        return self.dispatcher.targetoptions
 
+    def table(self) -> _machine.Table | None:
+        """Its table of machine code (arena._machine), read once; None where there is none for
+        this machine and these sources."""
+        if self._table is False:
+            self._table = _machine.read(self.py_func)
+        return cast("_machine.Table | None", self._table)
 
-def _linkable(library: Any, bitcode: bytes) -> Any:
-    """A kernel loaded by `_from_object`, as numba links it into another: its bitcode, parsed
-    on first need (numba's `_get_module_for_linking` of a library loaded from its cache)."""
-    if library._shared_module is None:
-        library._shared_module = llvm.parse_bitcode(bitcode)
-    return library._shared_module
+    def _form(self, args: tuple) -> Callable | None:
+        """The machine code of the table for the types of `args`, loaded on first need (and
+        the test of later calls' arguments, `_machine.checker`); None where it has none."""
+        named = tuple(map(_machine.type_name, args))
+        if None in named:
+            return None
+        names = cast(tuple[str, ...], named)
+        form = self._forms.get(names)
+        if form is None:
+            table = self.table()
+            if table is None or names not in table.entries:
+                return None
+            last = list(args)
+            form = self._forms[names] = (_machine.checker(names, last), _machine.load(table, names, self.py_func), last)
+        form[2][:] = args
+        self._fast = form[0], form[1]
+        return form[1]
 
+    def _by_numba(self, *args: Any, **kwargs: Any) -> Any:
+        """numba's call; what it compiled or loaded for it is then added to the table."""
+        made = self.dispatcher
+        known = len(made.overloads)
+        try:
+            return made(*args, **kwargs)
+        finally:  # a first call that raises has compiled the kernel all the same
+            if len(made.overloads) != known:
+                from arena import _numba
 
-def _start_runtime(target_context: Any, folder: Path) -> None:
-    """numba's runtime (`rtsys.initialize`), its few LLVM functions (reference counts, the
-    meminfo's data) loaded from the machine code an earlier process compiled into `folder`
-    (the kernels' cache): compiling them took 25-40 ms of every process that loads a kernel."""
-    if getattr(rtsys, "_init", True):
-        return
-    compile_functions = nrtdynmod.compile_nrt_functions
-    nrtdynmod.compile_nrt_functions = lambda context: _runtime_functions(context, folder)
-    try:
-        rtsys.initialize(target_context)
-    finally:
-        nrtdynmod.compile_nrt_functions = compile_functions
-
-
-def _runtime_functions(target_context: Any, folder: Path) -> Any:
-    """The library `nrtdynmod.compile_nrt_functions` makes, from `folder` where an earlier
-    process left it for this numba, LLVM and processor; else compiled, and left there."""
-    codegen = target_context.codegen()
-    key = repr((numba.__version__, llvmlite.__version__, codegen.magic_tuple()))
-    path = folder / f"numba-runtime-{hashlib.sha256(key.encode()).hexdigest()[:16]}.nbo"
-    try:
-        return codegen.unserialize_library(pickle.loads(path.read_bytes()))
-    except Exception:  # none yet, or unreadable (a write cut short, a numba laid out otherwise): compiled
-        pass
-    module, library = nrtdynmod.create_nrt_module(target_context)
-    library.enable_object_caching()
-    library.add_ir_module(module)
-    with global_compiler_lock:
-        library.finalize()
-    part = path.with_name(f"{path.name}.{os.getpid()}")
-    try:
-        part.write_bytes(pickle.dumps(library.serialize_using_object_code()))
-        os.replace(part, path)  # whole or not at all, whoever writes beside
-    except OSError:  # a cache folder this process cannot write: compiled again next time
-        part.unlink(missing_ok=True)
-    return library
-
-
-@contextmanager
-def _unobserved() -> Iterator[None]:
-    """LLVM's calls without the callbacks numba hangs on its lock: at each call, numba makes
-    two events for its compile-time statistics. Loading a cached kernel makes a few hundred
-    calls; their events were a sixth of the loading's time, and no one reads them then."""
-    lock = getattr(getattr(ffi, "lib", None), "_lock", None)
-    callbacks = list(getattr(lock, "_cblist", ()))
-    for callback in callbacks:
-        ffi.unregister_lock_callback(*callback)
-    try:
-        yield
-    finally:
-        for callback in callbacks:
-            ffi.register_lock_callback(*callback)
-
-
-def _environment(modname: str, consts: list, env_name: str) -> Any:
-    """numba's `_rebuild_env` (the environment of one compiled function in a cached kernel),
-    without importing `modname` where no one has: an environment holds its module's globals
-    only for code in object mode, which no kernel here has, and the modules of numba's own
-    array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import.
-
-    One environment serves a function's every copy. A kernel linked into another (spin.laser_phases
-    into sweep.sense) holds fewer constants there than alone, where returning an array needs
-    its dtype too; numba keeps the first one loaded, so a kernel called alone after a kernel
-    that links it failed to return ("'descr' is NULL"). The longer list is kept: the copies
-    number their constants alike, the shorter list a prefix of the longer."""
-    env = environment.lookup_environment(env_name)
-    if env is None:
-        module = sys.modules.get(modname)
-        env = environment.Environment(module.__dict__ if module is not None else {})
-        env.consts[:] = consts
-        env.env_name = env_name
-        environment.Environment._memo[env_name] = env
-    elif len(env.consts) < len(consts):
-        env.consts[:] = consts
-    return env
+                _numba.export(self, made, _kernels)
 
 
 def cached(kernel: Any) -> bool | None:
-    """Whether numba's cache holds machine code of `kernel` (a `compiled` function) for its
-    source as installed: False where its first call compiles it, None where that cannot be
-    told (no cache, or a numba whose cache is laid out otherwise)."""
-    cache: Any = getattr(kernel, "_cache", None)
-    index: Any = getattr(cache, "_cache_file", None)
-    if not hasattr(index, "_load_index") or not hasattr(cache, "_guard_against_spurious_io_errors"):
-        return None
-    with cache._guard_against_spurious_io_errors():
-        return bool(index._load_index())  # empty when missing, of another numba, or of another source
+    """Whether `kernel` (a `compiled` function) runs from machine code already made for its
+    source as installed: its table, else numba's cache (None where that cannot be told)."""
+    table = kernel.table()
+    if table is not None and table.entries:
+        return True
+    from arena import _numba
+
+    return _numba.cached(kernel)
 
 
 @compiled(inline="always")

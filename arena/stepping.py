@@ -10,9 +10,6 @@ import math
 from typing import Any
 
 import numpy as np
-from llvmlite import ir
-from numba import carray, types
-from numba.extending import intrinsic
 
 from arena.compiled import compiled
 from arena.drive import MOTION_CHANGED, MOTION_V, RATE, RATE_CHANGED, TARGET_L, TARGET_R, TURN, advance
@@ -24,6 +21,9 @@ WORDS = 16  # doubles of a cpBody read or written (the layout's places are below
 
 def _doubles_at(typingctx, address):
     """The doubles at memory `address` (an integer), as a pointer: `_doubles(address)`."""
+    from llvmlite import ir
+    from numba import types
+
     if not isinstance(address, types.Integer):
         return None
 
@@ -33,12 +33,12 @@ def _doubles_at(typingctx, address):
     return types.CPointer(types.float64)(address), codegen
 
 
-_doubles: Any = intrinsic(_doubles_at)
-
-
 def _call_at(typingctx, function, space, dt):
     """Call `void function(void *space, double dt)` (chipmunk's cpSpaceStep) at its address:
     `_call_step(function, space, dt)`."""
+    from llvmlite import ir
+    from numba import types
+
     if not (isinstance(function, types.Integer) and isinstance(space, types.Integer)):
         return None
 
@@ -52,10 +52,23 @@ def _call_at(typingctx, function, space, dt):
     return types.void(function, space, types.float64), codegen
 
 
-_call_step: Any = intrinsic(_call_at)
+def _from_numba() -> dict[str, Any]:
+    """What `run_steps` names from numba: its array over a pointer, and the two intrinsics
+    above (made where numba compiles it; its machine code runs without numba)."""
+    from numba import carray
+    from numba.extending import intrinsic
+
+    return {"carray": carray, "_doubles": intrinsic(_doubles_at), "_call_step": intrinsic(_call_at)}
 
 
-@compiled()
+def _numba_only(*args: Any) -> Any:
+    raise RuntimeError("numba's own: bound where numba compiles run_steps (_from_numba)")
+
+
+carray = _doubles = _call_step = _numba_only
+
+
+@compiled(names=_from_numba)
 def run_steps(
     step_function: int,
     space: int,

@@ -10,7 +10,7 @@ from pathlib import Path
 from levels.match import ControllerLimits
 from referee.errors import LaserArenaWarning
 from referee.records.results import Fault
-from referee.sandbox import affinity
+from referee.sandbox import affinity, forkserver
 from referee.sandbox.bot import Bot
 from referee.sandbox.in_process import InProcessBot
 from referee.sandbox.privacy import make_undumpable
@@ -50,10 +50,13 @@ class Fleet:
         ]
         self.cpu: affinity.Claim | None = None
 
-    def launch(self) -> None:
+    def launch(self, wait: bool = True) -> None:
         """Launch every controller not launched yet (a lone process on the referee's CPU):
         they boot side by side, and meanwhile, this thread's own work. Every slot is prepared
-        before any process starts (ProcessBot.prepare)."""
+        before any process starts (ProcessBot.prepare). With `wait` False, none while their
+        template still boots: this thread's work comes first then (`start` launches them)."""
+        if not wait and forkserver.booting():
+            return
         processes = [bot for bot in self.bots if bot.isolated]
         if len(processes) == 1 and self.cpu is None:  # referee and controller on one CPU
             self.cpu = affinity.claim()

@@ -58,15 +58,15 @@ class Match:
     def simulation(self) -> Simulation:
         """The match's simulation core, made on first use: `run` makes it once the controllers
         are launched, so they boot while the world is made (and a process's first match loads
-        the compiled kernels). The replay's writes wait while the controllers compute
-        (docs/decisions/0028)."""
+        the compiled kernels), or while their template still boots. The replay's writes wait
+        while the controllers compute (docs/decisions/0028)."""
         level, labels, seed, ideal, noise_key, recorder = self._made
         return Simulation(level, labels, seed, ideal, noise_key, recorder, defer=True)
 
     def run(self) -> MatchResult:
         """Run the match to its end and return the result (see docs/results.md)."""
         try:
-            self.fleet.launch()
+            self.fleet.launch(wait=False)  # they boot while the world is made
             sim, bots = self.simulation, self.fleet.bots
             tick = sim.start(self.fleet.start([brief_for(self.level, s) for s in range(len(self.teams))]))
             while not tick.ended:

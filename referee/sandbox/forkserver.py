@@ -122,6 +122,15 @@ class ForkServer:
         finally:
             os.close(null)
 
+    def booting(self) -> bool:
+        """Whether it still imports or tries its probe slot (`wait_ready` would wait); False
+        once it serves, or has failed."""
+        if self.ready:
+            return False
+        if self.probe is not None and self.probe.poll() is None:
+            return True
+        return not select.select([self.control], [], [], 0)[0]
+
     def wait_ready(self) -> str | None:
         """Wait for the template's imports and its probe slot's end; why it cannot serve, or None."""
         if self.ready:
@@ -235,6 +244,12 @@ def start() -> None:
         with steady():  # started and recorded for `_close_all`, or a Ctrl-C would orphan it
             _local.server, _local.pid = ForkServer(), os.getpid()
             _all.append(_local.server)
+
+
+def booting() -> bool:
+    """Whether this thread's template, started, still boots (ForkServer.booting)."""
+    current = getattr(_local, "server", None)
+    return current is not None and _local.pid == os.getpid() and current.booting()
 
 
 def server() -> ForkServer | None:
