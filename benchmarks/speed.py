@@ -217,10 +217,9 @@ _KEPT = "from arena.heap import lasting\nwith lasting():\n    import {}\n"
 FIXED_STAGES = (
     ("interpreter", "pass"),
     ("numpy", _KEPT.format("numpy")),
-    ("numba", _KEPT.format("numpy, numba")),
-    ("modules", _KEPT.format("numpy, numba, referee.cli.commands, referee.match.loop")),
+    ("modules", _KEPT.format("numpy, referee.cli.commands, referee.match.loop")),
     (
-        "in_process",  # the same match in this process: the kernels' loading, the match, its replay
+        "in_process",  # the same match in this process: the kernels' loading (no numba), the match, its replay
         _KEPT.format("sys, levels.loader, referee.match.loop, referee.sandbox.teams, referee.cli.commands")
         + "from pathlib import Path\n"
         + "level, teams = levels.loader.load_level(Path(sys.argv[1])), [referee.sandbox.teams.resolve(sys.argv[2])] * 4\n"

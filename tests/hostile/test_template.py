@@ -150,3 +150,49 @@ def test_slots_forked_from_the_template_wait_for_no_sandbox_trial_of_their_own()
     )
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["0", "1"]  # never tried; its prerequisites looked up once
+
+
+def test_a_template_still_booting_says_so_at_once():
+    # whether a launch now would wait (ForkServer.booting): asked without waiting
+    template = forkserver.ForkServer()
+    try:
+        assert template.booting()  # just started: still importing
+        assert template.probe is not None and template.probe.wait(60) == 0  # imported, its probe slot done
+        assert not template.booting() and not template.ready  # nobody waited for it
+        assert template.wait_ready() is None and not template.booting()
+    finally:
+        template.close()
+
+
+LAUNCH_AFTER_OWN_WORK = """
+from hostile.hostile_kit import FAST, HONEST, short_race
+from referee.match.fleet import Fleet
+from referee.match.views import brief_for
+from referee.sandbox import forkserver
+from referee.sandbox.teams import resolve
+
+fleet = Fleet([resolve(HONEST)] * 2, FAST, None, True)  # its template starts now
+try:
+    fleet.launch(wait=False)
+    print("launched while it boots:", [bot.started is not None for bot in fleet.bots])
+    print("faults:", fleet.start([brief_for(short_race(), s) for s in range(2)]))
+    fleet.launch(wait=False)  # ready now: a later match launches at once
+    print("ready:", not forkserver.booting())
+finally:
+    fleet.close()
+"""
+
+
+def test_a_match_launches_its_controllers_after_its_own_work_while_their_template_boots():
+    # the referee builds its simulation rather than wait for a template still booting; the
+    # controllers start when set up (Fleet.start), as they do from a ready template
+    tests = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    out = subprocess.run(
+        [sys.executable, "-c", LAUNCH_AFTER_OWN_WORK], cwd=tests, capture_output=True, text=True, timeout=120
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines() == [
+        "launched while it boots: [False, False]",
+        "faults: [None, None]",
+        "ready: True",
+    ]
