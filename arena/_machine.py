@@ -32,6 +32,8 @@ from typing import Any, cast
 
 import numpy as np
 
+from arena._elf import defined_symbols
+
 __all__ = ["Entry", "Table", "checker", "load", "path", "read", "type_name", "write"]
 
 SUFFIX = ".machine"  # a table's file name: numba's cache file's base, this suffix
@@ -81,7 +83,14 @@ def path(py_func: Callable) -> Path:
 
 
 def source_stamp(file: str) -> str:
-    """A source file's content hash (numba's stamp of a kernel's source)."""
+    """A source file's content hash (numba's stamp of a kernel's source), hashed once a
+    process while the file's time and size stay."""
+    status = os.stat(file)
+    return _content_hash(file, status.st_mtime_ns, status.st_size)
+
+
+@functools.cache
+def _content_hash(file: str, mtime_ns: int, size: int) -> str:
     return hashlib.sha256(Path(file).read_bytes()).hexdigest()
 
 
@@ -188,12 +197,14 @@ class _Linker:
         )
         self.ll, self.make_function = ll, functions.make_function
         self.engine = ll.create_mcjit_compiler(ll.parse_assembly(""), machine)
+        if defined_symbols(table.runtime) is None:  # LLVM would crash on an object that is none
+            raise ValueError("the runtime's machine code is no object file")
         self.engine.add_object_file(ll.ObjectFileRef.from_data(table.runtime))
         self.new_environment = functions.Environment  # what numba's code reads: its constants
         self.memo: dict[int, Any] = {}
         self.environments: dict[str, Any] = {}  # one per symbol, as numba keeps them
 
-    def _unpickled(self, data: int, size: int, hashed: int) -> Any:
+    def _unpickled(self, data: int, size: int, _hashed: int) -> Any:
         """numba's `numba_unpickle`, without numba where it can: an object the code names (the
         array type it returns, an exception), pickled in it at compile time, once per place.
         numba's helper imports numba to unpickle (numba.core.serialize); most such objects are
@@ -204,6 +215,9 @@ class _Linker:
         return found
 
     def load(self, entry: Entry, py_func: Callable) -> Callable:
+        symbols = defined_symbols(entry.code)  # LLVM would crash on an object that is none
+        if symbols is None or entry.wrapper not in symbols or not symbols.issuperset(entry.constants):
+            raise ValueError(f"the machine code of {py_func.__qualname__} does not define its entry")
         self.engine.add_object_file(self.ll.ObjectFileRef.from_data(entry.code))
         self.engine.finalize_object()
         for name, constants in entry.constants.items():

@@ -122,8 +122,13 @@ class Kernel:
             table = self.table()
             if table is None or names not in table.entries:
                 return None
+            try:
+                loaded = _machine.load(table, names, self.py_func)
+            except Exception:  # code LLVM cannot link here (a table of another numba's layout): numba's way
+                self._table = None
+                return None
             last = list(args)
-            form = self._forms[names] = (_machine.checker(names, last), _machine.load(table, names, self.py_func), last)
+            form = self._forms[names] = (_machine.checker(names, last), loaded, last)
         form[2][:] = args
         self._fast = form[0], form[1]
         return form[1]

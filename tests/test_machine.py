@@ -3,6 +3,7 @@ compiled, written to the kernel's table, runs in a later process that never impo
 with numba's own answers; a table made for other sources is ignored; arguments of other
 types go numba's way; `type_name` names a value's type as numba does."""
 
+import dataclasses
 import hashlib
 import os
 import pickle
@@ -204,3 +205,18 @@ def test_the_check_of_a_call_takes_the_very_arrays_last_checked_and_scalars_of_t
     c = np.ones(3)
     last[0] = c
     assert same(c, b, 1.0, 3, 2**63, True, np.int32(1))
+
+
+def test_a_table_whose_code_is_not_its_entry_s_goes_numba_s_way(tmp_path):
+    """Machine code that does not define the entry's wrapper and environments (a file
+    damaged, or another's) is never handed to LLVM, which would crash on it: numba answers."""
+    env = _folder(tmp_path)
+    _run(tmp_path, env)
+    (path,) = (tmp_path / "cache").rglob(f"kernels.outer-*{_machine.SUFFIX}")
+    table = pickle.loads(path.read_bytes())
+    damaged = {
+        types: dataclasses.replace(entry, code=b"\x7fELF" + bytes(200)) for types, entry in table.entries.items()
+    }
+    path.write_bytes(pickle.dumps(dataclasses.replace(table, entries=damaged)))
+    probe = "import sys; sys.path.insert(0, sys.argv[1]); from kernels import outer; print(outer(3.0), 'numba.core' in sys.modules)"
+    assert _run(tmp_path, env, probe) == ["70.0 True"]

@@ -2,10 +2,10 @@
 run once after installation (the Makefile's install does), so that the first match after an
 install starts as fast as later ones (docs/decisions/0040-kernels-compiled-at-install.md).
 
-numba compiles a kernel for the argument types of its first call and keeps it in its cache
-(arena/compiled.py); a few seconds of a match on every built-in level, with its noise and
-ideal, in this process, replays written, call every kernel a match calls with the types a
-match gives it.
+numba compiles a kernel for the argument types of its first call and keeps it in its cache,
+and the kernel's table, run without numba, beside it (arena.compiled); a few seconds of a
+match on every built-in level, with its noise and ideal, in this process, replays written,
+call every kernel a match calls with the types a match gives it.
 """
 
 from __future__ import annotations
