@@ -9,8 +9,8 @@ llvmlite and numba's three C extensions alone.
   numba links it.
 - A table is ignored where a kernel module's source, numba's extensions, Python, llvmlite or
   the processor differ from the writer's.
-- `type_name` names an argument's type as numba does; `checker` makes the test that a
-  call's arguments are those of an entry.
+- `type_name` names an argument's type as numba does; `caller` puts an entry behind the test
+  that a call's arguments are of its types.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import importlib.machinery
 import importlib.util
 import os
 import pickle
+import re
 import sys
 import threading
 from collections.abc import Callable
@@ -34,7 +35,7 @@ import numpy as np
 
 from arena._elf import defined_symbols
 
-__all__ = ["Entry", "Table", "checker", "load", "path", "read", "type_name", "write"]
+__all__ = ["Entry", "Table", "caller", "load", "path", "read", "type_name", "write"]
 
 SUFFIX = ".machine"  # a table's file name: numba's cache file's base, this suffix
 # numba's C extensions the code calls into: its helpers, its function objects, its runtime
@@ -186,6 +187,7 @@ class _Linker:
             ll.add_symbol(name, helpers.c_helpers[name])
         for name, address in runtime.c_helpers.items():
             ll.add_symbol(name if name.startswith("_") else f"NRT_{name}", address)
+        runtime.memsys_use_cpython_allocator()  # as numba.core.runtime.nrt does at its import
         self.unpickle = _UNPICKLE(self._unpickled)  # kept: LLVM's code calls it
         ll.add_symbol("numba_unpickle", ctypes.cast(self.unpickle, ctypes.c_void_p).value)
         target = ll.Target.from_triple(ll.get_process_triple())
@@ -310,29 +312,53 @@ def type_name(value: Any) -> str | None:
     return _SCALARS.get(kind)
 
 
-def checker(types: tuple[str, ...], last: list) -> Callable[..., bool]:
-    """A test that a call's arguments are of `types`, fast enough to run at every call: an
-    array must be the very one `last` holds at its place (the arguments last found of
-    `types` by `type_name`: an array's dtype, dimensions, layout and writeability are not
-    reassigned here), a scalar of a kind `type_name` names so."""
-    terms, names = [], {"last": last, "int": int}
+_NOT_GIVEN = object()  # an argument a call left out
+_ARRAY = re.compile(r"(readonly )?array\((\w+), (\d+)d, ([CFA])\)")  # numba's name of an array type
+_LAYOUTS = {  # numba's layout of an array by its flags `f` (numpy_support.map_layout)
+    "C": "f.c_contiguous",
+    "F": "not f.c_contiguous and f.f_contiguous",
+    "A": "not f.c_contiguous and not f.f_contiguous",
+}
+
+
+def caller(types: tuple[str, ...], last: tuple, function: Callable, miss: Callable[[tuple, dict], Any]) -> Callable:
+    """`function` (an entry) behind a test of each call's arguments, as a method (its first
+    argument, the kernel, is passed over), made to run at every call: arguments not of
+    `types`, or given by keyword, go to `miss` as a tuple. An array passes as the very one
+    `last` holds at its place (no code here reassigns an array's dtype, shape or flags), or
+    by its dtype, dimensions, layout and writeability; a scalar by a kind `type_name` names so."""
+    terms, names = [], {"ndarray": np.ndarray, "function": function, "miss": miss, "int": int, "N": _NOT_GIVEN}
     for i, name in enumerate(types):
-        a = f"a{i}"
-        if "array(" in name:
-            terms.append(f"{a} is last[{i}]")
-        elif name == "float64":
-            terms.append(f"(type({a}) is float or type({a}) is F{i})")
+        a, array = f"a{i}", _ARRAY.fullmatch(name)
+        if array:
+            readonly, dtype, ndim, layout = array.groups()
+            names[f"D{i}"] = np.dtype(dtype)
+            writeable = f"{'not ' if readonly else ''}(f := {a}.flags).writeable"
+            same = f"{a}.dtype is D{i} and {a}.ndim == {ndim} and {writeable} and {_LAYOUTS[layout]}"
+            terms.append(f"({a} is L{i} or (type({a}) is ndarray and {same}))")
+            continue
+        names[f"S{i}"] = np.dtype(name).type if name in _SCALARS.values() else None
+        if name == "float64":
+            terms.append(f"(type({a}) is float or type({a}) is S{i})")
         elif name == "bool":
-            terms.append(f"(type({a}) is bool or type({a}) is F{i})")
+            terms.append(f"(type({a}) is bool or type({a}) is S{i})")
         elif name == "int64":
-            terms.append(f"((type({a}) is int and {_INT64[0]} <= {a} < {_INT64[1]}) or type({a}) is F{i})")
+            terms.append(f"((type({a}) is int and {_INT64[0]} <= {a} < {_INT64[1]}) or type({a}) is S{i})")
         elif name == "uint64":
-            terms.append(f"((type({a}) is int and {_INT64[1]} <= {a} < {2**64}) or type({a}) is F{i})")
+            terms.append(f"((type({a}) is int and {_INT64[1]} <= {a} < {2**64}) or type({a}) is S{i})")
         else:
-            terms.append(f"type({a}) is F{i}")
-        scalar = np.dtype(name).type if name in _SCALARS.values() else None
-        names[f"F{i}"] = scalar
+            terms.append(f"type({a}) is S{i}")
     arguments = ", ".join(f"a{i}" for i in range(len(types)))
-    source = f"def same({arguments}):\n    return {' and '.join(terms) or 'True'}\n"
-    exec(compile(source, f"<arguments of {', '.join(types)}>", "exec"), names)
-    return cast(Callable[..., bool], names["same"])
+    parameters = "".join(f", a{i}=N" for i in range(len(types)))  # positional only: fewer go to `miss`
+    held = ", ".join(f"L{i}" for i in range(len(types)))
+    source = (  # the arrays last checked held as the closure's cells: the cheapest to read
+        f"def make({held}):\n"
+        f"    def call(_{parameters}, /, **keywords):\n"
+        f"        if not keywords and {' and '.join(terms) or 'True'}:\n"
+        f"            return function({arguments})\n"
+        f"        return miss(tuple(a for a in ({arguments}{',' if types else ''}) if a is not N), keywords)\n"
+        f"    return call\n"
+    )
+    exec(compile(source, f"<a call of ({', '.join(types)})>", "exec"), names)
+    make = cast(Callable[..., Callable], names["make"])
+    return make(*last)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from inspect import CO_VARARGS, CO_VARKEYWORDS
 from typing import Any, Literal, TypeVar, cast
 
 import numpy as np
@@ -44,13 +45,10 @@ def compiled(
     compiles it."""
 
     def wrap(f: F) -> F:
-        return cast(F, Kernel(f, inline, names))
+        own = type(f.__name__, (Kernel,), {})  # its call, its own (`Kernel._serve`)
+        return cast(F, own(f, inline, names))
 
     return wrap
-
-
-def _any(*args: Any) -> bool:
-    return True
 
 
 class Kernel:
@@ -58,7 +56,10 @@ class Kernel:
     without numba from the kernel's table (arena._machine) where it holds them, else numba's
     (`dispatcher`, made on first need: importing numba takes a tenth of a second). Once numba
     has served a kernel in a process, it serves all its calls there, and what it compiled or
-    loaded is added to the table (arena._numba.export)."""
+    loaded is added to the table (arena._numba.export).
+
+    Each kernel is of a class of its own, whose `__call__` is the way its last call went
+    (`_serve`): a form's caller, straight to its code (arena._machine.caller), or numba."""
 
     def __init__(
         self, py_func: Callable, inline: Literal["never", "always"], names: Callable[[], dict[str, Any]] | None = None
@@ -68,21 +69,16 @@ class Kernel:
         self.__doc__, self.__module__, self.__wrapped__ = py_func.__doc__, py_func.__module__, py_func
         self._dispatcher: Any = None
         self._table: _machine.Table | None | bool = False  # False: not read yet
-        self._forms: dict[tuple[str, ...], tuple[Callable, Callable, list]] = {}  # loaded entries
-        self._fast: tuple[Callable[..., bool], Callable] | None = None  # the last form called
+        self._forms: dict[tuple[str, ...], tuple[Callable, Callable]] = {}  # loaded: caller, code
+        code = py_func.__code__  # positional parameters alone, none with a default: a form's caller takes them
+        self._plain = not (
+            py_func.__defaults__ or code.co_kwonlyargcount or code.co_flags & (CO_VARARGS | CO_VARKEYWORDS)
+        )
         self._lock = threading.Lock()
         _kernels.append(self)
 
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        fast = self._fast
-        if fast is not None and not kwargs and fast[0](*args):
-            return fast[1](*args)
-        if not kwargs and self._dispatcher is None:
-            form = self._form(args)
-            if form is not None:
-                return form(*args)
-        self._fast = (_any, self._by_numba)
-        return self._by_numba(*args, **kwargs)
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:  # the first call's way
+        return self._miss(args, kwargs)
 
     def __repr__(self) -> str:
         return f"<compiled kernel {self.__module__}.{self.__qualname__}>"
@@ -110,9 +106,24 @@ class Kernel:
             self._table = _machine.read(self.py_func)
         return cast("_machine.Table | None", self._table)
 
+    def _serve(self, way: Callable) -> None:
+        """Make `way` this kernel's call (a method of its own class)."""
+        if type(self) is not Kernel:
+            type(self).__call__ = way  # type: ignore[method-assign]
+
+    def _miss(self, args: tuple, kwargs: dict) -> Any:
+        """A call the last way does not take: the form of its arguments' types, loaded on first
+        need, else numba, from now on."""
+        if self._dispatcher is None and self._plain and not kwargs:
+            code = self._form(args)
+            if code is not None:
+                return code(*args)
+        self._serve(Kernel._by_numba)
+        return self._by_numba(*args, **kwargs)
+
     def _form(self, args: tuple) -> Callable | None:
-        """The machine code of the table for the types of `args`, loaded on first need (and
-        the test of later calls' arguments, `_machine.checker`); None where it has none."""
+        """The code of the table's form for the types of `args`, loaded on first need (its
+        caller then serves this kernel's calls); None where the table has none."""
         named = tuple(map(_machine.type_name, args))
         if None in named:
             return None
@@ -127,10 +138,8 @@ class Kernel:
             except Exception:  # code LLVM cannot link here (a table of another numba's layout): numba's way
                 self._table = None
                 return None
-            last = list(args)
-            form = self._forms[names] = (_machine.checker(names, last), loaded, last)
-        form[2][:] = args
-        self._fast = form[0], form[1]
+            form = self._forms[names] = (_machine.caller(names, args, loaded, self._miss), loaded)
+        self._serve(form[0])
         return form[1]
 
     def _by_numba(self, *args: Any, **kwargs: Any) -> Any:

@@ -77,7 +77,7 @@ def test_a_command_imports_only_what_it_needs_and_freezes_it(tmp_path):
             assert main(["run", "level.yaml", "--team", "ref:idle", "--in-process", "--quiet"]) == 0
         from arena.sensing import sweep
         seen = {id(o) for o in gc.get_objects()}
-        loaded = [f for kernel in vars(sweep).values() for form in getattr(kernel, "_forms", {}).values() for f in form]
+        loaded = [form[1] for kernel in vars(sweep).values() for form in getattr(kernel, "_forms", {}).values()]
         print("numba imported for run:", "numba.core" in sys.modules)
         print("kernels loaded:", len(loaded) > 0, "seen:", any(id(o) in seen for o in loaded))
         print("collector on:", gc.isenabled())
@@ -108,7 +108,7 @@ def test_a_first_sensing_leaves_its_kernels_out_of_the_collectors_sight():
             _machine.read = lambda py_func: None  # no table: numba loads them from its cache
         world = World(load_level(levels.path("asabe")))
         Sensing(world, RandomTree(1))
-        loaded = [f for kernel in vars(sweep).values() for form in getattr(kernel, "_forms", {}).values() for f in form]
+        loaded = [form[1] for kernel in vars(sweep).values() for form in getattr(kernel, "_forms", {}).values()]
         made = [getattr(kernel, "_dispatcher", None) for kernel in vars(sweep).values()]
         loaded += [o for dispatcher in made if dispatcher is not None for o in dispatcher.overloads.values()]
         seen = {id(o) for o in gc.get_objects()}

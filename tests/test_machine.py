@@ -4,6 +4,7 @@ with numba's own answers; a table made for other sources is ignored; arguments o
 types go numba's way; `type_name` names a value's type as numba does."""
 
 import dataclasses
+import functools
 import hashlib
 import os
 import pickle
@@ -188,23 +189,57 @@ def test_what_it_does_not_name_goes_numba_s_way(value):
     assert _machine.type_name(value) is None
 
 
-def test_the_check_of_a_call_takes_the_very_arrays_last_checked_and_scalars_of_their_kind():
+def test_a_call_reaches_the_code_only_with_arguments_of_its_types():
+    """An entry's caller runs its code for arguments of its types alone, the rest go to
+    `miss`: an array as the one last checked, or by dtype, dimensions, layout and
+    writeability; a scalar of a kind numba types so."""
     a, b = np.zeros(3), np.zeros((2, 2), np.int64)
     types = (_machine.type_name(a), _machine.type_name(b), "float64", "int64", "uint64", "bool", "int32")
-    last = [a, b]
-    same = _machine.checker(types, last)
-    assert same(a, b, 1.0, 3, 2**63, True, np.int32(1))
-    assert same(a, b, np.float64(1.0), np.int64(3), np.uint64(1), np.bool_(True), np.int32(1))
-    assert not same(a.copy(), b, 1.0, 3, 2**63, True, np.int32(1))  # another array: checked anew
-    assert not same(a, b, 1, 3, 2**63, True, np.int32(1))  # an int where a float was
-    assert not same(a, b, 1.0, 2**63, 2**63, True, np.int32(1))  # past int64
-    assert not same(a, b, 1.0, 3, 3, True, np.int32(1))  # an int numba types int64, not uint64
-    assert not same(a, b, 1.0, True, 2**63, True, np.int32(1))  # a bool is no int64
-    assert not same(a, b, 1.0, 3, 2**63, 1, np.int32(1))
-    assert not same(a, b, 1.0, 3, 2**63, True, np.int64(1))
-    c = np.ones(3)
-    last[0] = c
-    assert same(c, b, 1.0, 3, 2**63, True, np.int32(1))
+    scalars = (1.0, 3, 2**63, True, np.int32(1))
+    method = _machine.caller(types, (a, b, *scalars), lambda *args: "code", lambda args, keywords: ("miss", len(args)))
+    call = functools.partial(method, None)  # a method: its kernel first
+    assert call(a, b, *scalars) == "code"
+    assert call(a, b, np.float64(1.0), np.int64(3), np.uint64(1), np.bool_(True), np.int32(1)) == "code"
+    assert call(np.ones(3), np.ones((5, 7), np.int64), *scalars) == "code"  # others of the types
+    readonly = np.zeros(3)
+    readonly.flags.writeable = False
+    wrong = [np.zeros(3, np.float32), np.zeros((3, 1)), np.zeros(6)[::2], readonly, [0.0, 0.0, 0.0]]
+    for other in wrong:
+        assert call(other, b, *scalars) == ("miss", 7), other
+    assert call(a, np.asfortranarray(np.zeros((2, 3), np.int64)), *scalars) == ("miss", 7)  # F, not C
+    for i, other in enumerate([1, 2**63, 3, 1, np.int64(1)]):  # an int for a float; past int64;
+        changed = list(scalars)  # an int numba types int64, not uint64; an int for a bool; int64 for int32
+        changed[i] = other
+        assert call(a, b, *changed) == ("miss", 7), (i, other)
+    assert call(a, b, 1.0, True, 2**63, True, np.int32(1)) == ("miss", 7)  # a bool is no int64
+    assert call(a, b, *scalars[:-1], a6=np.int32(1)) == ("miss", 6)  # by keyword: numba's way
+    assert call(a, b) == ("miss", 2)  # too few: numba says so
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+KINDS = {  # a fresh array of each kind at every call
+    "C": lambda: np.zeros((4, 6)),
+    "F": lambda: np.asfortranarray(np.zeros((4, 6))),
+    "A": lambda: np.zeros((4, 6))[:, ::2],
+    "read-only C": lambda: _read_only(np.zeros((4, 6))),
+    "read-only F": lambda: _read_only(np.asfortranarray(np.zeros((4, 6)))),
+    "read-only A": lambda: _read_only(np.zeros((4, 6)))[::2],
+}
+
+
+def test_each_layout_and_a_read_only_array_pass_their_own_caller_alone():
+    """Named as numba names them, each kind of array passes its own caller and no other's."""
+    for kind, make in KINDS.items():
+        name = _machine.type_name(make())
+        assert name == str(numba.typeof(make(), Purpose.argument)), kind
+        call = _machine.caller((name,), (None,), lambda *args: "code", lambda args, keywords: "miss")
+        assert [call(None, other()) for other in KINDS.values()] == ["code" if k == kind else "miss" for k in KINDS], (
+            kind
+        )
 
 
 def test_a_table_whose_code_is_not_its_entry_s_goes_numba_s_way(tmp_path):
