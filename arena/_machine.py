@@ -325,9 +325,11 @@ def caller(types: tuple[str, ...], last: tuple, function: Callable, miss: Callab
     """`function` (an entry) behind a test of each call's arguments, as a method (its first
     argument, the kernel, is passed over), made to run at every call: arguments not of
     `types`, or given by keyword, go to `miss` as a tuple. An array passes as the very one
-    `last` holds at its place (no code here reassigns an array's dtype, shape or flags), or
-    by its dtype, dimensions, layout and writeability; a scalar by a kind `type_name` names so."""
-    terms, names = [], {"ndarray": np.ndarray, "function": function, "miss": miss, "int": int, "N": _NOT_GIVEN}
+    last checked at its place (first `last`; no code here reassigns an array's dtype, shape
+    or flags), or by its dtype, dimensions, layout and writeability; a scalar by a kind
+    `type_name` names so."""
+    terms, arrays = [], []
+    names = {"ndarray": np.ndarray, "function": function, "miss": miss, "int": int, "N": _NOT_GIVEN}
     for i, name in enumerate(types):
         a, array = f"a{i}", _ARRAY.fullmatch(name)
         if array:
@@ -335,7 +337,8 @@ def caller(types: tuple[str, ...], last: tuple, function: Callable, miss: Callab
             names[f"D{i}"] = np.dtype(dtype)
             writeable = f"{'not ' if readonly else ''}(f := {a}.flags).writeable"
             same = f"{a}.dtype is D{i} and {a}.ndim == {ndim} and {writeable} and {_LAYOUTS[layout]}"
-            terms.append(f"({a} is L{i} or (type({a}) is ndarray and {same}))")
+            terms.append(f"({a} is L{i} or (type({a}) is ndarray and {same} and (L{i} := {a}) is {a}))")
+            arrays.append(f"L{i}")
             continue
         names[f"S{i}"] = np.dtype(name).type if name in _SCALARS.values() else None
         if name == "float64":
@@ -354,6 +357,7 @@ def caller(types: tuple[str, ...], last: tuple, function: Callable, miss: Callab
     source = (  # the arrays last checked held as the closure's cells: the cheapest to read
         f"def make({held}):\n"
         f"    def call(_{parameters}, /, **keywords):\n"
+        f"        {'nonlocal ' + ', '.join(arrays) if arrays else 'pass'}\n"
         f"        if not keywords and {' and '.join(terms) or 'True'}:\n"
         f"            return function({arguments})\n"
         f"        return miss(tuple(a for a in ({arguments}{',' if types else ''}) if a is not N), keywords)\n"
