@@ -285,8 +285,9 @@ def export(kernel: Any, made: Any, kernels: list) -> None:
         if entry is not None:
             entries[names] = entry
             for env in (result.environment, *_environments(result)):
-                source = (env.globals or {}).get("__file__")
-                if source and os.path.exists(source):
+                module = env.globals or {}  # numba's own functions: stamped as numba's extensions are
+                source = module.get("__file__")
+                if source and os.path.exists(source) and module.get("__name__", "numba").split(".")[0] != "numba":
                     sources.add(source)
     if not entries or (table is not None and len(entries) == len(table.entries)):
         return
