@@ -120,6 +120,9 @@ def test_a_kernel_runs_from_its_table_without_numba_with_numba_s_answers(tmp_pat
     assert _run(tmp_path, env) == [*ANSWERS, "numba imported: True", RAISED]
     tables = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob(f"*{_machine.SUFFIX}"))
     assert tables == ["kernels.checked", "kernels.doubled", "kernels.outer", "kernels.total"]  # called from Python
+    (doubled,) = (tmp_path / "cache").rglob(f"kernels.doubled-*{_machine.SUFFIX}")  # numba's np.empty linked in:
+    assert not [f for f in pickle.loads(doubled.read_bytes()).sources if "numba" in Path(f).parts]  # its extensions'
+
     assert _run(tmp_path, env) == [*ANSWERS, "numba imported: False", RAISED]
     assert _run(tmp_path, env, NEW_TYPE) == ["10.0 numba imported: True"]
 
