@@ -217,6 +217,7 @@ class _Linker:
         return found
 
     def load(self, entry: Entry, py_func: Callable) -> Callable:
+        """`entry`'s code linked, its environments set, and numba's wrapper of it as a function."""
         symbols = defined_symbols(entry.code)  # LLVM would crash on an object that is none
         if symbols is None or entry.wrapper not in symbols or not symbols.issuperset(entry.constants):
             raise ValueError(f"the machine code of {py_func.__qualname__} does not define its entry")
