@@ -35,7 +35,7 @@ import numpy as np
 
 from arena._elf import defined_symbols
 
-__all__ = ["Entry", "Table", "caller", "load", "path", "read", "type_name", "write"]
+__all__ = ["Entry", "Table", "caller", "keep_constants", "load", "path", "read", "type_name", "write", "write_whole"]
 
 SUFFIX = ".machine"  # a table's file name: numba's cache file's base, this suffix
 # numba's C extensions the code calls into: its helpers, its function objects, its runtime
@@ -149,15 +149,27 @@ def read(py_func: Callable) -> Table | None:
 
 
 def write(py_func: Callable, table: Table) -> None:
-    """Write `py_func`'s table, whole or not at all (whoever writes beside); nothing where its
-    folder cannot be written."""
-    target = path(py_func)
+    """Write `py_func`'s table (`write_whole`)."""
+    write_whole(path(py_func), pickle.dumps(table, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+def write_whole(target: Path, data: bytes) -> None:
+    """Write `data` to `target` whole or not at all, whoever writes beside; nothing where its
+    folder cannot be written (a cache this process cannot keep: made again next time)."""
     part = target.with_name(f"{target.name}.{os.getpid()}")
     try:
-        part.write_bytes(pickle.dumps(table, protocol=pickle.HIGHEST_PROTOCOL))
+        part.write_bytes(data)
         os.replace(part, target)
     except OSError:
         part.unlink(missing_ok=True)
+
+
+def keep_constants(environment: Any, constants: list) -> None:
+    """Give one environment, which serves all copies of a function, the longer list of its
+    constants: a copy linked into another kernel holds fewer than the function alone, and
+    the copies number them alike (the shorter a prefix of the longer)."""
+    if len(environment.consts) < len(constants):
+        environment.consts[:] = constants
 
 
 _UNPICKLE = ctypes.CFUNCTYPE(ctypes.py_object, ctypes.c_void_p, ctypes.c_int, ctypes.c_void_p)
@@ -227,8 +239,7 @@ class _Linker:
             env = self.environments.get(name)
             if env is None:
                 env = self.environments[name] = self.new_environment({})
-            if len(env.consts) < len(constants):  # a function's copies number their constants alike
-                env.consts[:] = constants
+            keep_constants(env, constants)
             address = self.engine.get_global_value_address(name)
             (ctypes.c_void_p * 1).from_address(address)[0] = id(env)
         function = self.engine.get_function_address(entry.wrapper)
@@ -269,7 +280,7 @@ def load(table: Table, types: tuple[str, ...], py_func: Callable) -> Callable:
 
 # numba's names of NumPy's scalar and array dtypes it takes; others go numba's way
 _DTYPES = {
-    np.dtype(name): "bool" if name == "bool" else name
+    np.dtype(name): name
     for name in (
         "bool",
         "int8",

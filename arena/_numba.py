@@ -198,12 +198,7 @@ def _runtime_functions(target_context: Any, folder: Path) -> Any:
     library.add_ir_module(module)
     with global_compiler_lock:
         library.finalize()
-    part = path.with_name(f"{path.name}.{os.getpid()}")
-    try:
-        part.write_bytes(pickle.dumps(library.serialize_using_object_code()))
-        os.replace(part, path)  # whole or not at all, whoever writes beside
-    except OSError:  # a cache folder this process cannot write: compiled again next time
-        part.unlink(missing_ok=True)
+    _machine.write_whole(path, pickle.dumps(library.serialize_using_object_code()))
     return library
 
 
@@ -229,11 +224,10 @@ def _environment(modname: str, consts: list, env_name: str) -> Any:
     only for code in object mode, which no kernel here has, and the modules of numba's own
     array functions (arrayobj, arraymath, npyimpl) take a tenth of a second to import.
 
-    One environment serves a function's every copy. A kernel linked into another (spin.laser_phases
-    into sweep.sense) holds fewer constants there than alone, where returning an array needs
-    its dtype too; numba keeps the first one loaded, so a kernel called alone after a kernel
-    that links it failed to return ("'descr' is NULL"). The longer list is kept: the copies
-    number their constants alike, the shorter list a prefix of the longer."""
+    One environment serves a function's every copy, with the longer list of its constants
+    (`_machine.keep_constants`). numba keeps the first one loaded: a kernel linked into another
+    (spin.laser_phases into sweep.sense) and then called alone failed to return an array, its
+    dtype missing ("'descr' is NULL")."""
     env = environment.lookup_environment(env_name)
     if env is None:
         module = sys.modules.get(modname)
@@ -241,8 +235,8 @@ def _environment(modname: str, consts: list, env_name: str) -> Any:
         env.consts[:] = consts
         env.env_name = env_name
         environment.Environment._memo[env_name] = env
-    elif len(env.consts) < len(consts):
-        env.consts[:] = consts
+    else:
+        _machine.keep_constants(env, consts)
     return env
 
 
